@@ -1,0 +1,1 @@
+// Implemented by the gltf work in progress.

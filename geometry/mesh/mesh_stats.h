@@ -1,0 +1,24 @@
+#pragma once
+/// \file
+/// Geometric summary of a mesh: bounding box, extent, area, edge lengths, zero-area faces.
+
+#include <array>
+#include <cstddef>
+
+#include "mesh.h"
+
+namespace vfit {
+
+struct MeshStats {
+  std::array<float, 3> bbox_min{0, 0, 0};
+  std::array<float, 3> bbox_max{0, 0, 0};
+  float largest_extent = 0;    ///< max over axes of bbox_max − bbox_min (file units)
+  double surface_area = 0;     ///< Σ triangle areas (file units²)
+  double mean_edge_length = 0; ///< over triangle corners' edges (shared edges counted twice)
+  std::size_t zero_area_faces = 0; ///< faces of area below 1e-12 × extent² (collinear corners)
+};
+
+/// Computes the stats of a validated mesh. An empty mesh gives all zeros.
+MeshStats mesh_stats(const Mesh& mesh);
+
+} // namespace vfit

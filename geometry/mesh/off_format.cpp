@@ -1,0 +1,1 @@
+// Implemented by the off work in progress.

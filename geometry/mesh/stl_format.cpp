@@ -1,0 +1,1 @@
+// Implemented by the stl work in progress.

@@ -1,0 +1,33 @@
+#pragma once
+/// \file
+/// Length units of mesh files and their detection from a mesh's extent.
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace vfit {
+
+enum class Units { M, DM, CM, MM };
+
+/// "m" | "dm" | "cm" | "mm".
+std::string units_name(Units units);
+
+/// Parses "m" | "dm" | "cm" | "mm" (also "metres", "meters", ...); throws vfit::Error otherwise.
+Units parse_units(std::string_view name);
+
+/// Metres per unit: 1, 0.1, 0.01, 0.001.
+double metres_per_unit(Units units);
+
+/// Units inferred from the largest bounding-box extent of a garment or body, assuming a
+/// human-scale object whose largest extent lies in [0.3, 3) m: extent < 3 → m, < 30 → dm,
+/// < 300 → cm, < 3000 → mm. nullopt for extent ≤ 0, non-finite, or ≥ 3000 (the caller must
+/// then ask for explicit units). Ambiguous near the boundaries (a 25 cm garment stored in
+/// dm reads as m): callers show a warning and accept an explicit unit.
+std::optional<Units> detect_units(double largest_extent);
+
+/// Multiplies every coordinate in `positions` (#V × 3) by `factor`.
+void scale_positions(std::span<float> positions, double factor);
+
+} // namespace vfit

@@ -1,0 +1,2 @@
+// Tests for off_format (work in progress).
+#include <gtest/gtest.h>

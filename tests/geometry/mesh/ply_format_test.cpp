@@ -1,0 +1,2 @@
+// Tests for ply_format (work in progress).
+#include <gtest/gtest.h>

@@ -1,0 +1,2 @@
+// Tests for stl_format (work in progress).
+#include <gtest/gtest.h>

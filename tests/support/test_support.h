@@ -1,0 +1,54 @@
+#pragma once
+// Shared helpers for vfit's test suites: temporary folders, files, running the CLI, the corpus.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geometry/mesh/mesh.h"
+
+namespace vfit::test {
+
+/// A fresh, empty temporary folder removed when the object dies.
+class TempDir {
+public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return m_path; }
+  std::filesystem::path operator/(const std::string& name) const { return m_path / name; }
+
+private:
+  std::filesystem::path m_path;
+};
+
+void write_file(const std::filesystem::path& path, const std::string& bytes);
+std::string read_file(const std::filesystem::path& path);
+
+/// Result of running the vfit executable.
+struct CliResult {
+  int exit_code = -1;
+  std::string out; ///< standard output
+  std::string err; ///< standard error
+};
+
+/// Runs the built `vfit` with `args` (no shell involved), capturing both streams.
+CliResult run_cli(const std::vector<std::string>& args);
+
+/// The shared corpus folder, or nullopt when it is absent (tests then GTEST_SKIP, saying why).
+/// VFIT_CORPUS overrides the path configured at build time.
+std::optional<std::filesystem::path> corpus_dir();
+
+/// Every file under `dir` whose extension (lower case) is one of `extensions`, sorted.
+std::vector<std::filesystem::path> files_with_extensions(const std::filesystem::path& dir,
+                                                         const std::vector<std::string>& extensions);
+
+/// Two triangles sharing an edge (a unit square in the XY plane, CCW seen from +Z), with UVs.
+Mesh unit_square();
+
+/// A closed, outward-oriented octahedron (6 vertices, 8 triangles).
+Mesh octahedron();
+
+} // namespace vfit::test
