@@ -1,1 +1,120 @@
-int main() { return 0; }
+// vfit: automatic 3D garment fitting and cloth simulation — the command-line tool.
+// Exit codes: 0 success, 2 bad input or usage (vfit::Error), 1 internal failure.
+#include <cstring>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "kernels/error.h"
+
+namespace {
+
+constexpr const char* MAIN_HELP = R"(vfit — fits 3D garments onto 3D bodies and simulates the cloth
+
+usage: vfit <command> [options]    (vfit <command> --help for details)
+
+commands:
+  info FILE       counts, bounding box, units, components, boundary loops, manifoldness,
+                  watertightness and Euler characteristic of a mesh file
+  convert IN OUT  converts between OBJ, PLY, OFF, STL (read) and OBJ, PLY, OFF, STL, GLB (write)
+  devices         the compute backends: TBB threads and OpenCL platforms/devices
+  demo            the built-in demonstration (README's main job)
+
+mesh formats read: .obj .ply .off .stl .glb .gltf
+exit codes: 0 ok, 2 bad input (the message names the file and the element), 1 internal failure
+)";
+
+constexpr const char* INFO_HELP = R"(usage: vfit info FILE [--json] [--units m|dm|cm|mm] [--repair]
+
+Reads and validates FILE, then prints its vertex/face/edge counts, attributes (UVs, normals,
+labels), bounding box and extent, units (detected from the extent unless --units states them),
+surface area, connected components, boundary loops, manifoldness, orientation, watertightness
+and Euler characteristic.
+  --json      machine-readable output (keys include vertices, faces, units, components,
+              boundary_loops, manifold, watertight, euler_characteristic)
+  --units U   the file's length unit; skips detection
+  --repair    drop degenerate and duplicate faces (with a warning) instead of failing
+)";
+
+constexpr const char* CONVERT_HELP = R"(usage: vfit convert IN OUT [--to-metres] [--units U] [--repair] [--quiet]
+
+Reads and validates IN and writes OUT in the format of its extension (.obj with UVs, .ply binary,
+.off, .stl binary, .glb). OUT is written to a temporary file and renamed; IN is never
+overwritten (OUT == IN is refused).
+  --to-metres  scale coordinates to metres (units detected from the extent, or --units)
+  --units U    IN's unit: m, dm, cm or mm
+  --repair     drop degenerate and duplicate faces instead of failing
+)";
+
+constexpr const char* DEVICES_HELP = R"(usage: vfit devices [--json]
+
+Lists the compute backends: TBB's thread count and every OpenCL platform and device, with the
+one selected by default. Select a device for the OpenCL backend with --device (N, P:D, gpu,
+cpu, or a substring of its name) or the environment variable VFIT_OPENCL_DEVICE.
+)";
+
+constexpr const char* DEMO_HELP = R"(usage: vfit demo [--out DIR] [--corpus DIR] [--device SEL] [--quiet]
+
+The built-in demonstration. Builds vfit's procedural meshes and, when the shared corpus is
+present (--corpus, $VFIT_CORPUS, or ../shared/corpus), reads and validates its MakeHuman body and
+garments (detecting their units), prints a summary table, computes vertex normals on the serial,
+TBB and OpenCL backends and compares them, and writes DIR/demo.glb (all meshes in metres) and
+DIR/demo.json. DIR defaults to ./vfit_demo. It grows into the full fitting demo as stages land.
+)";
+
+bool wants_help(const std::vector<std::string>& args) {
+  for (const auto& a : args)
+    if (a == "--help" || a == "-h") return true;
+  return false;
+}
+
+int dispatch(const std::string& command, std::vector<std::string> rest) {
+  using namespace vfit::cli;
+  struct Command {
+    const char* name;
+    const char* help;
+    int (*run)(Args&);
+  };
+  static const Command commands[] = {{"info", INFO_HELP, run_info},
+                                     {"convert", CONVERT_HELP, run_convert},
+                                     {"devices", DEVICES_HELP, run_devices},
+                                     {"demo", DEMO_HELP, run_demo}};
+  for (const auto& c : commands) {
+    if (command != c.name) continue;
+    if (wants_help(rest)) {
+      std::cout << c.help;
+      return 0;
+    }
+    Args args(std::move(rest), command);
+    return c.run(args);
+  }
+  throw vfit::Error("vfit", 0, "unknown command '" + command + "' (see vfit --help)");
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
+    std::cout << MAIN_HELP;
+    return args.empty() ? 2 : 0;
+  }
+  if (args[0] == "--version") {
+    std::cout << "vfit " << VFIT_VERSION << "\n";
+    return 0;
+  }
+  try {
+    const std::string command = args[0];
+    return dispatch(command, std::vector<std::string>(args.begin() + 1, args.end()));
+  } catch (const vfit::Error& e) {
+    std::cerr << "vfit: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "vfit: internal error: out of memory\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "vfit: internal error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -17,7 +17,7 @@ namespace vfit {
 ParsedMesh read_obj(std::string_view bytes, const std::string& path);
 
 /// The OBJ text of `mesh`: v, vt (if UVs), vn (if normals), g (if labels) and f lines.
-/// Floats are written with 9 significant digits (round-trip exact for float).
+/// Floats are written in their shortest exact form (a read gives back the same bits).
 std::string write_obj(const Mesh& mesh);
 
 } // namespace vfit

@@ -1,1 +1,56 @@
-// in progress
+#include "units.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "kernels/error.h"
+
+namespace vfit {
+
+std::string units_name(Units units) {
+  switch (units) {
+  case Units::M: return "m";
+  case Units::DM: return "dm";
+  case Units::CM: return "cm";
+  case Units::MM: return "mm";
+  }
+  return "m";
+}
+
+Units parse_units(std::string_view name) {
+  std::string s(name);
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (s == "m" || s == "metre" || s == "metres" || s == "meter" || s == "meters") return Units::M;
+  if (s == "dm" || s == "decimetre" || s == "decimetres" || s == "decimeter" || s == "decimeters") return Units::DM;
+  if (s == "cm" || s == "centimetre" || s == "centimetres" || s == "centimeter" || s == "centimeters") return Units::CM;
+  if (s == "mm" || s == "millimetre" || s == "millimetres" || s == "millimeter" || s == "millimeters") return Units::MM;
+  throw Error("--units", 0, "unknown unit '" + std::string(name) + "' (expected m, dm, cm or mm)");
+}
+
+double metres_per_unit(Units units) {
+  switch (units) {
+  case Units::M: return 1.0;
+  case Units::DM: return 0.1;
+  case Units::CM: return 0.01;
+  case Units::MM: return 0.001;
+  }
+  return 1.0;
+}
+
+std::optional<Units> detect_units(double largest_extent) {
+  // A garment or body spans roughly 0.3–2.5 m at its largest; each unit is tried in turn and
+  // the first one that puts the extent below 3 m wins.
+  if (!std::isfinite(largest_extent) || largest_extent <= 0.0) return std::nullopt;
+  if (largest_extent < 3.0) return Units::M;
+  if (largest_extent < 30.0) return Units::DM;
+  if (largest_extent < 300.0) return Units::CM;
+  if (largest_extent < 3000.0) return Units::MM;
+  return std::nullopt;
+}
+
+void scale_positions(std::span<float> positions, double factor) {
+  for (float& x : positions) x = static_cast<float>(x * factor);
+}
+
+} // namespace vfit

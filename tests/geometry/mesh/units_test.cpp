@@ -1,1 +1,40 @@
+#include "geometry/mesh/units.h"
+
 #include <gtest/gtest.h>
+
+#include "kernels/error.h"
+
+namespace vfit {
+namespace {
+
+TEST(Units, DetectsHumanScaleObjectsInEveryUnit) {
+  // A 1.7 m body and a 0.6 m shirt, stored in each unit.
+  for (double metres : {1.7, 0.6, 2.5}) {
+    EXPECT_EQ(detect_units(metres), Units::M) << metres;
+    EXPECT_EQ(detect_units(metres * 10), Units::DM) << metres;
+    EXPECT_EQ(detect_units(metres * 100), Units::CM) << metres;
+    EXPECT_EQ(detect_units(metres * 1000), Units::MM) << metres;
+  }
+  EXPECT_EQ(detect_units(16.659), Units::DM); // the MakeHuman body in the corpus
+}
+
+TEST(Units, RefusesToGuessImpossibleExtents) {
+  EXPECT_FALSE(detect_units(0.0).has_value());
+  EXPECT_FALSE(detect_units(-1.0).has_value());
+  EXPECT_FALSE(detect_units(1e9).has_value());
+  EXPECT_FALSE(detect_units(std::numeric_limits<double>::quiet_NaN()).has_value());
+}
+
+TEST(Units, ParsesNamesAndScales) {
+  EXPECT_EQ(parse_units("cm"), Units::CM);
+  EXPECT_EQ(parse_units("Millimetres"), Units::MM);
+  EXPECT_THROW(parse_units("inch"), Error);
+  EXPECT_DOUBLE_EQ(metres_per_unit(Units::DM), 0.1);
+  std::vector<float> p = {10.0f, 20.0f, -30.0f};
+  scale_positions(p, metres_per_unit(Units::CM));
+  EXPECT_FLOAT_EQ(p[0], 0.1f);
+  EXPECT_FLOAT_EQ(p[2], -0.3f);
+}
+
+} // namespace
+} // namespace vfit

@@ -1,0 +1,224 @@
+// Writing binary glTF 2.0 (.glb); reading lives in gltf_format.cpp.
+#include "gltf_format.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <limits>
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+#include "kernels/error.h"
+#include "kernels/vertex_normals.h"
+
+namespace vfit {
+namespace {
+
+using Json = nlohmann::json;
+
+static_assert(std::endian::native == std::endian::little, "GLB is little-endian; we write with memcpy");
+
+constexpr std::uint32_t GLB_MAGIC = 0x46546C67;  // "glTF"
+constexpr std::uint32_t CHUNK_JSON = 0x4E4F534A; // "JSON"
+constexpr std::uint32_t CHUNK_BIN = 0x004E4942;  // "BIN\0"
+constexpr int UNSIGNED_INT = 5125;
+constexpr int FLOAT = 5126;
+constexpr int ARRAY_BUFFER = 34962;
+constexpr int ELEMENT_ARRAY_BUFFER = 34963;
+
+void append_u32(std::string& out, std::uint32_t v) {
+  char bytes[4];
+  std::memcpy(bytes, &v, 4);
+  out.append(bytes, 4);
+}
+
+// One glTF vertex per distinct (position, UV, normal) corner tuple.
+struct SplitMesh {
+  std::vector<float> positions; // #W × 3
+  std::vector<float> normals;   // #W × 3
+  std::vector<float> uvs;       // #W × 2, or empty
+  std::vector<std::uint32_t> indices;
+};
+
+void check_indices(std::span<const std::int32_t> tris, std::size_t faces, std::size_t count, const char* what,
+                   const std::string& name) {
+  if (tris.size() != 3 * faces)
+    throw Error(name, 0, std::string(what) + " has " + std::to_string(tris.size()) + " indices, expected " +
+                             std::to_string(3 * faces));
+  for (std::size_t c = 0; c < tris.size(); ++c)
+    if (tris[c] < 0 || static_cast<std::size_t>(tris[c]) >= count)
+      throw Error(name, 0, "face " + std::to_string(c / 3 + 1) + ": " + what + " index " + std::to_string(tris[c]) +
+                               " out of range");
+}
+
+SplitMesh split_vertices(const Mesh& mesh, const std::string& name) {
+  if (mesh.positions.size() % 3 != 0) throw Error(name, 0, "positions are not #V × 3");
+  if (mesh.face_count() == 0) throw Error(name, 0, "no faces to write");
+  for (std::size_t i = 0; i < mesh.positions.size(); ++i)
+    if (!std::isfinite(mesh.positions[i]))
+      throw Error(name, 0, "vertex " + std::to_string(i / 3 + 1) + " is not finite");
+  check_indices(mesh.triangles, mesh.face_count(), mesh.vertex_count(), "vertex", name);
+  if (mesh.has_uvs()) check_indices(mesh.uv_triangles, mesh.face_count(), mesh.uvs.size() / 2, "uv", name);
+  if (mesh.has_normals())
+    check_indices(mesh.normal_triangles, mesh.face_count(), mesh.normals.size() / 3, "normal", name);
+
+  std::vector<float> vertex_normals;
+  if (!mesh.has_normals()) vertex_normals_serial(mesh.positions, mesh.triangles, vertex_normals);
+  const std::size_t corners = mesh.triangles.size();
+  // Tuple t of corner c: its UV and normal (5 floats); a vertex lists the tuples seen at it.
+  std::vector<std::array<float, 5>> tuples;
+  std::vector<std::vector<std::uint32_t>> tuples_at(mesh.vertex_count());
+  std::vector<std::uint32_t> tuple_of(corners);
+  for (std::size_t c = 0; c < corners; ++c) {
+    const auto v = static_cast<std::size_t>(mesh.triangles[c]);
+    std::array<float, 5> t{0, 0, 0, 0, 0};
+    if (mesh.has_uvs()) {
+      const auto u = static_cast<std::size_t>(mesh.uv_triangles[c]);
+      // glTF's UV origin is the image's top-left corner, vfit's (like OBJ's) its bottom-left.
+      t[0] = mesh.uvs[2 * u];
+      t[1] = 1.0f - mesh.uvs[2 * u + 1];
+    }
+    const float* n = mesh.has_normals() ? &mesh.normals[3 * static_cast<std::size_t>(mesh.normal_triangles[c])]
+                                        : &vertex_normals[3 * v];
+    std::copy(n, n + 3, t.begin() + 2);
+    // glTF requires unit normals; an isolated or degenerate vertex has none, so give it +Z.
+    if (!(t[2] * t[2] + t[3] * t[3] + t[4] * t[4] > 0.0f)) t[2] = t[3] = 0.0f, t[4] = 1.0f;
+    // Tuples compare by value, so -0.0 and 0.0 don't split a vertex.
+    auto same = [&](std::uint32_t k) { return tuples[k] == t; };
+    auto& seen = tuples_at[v];
+    const auto found = std::find_if(seen.begin(), seen.end(), same);
+    if (found != seen.end()) {
+      tuple_of[c] = *found;
+    } else {
+      tuple_of[c] = static_cast<std::uint32_t>(tuples.size());
+      seen.push_back(tuple_of[c]);
+      tuples.push_back(t);
+    }
+  }
+  // Emit vertex by vertex, so a mesh without seams keeps its vertex order.
+  SplitMesh out;
+  std::vector<std::uint32_t> vertex_of_tuple(tuples.size());
+  for (std::size_t v = 0; v < tuples_at.size(); ++v) {
+    for (std::uint32_t k : tuples_at[v]) {
+      vertex_of_tuple[k] = static_cast<std::uint32_t>(out.positions.size() / 3);
+      out.positions.insert(out.positions.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
+      out.normals.insert(out.normals.end(), tuples[k].begin() + 2, tuples[k].end());
+      if (mesh.has_uvs()) out.uvs.insert(out.uvs.end(), tuples[k].begin(), tuples[k].begin() + 2);
+    }
+  }
+  out.indices.resize(corners);
+  for (std::size_t c = 0; c < corners; ++c) out.indices[c] = vertex_of_tuple[tuple_of[c]];
+  return out;
+}
+
+// Accumulates the BIN chunk and the bufferViews and accessors that describe it.
+class BinaryBuilder {
+public:
+  /// Appends `data` as a new bufferView (4-byte aligned) and returns an accessor for it.
+  template <class T>
+  std::size_t add(const std::vector<T>& data, int components, int component_type, int target) {
+    while (m_bin.size() % 4 != 0) m_bin += '\0';
+    const std::size_t offset = m_bin.size();
+    m_bin.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(T));
+    m_views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)},
+                       {"target", target}});
+    static const char* types[] = {"", "SCALAR", "VEC2", "VEC3"};
+    m_accessors.push_back({{"bufferView", m_views.size() - 1},
+                           {"componentType", component_type},
+                           {"count", data.size() / components},
+                           {"type", types[components]}});
+    return m_accessors.size() - 1;
+  }
+  Json& accessor(std::size_t a) { return m_accessors[a]; }
+
+  /// Moves the views and accessors into `doc` and returns the padded BIN chunk.
+  std::string finish(Json& doc) {
+    while (m_bin.size() % 4 != 0) m_bin += '\0';
+    if (m_bin.empty()) return {};
+    doc["buffers"] = Json::array({{{"byteLength", m_bin.size()}}});
+    doc["bufferViews"] = std::move(m_views);
+    doc["accessors"] = std::move(m_accessors);
+    return std::move(m_bin);
+  }
+
+private:
+  std::string m_bin;
+  Json m_views = Json::array();
+  Json m_accessors = Json::array();
+};
+
+} // namespace
+
+std::string write_glb(std::span<const NamedMesh> meshes) {
+  Json doc;
+  doc["asset"] = {{"version", "2.0"}, {"generator", "vfit"}};
+  Json nodes = Json::array();
+  Json gltf_meshes = Json::array();
+  BinaryBuilder bin;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    const std::string name = meshes[i].name.empty() ? "mesh " + std::to_string(i) : meshes[i].name;
+    if (!meshes[i].mesh) throw Error(name, 0, "no mesh to write");
+    const SplitMesh split = split_vertices(*meshes[i].mesh, name);
+
+    Json attributes;
+    const std::size_t position = bin.add(split.positions, 3, FLOAT, ARRAY_BUFFER);
+    // The spec requires POSITION bounds; they are of the float values actually stored.
+    Json lo = Json::array(), hi = Json::array();
+    for (std::size_t k = 0; k < 3; ++k) {
+      float low = split.positions[k], high = split.positions[k];
+      for (std::size_t v = k; v < split.positions.size(); v += 3) {
+        low = std::min(low, split.positions[v]);
+        high = std::max(high, split.positions[v]);
+      }
+      lo.push_back(low);
+      hi.push_back(high);
+    }
+    bin.accessor(position)["min"] = std::move(lo);
+    bin.accessor(position)["max"] = std::move(hi);
+    attributes["POSITION"] = position;
+    attributes["NORMAL"] = bin.add(split.normals, 3, FLOAT, ARRAY_BUFFER);
+    if (!split.uvs.empty()) attributes["TEXCOORD_0"] = bin.add(split.uvs, 2, FLOAT, ARRAY_BUFFER);
+    const std::size_t indices = bin.add(split.indices, 1, UNSIGNED_INT, ELEMENT_ARRAY_BUFFER);
+
+    Json primitive = {{"attributes", std::move(attributes)}, {"indices", indices}, {"mode", 4}};
+    Json mesh = {{"primitives", Json::array({std::move(primitive)})}};
+    Json node = {{"mesh", i}};
+    if (!meshes[i].name.empty()) mesh["name"] = node["name"] = meshes[i].name;
+    gltf_meshes.push_back(std::move(mesh));
+    nodes.push_back(std::move(node));
+  }
+  Json scene = Json::object();
+  // The spec forbids empty arrays, so a file of no meshes has a scene without nodes.
+  if (!meshes.empty()) {
+    for (std::size_t i = 0; i < meshes.size(); ++i) scene["nodes"].push_back(i);
+    doc["nodes"] = std::move(nodes);
+    doc["meshes"] = std::move(gltf_meshes);
+  }
+  doc["scene"] = 0;
+  doc["scenes"] = Json::array({std::move(scene)});
+  const std::string binary = bin.finish(doc);
+
+  std::string json = doc.dump();
+  while (json.size() % 4 != 0) json += ' '; // the spec pads the JSON chunk with spaces
+  std::string out;
+  const std::size_t total = 12 + 8 + json.size() + (binary.empty() ? 0 : 8 + binary.size());
+  if (total > std::numeric_limits<std::uint32_t>::max())
+    throw Error("glb", 0, "the meshes need " + std::to_string(total) + " bytes, more than a .glb can hold");
+  out.reserve(total);
+  append_u32(out, GLB_MAGIC);
+  append_u32(out, 2);
+  append_u32(out, static_cast<std::uint32_t>(total));
+  append_u32(out, static_cast<std::uint32_t>(json.size()));
+  append_u32(out, CHUNK_JSON);
+  out += json;
+  if (!binary.empty()) {
+    append_u32(out, static_cast<std::uint32_t>(binary.size()));
+    append_u32(out, CHUNK_BIN);
+    out += binary;
+  }
+  return out;
+}
+
+} // namespace vfit

@@ -1,0 +1,74 @@
+#include "args.h"
+
+#include <charconv>
+
+#include "kernels/error.h"
+
+namespace vfit::cli {
+
+Args::Args(std::vector<std::string> tokens, std::string command)
+    : m_tokens(std::move(tokens)), m_used(m_tokens.size(), false), m_command(std::move(command)) {}
+
+bool Args::flag(std::string_view name) {
+  bool found = false;
+  for (std::size_t i = 0; i < m_tokens.size(); ++i)
+    if (!m_used[i] && m_tokens[i].size() == name.size() + 2 && m_tokens[i].compare(0, 2, "--") == 0 &&
+        m_tokens[i].compare(2, std::string::npos, name) == 0) {
+      m_used[i] = true;
+      found = true;
+    }
+  return found;
+}
+
+std::vector<std::string> Args::values(std::string_view name) {
+  std::vector<std::string> out;
+  const std::string opt = "--" + std::string(name);
+  for (std::size_t i = 0; i < m_tokens.size(); ++i) {
+    if (m_used[i]) continue;
+    const std::string& t = m_tokens[i];
+    if (t == opt) {
+      if (i + 1 >= m_tokens.size()) throw Error("vfit " + m_command, 0, opt + " needs a value");
+      m_used[i] = m_used[i + 1] = true;
+      out.push_back(m_tokens[i + 1]);
+      ++i;
+    } else if (t.compare(0, opt.size() + 1, opt + "=") == 0) {
+      m_used[i] = true;
+      out.push_back(t.substr(opt.size() + 1));
+    }
+  }
+  return out;
+}
+
+std::optional<std::string> Args::value(std::string_view name) {
+  auto all = values(name);
+  if (all.empty()) return std::nullopt;
+  return all.back();
+}
+
+std::vector<std::string> Args::positionals(std::size_t min_count, std::size_t max_count) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < m_tokens.size(); ++i) {
+    if (m_used[i]) continue;
+    const std::string& t = m_tokens[i];
+    if (t.size() > 1 && t[0] == '-' && t != "-")
+      throw Error("vfit " + m_command, 0, "unknown option '" + t + "' (see vfit " + m_command + " --help)");
+    out.push_back(t);
+  }
+  if (out.size() < min_count)
+    throw Error("vfit " + m_command, 0, "missing argument (see vfit " + m_command + " --help)");
+  if (out.size() > max_count)
+    throw Error("vfit " + m_command, 0, "unexpected argument '" + out[max_count] + "' (see vfit " + m_command + " --help)");
+  return out;
+}
+
+int Args::to_int(const std::string& option, const std::string& value, int min_value, int max_value) {
+  int x = 0;
+  auto r = std::from_chars(value.data(), value.data() + value.size(), x);
+  if (r.ec != std::errc() || r.ptr != value.data() + value.size() || x < min_value || x > max_value)
+    throw Error(option, 0,
+                "expected an integer in [" + std::to_string(min_value) + ", " + std::to_string(max_value) + "], got '" +
+                    value + "'");
+  return x;
+}
+
+} // namespace vfit::cli

@@ -1,0 +1,36 @@
+#pragma once
+// A small command-line parser: options are asked for by name, then finish() rejects whatever
+// was not asked for, so every subcommand states exactly what it accepts.
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace vfit::cli {
+
+class Args {
+public:
+  /// `tokens`: the arguments after the subcommand name; `command`: for messages.
+  Args(std::vector<std::string> tokens, std::string command);
+
+  /// True if `--name` is present (consumed).
+  bool flag(std::string_view name);
+  /// The value of `--name VALUE` or `--name=VALUE` (last one wins); nullopt when absent.
+  std::optional<std::string> value(std::string_view name);
+  /// Every value of a repeatable `--name VALUE`.
+  std::vector<std::string> values(std::string_view name);
+  /// The arguments that are not options, after every option has been asked for; throws
+  /// vfit::Error (a usage error) for an unknown option or a wrong number of positionals.
+  std::vector<std::string> positionals(std::size_t min_count, std::size_t max_count);
+
+  /// Parses an integer option value, with a usage error naming the option.
+  static int to_int(const std::string& option, const std::string& value, int min_value, int max_value);
+
+private:
+  std::vector<std::string> m_tokens;
+  std::vector<bool> m_used;
+  std::string m_command;
+};
+
+} // namespace vfit::cli

@@ -1,0 +1,150 @@
+// `vfit demo`: README's main job. Until the fitting pipeline lands it does the parts that
+// exist: builds the built-in meshes, reads and validates the corpus meshes when the corpus is
+// there, summarises them, computes vertex normals on every backend and compares them, and
+// writes the meshes (in metres) into one glTF file a viewer can open.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "engine/engine.h"
+#include "geometry/mesh/atomic_write.h"
+#include "geometry/mesh/mesh_io.h"
+#include "geometry/mesh/primitives.h"
+#include "kernels/opencl_context.h"
+#include "mesh_summary.h"
+
+namespace vfit::cli {
+namespace {
+
+std::optional<std::filesystem::path> find_corpus(const std::optional<std::string>& flag) {
+  std::error_code ec;
+  if (flag) return std::filesystem::path(*flag);
+  if (const char* env = std::getenv("VFIT_CORPUS"); env && *env) return std::filesystem::path(env);
+  for (const char* candidate : {"../shared/corpus", "shared/corpus"})
+    if (std::filesystem::is_directory(candidate, ec)) return std::filesystem::path(candidate);
+  return std::nullopt;
+}
+
+double max_angle_degrees(const std::vector<float>& a, const std::vector<float>& b) {
+  double worst = 0;
+  for (std::size_t v = 0; v + 2 < a.size(); v += 3) {
+    const double d = a[v] * b[v] + a[v + 1] * b[v + 1] + a[v + 2] * b[v + 2];
+    const double la = a[v] * a[v] + a[v + 1] * a[v + 1] + a[v + 2] * a[v + 2];
+    if (la == 0) continue;
+    worst = std::max(worst, std::acos(std::min(1.0, std::max(-1.0, d))) * 180.0 / M_PI);
+  }
+  return worst;
+}
+
+struct Item {
+  std::string name;
+  Mesh mesh; // in metres
+  nlohmann::json summary;
+};
+
+} // namespace
+
+int run_demo(Args& args) {
+  const bool quiet = args.flag("quiet");
+  const std::filesystem::path out_dir = args.value("out").value_or("vfit_demo");
+  const auto corpus_flag = args.value("corpus");
+  const auto device = args.value("device").value_or("");
+  args.positionals(0, 0);
+  auto say = [&](const std::string& s) {
+    if (!quiet) std::cout << s << std::flush;
+  };
+
+  std::vector<Item> items;
+  // Built-in meshes: a head-sized sphere (closed), a sleeve-like tube (two openings), a cloth grid.
+  items.push_back({"builtin_sphere", make_uv_sphere(96, 128, 0.11f), {}});
+  items.push_back({"builtin_sleeve_tube", make_tube(60, 48, 0.06f, 0.55f), {}});
+  items.push_back({"builtin_cloth_grid", make_grid(80, 80, 1.0f, 1.0f), {}});
+  for (Item& it : items) {
+    TopologyReport t = analyse_topology(it.mesh.triangle_view(), it.mesh.vertex_count());
+    it.summary = {{"file", "(built-in) " + it.name}, {"vertices", it.mesh.vertex_count()}, {"faces", it.mesh.face_count()},
+                  {"units", "m"}, {"components", t.components}, {"boundary_loops", t.boundary_loops},
+                  {"watertight", t.watertight()}, {"manifold", t.manifold()}};
+  }
+
+  std::size_t corpus_files = 0;
+  if (auto corpus = find_corpus(corpus_flag)) {
+    const auto derived = *corpus / "makehuman" / "derived";
+    std::vector<std::filesystem::path> files;
+    std::error_code ec;
+    if (std::filesystem::exists(derived / "hm08_body.obj", ec)) files.push_back(derived / "hm08_body.obj");
+    if (std::filesystem::is_directory(derived / "parts_on_hm08", ec))
+      for (const auto& e : std::filesystem::directory_iterator(derived / "parts_on_hm08"))
+        if (e.path().extension() == ".obj") files.push_back(e.path());
+    std::sort(files.begin() + (files.empty() ? 0 : 1), files.end());
+    say("reading " + std::to_string(files.size()) + " corpus meshes from " + corpus->string() + "\n");
+    for (const auto& f : files) {
+      MeshSummary s = summarise_mesh(f, {}, std::nullopt);
+      Item it{f.stem().string(), std::move(s.parsed.mesh), summary_json(s)};
+      scale_positions(it.mesh.positions, metres_per_unit(s.units));
+      items.push_back(std::move(it));
+      ++corpus_files;
+    }
+  } else {
+    say("corpus not found (looked at --corpus, $VFIT_CORPUS, ../shared/corpus): built-in meshes only\n");
+  }
+
+  char row[256];
+  say("\nmesh                                      vertices    faces units comps loops watertight\n");
+  for (const Item& it : items) {
+    const auto& j = it.summary;
+    std::snprintf(row, sizeof row, "%-40s %9zu %8zu %5s %5zu %5zu %s\n", it.name.c_str(), j["vertices"].get<std::size_t>(),
+                  j["faces"].get<std::size_t>(), j["units"].get<std::string>().c_str(), j["components"].get<std::size_t>(),
+                  j["boundary_loops"].get<std::size_t>(), j["watertight"].get<bool>() ? "yes" : "no");
+    say(row);
+  }
+
+  // Vertex normals of the largest mesh on every backend, against the serial reference.
+  const Item* big = &items.front();
+  for (const Item& it : items)
+    if (it.mesh.vertex_count() > big->mesh.vertex_count()) big = &it;
+  say("\nvertex normals of " + big->name + " (" + std::to_string(big->mesh.vertex_count()) + " vertices):\n");
+  nlohmann::json normals_report = nlohmann::json::array();
+  std::vector<float> reference;
+  for (Backend b : {Backend::SERIAL, Backend::TBB, Backend::OPENCL}) {
+    if (b == Backend::OPENCL && (!opencl_built() || list_opencl_devices().empty())) {
+      say("  opencl   unavailable (" + std::string(opencl_built() ? "no device" : "not built") + ")\n");
+      continue;
+    }
+    Engine engine({b, device, 0});
+    std::vector<float> normals;
+    engine.vertex_normals(big->mesh, normals); // warm-up: builds OpenCL programs
+    const auto t0 = std::chrono::steady_clock::now();
+    engine.vertex_normals(big->mesh, normals);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (b == Backend::SERIAL) reference = normals;
+    const double dev = max_angle_degrees(reference, normals);
+    std::snprintf(row, sizeof row, "  %-8s %8.3f ms   max deviation from serial %.2e deg   [%s]\n",
+                  backend_name(b).c_str(), ms, dev, engine.description().c_str());
+    say(row);
+    normals_report.push_back({{"backend", backend_name(b)}, {"device", engine.description()}, {"ms", ms},
+                              {"max_deviation_deg", dev}});
+  }
+
+  std::filesystem::create_directories(out_dir);
+  std::vector<NamedMesh> named;
+  for (const Item& it : items)
+    if (corpus_files == 0 || it.name.rfind("builtin_", 0) != 0) named.push_back({it.name, &it.mesh});
+  const auto glb = out_dir / "demo.glb";
+  write_meshes_glb(glb, named);
+  nlohmann::json report;
+  report["meshes"] = nlohmann::json::array();
+  for (const Item& it : items) report["meshes"].push_back(it.summary);
+  report["vertex_normals"] = normals_report;
+  const auto json_path = out_dir / "demo.json";
+  write_file_atomically(json_path, report.dump(2) + "\n");
+  say("\nwrote " + glb.string() + " (" + std::to_string(named.size()) + " meshes, metres) and " + json_path.string() +
+      "\n");
+  return 0;
+}
+
+} // namespace vfit::cli

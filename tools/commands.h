@@ -1,0 +1,17 @@
+#pragma once
+// The `vfit` subcommands. Each takes its arguments (after the subcommand name), writes its
+// result, and returns the exit code; bad input throws vfit::Error (exit 2).
+
+#include "args.h"
+
+namespace vfit::cli {
+
+int run_info(Args& args);
+int run_convert(Args& args);
+int run_devices(Args& args);
+int run_demo(Args& args);
+
+
+
+
+} // namespace vfit::cli
