@@ -1,0 +1,79 @@
+// Area-weighted vertex normals: vertices/s for the serial reference, TBB (1 and all threads)
+// and OpenCL (PoCL on the CPU, or a GPU where the ICD has one), 10^3–10^6 vertices.
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include "geometry/mesh/primitives.h"
+#include "kernels/opencl_context.h"
+#include "kernels/opencl_vertex_normals.h"
+#include "kernels/vertex_normals.h"
+
+namespace {
+
+// A sphere with about `vertices` vertices (segments = 2·rings), cached per size.
+const vfit::Mesh& sphere(std::int64_t vertices) {
+  static std::map<std::int64_t, vfit::Mesh> cache;
+  auto it = cache.find(vertices);
+  if (it != cache.end()) return it->second;
+  const int rings = std::max(2, int(std::lround(std::sqrt(double(vertices) / 2.0))));
+  return cache.emplace(vertices, vfit::make_uv_sphere(rings, 2 * rings, 1.0f)).first->second;
+}
+
+void sizes(benchmark::internal::Benchmark* b) {
+  for (std::int64_t n : {1000, 10000, 100000, 1000000}) b->Arg(n);
+  b->Unit(benchmark::kMicrosecond);
+}
+
+void BM_normals_serial(benchmark::State& state) {
+  const vfit::Mesh& m = sphere(state.range(0));
+  std::vector<float> n;
+  for (auto _ : state) {
+    vfit::vertex_normals_serial(m.position_view(), m.triangle_view(), n);
+    benchmark::DoNotOptimize(n.data());
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(m.vertex_count()));
+  state.counters["vertices"] = double(m.vertex_count());
+}
+BENCHMARK(BM_normals_serial)->Apply(sizes);
+
+void BM_normals_tbb(benchmark::State& state) {
+  const vfit::Mesh& m = sphere(state.range(0));
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
+  const auto adj = vfit::build_vertex_face_adjacency(m.triangle_view(), m.vertex_count());
+  std::vector<float> scratch, n;
+  for (auto _ : state) {
+    vfit::vertex_normals_tbb(m.position_view(), m.triangle_view(), adj, scratch, n);
+    benchmark::DoNotOptimize(n.data());
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(m.vertex_count()));
+  state.counters["threads"] = double(state.range(1));
+}
+BENCHMARK(BM_normals_tbb)->ArgsProduct({{1000, 10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMicrosecond);
+
+void BM_normals_opencl(benchmark::State& state) {
+  if (vfit::list_opencl_devices().empty()) {
+    state.SkipWithError("no OpenCL device");
+    return;
+  }
+  static std::unique_ptr<vfit::OpenClContext> ctx = std::make_unique<vfit::OpenClContext>();
+  const vfit::Mesh& m = sphere(state.range(0));
+  vfit::OpenClVertexNormals kernel(*ctx, m.triangle_view(), m.vertex_count());
+  std::vector<float> n;
+  kernel.compute(m.position_view(), n); // builds the program once, outside the timing
+  for (auto _ : state) {
+    // Includes the upload of positions and the read-back of normals.
+    kernel.compute(m.position_view(), n);
+    benchmark::DoNotOptimize(n.data());
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(m.vertex_count()));
+  state.SetLabel(ctx->device().device_name);
+}
+BENCHMARK(BM_normals_opencl)->Apply(sizes);
+
+} // namespace
+
+BENCHMARK_MAIN();
