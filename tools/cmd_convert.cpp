@@ -26,7 +26,8 @@ int run_convert(Args& args) {
     if (units) {
       from = *units;
     } else {
-      auto detected = detect_units(mesh_stats(parsed.mesh).largest_extent);
+      const MeshStats stats = mesh_stats(parsed.mesh);
+      auto detected = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
       if (!detected) throw Error(in.string(), 0, "cannot detect units; state them with --units");
       from = *detected;
       if (from != Units::M)

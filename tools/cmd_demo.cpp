@@ -33,10 +33,11 @@ std::optional<std::filesystem::path> find_corpus(const std::optional<std::string
 double max_angle_degrees(const std::vector<float>& a, const std::vector<float>& b) {
   double worst = 0;
   for (std::size_t v = 0; v + 2 < a.size(); v += 3) {
-    const double d = a[v] * b[v] + a[v + 1] * b[v + 1] + a[v + 2] * b[v + 2];
-    const double la = a[v] * a[v] + a[v + 1] * a[v + 1] + a[v + 2] * a[v + 2];
-    if (la == 0) continue;
-    worst = std::max(worst, std::acos(std::min(1.0, std::max(-1.0, d))) * 180.0 / M_PI);
+    // atan2(|a×b|, a·b) stays accurate for tiny angles, where acos(a·b) would round to ~0.03°.
+    const double ax = a[v], ay = a[v + 1], az = a[v + 2], bx = b[v], by = b[v + 1], bz = b[v + 2];
+    const double cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
+    const double angle = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz);
+    worst = std::max(worst, angle * 180.0 / M_PI);
   }
   return worst;
 }

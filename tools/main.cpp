@@ -28,7 +28,7 @@ exit codes: 0 ok, 2 bad input (the message names the file and the element), 1 in
 constexpr const char* INFO_HELP = R"(usage: vfit info FILE [--json] [--units m|dm|cm|mm] [--repair]
 
 Reads and validates FILE, then prints its vertex/face/edge counts, attributes (UVs, normals,
-labels), bounding box and extent, units (detected from the extent unless --units states them),
+labels), bounding box and extent, units (detected from the extent and position unless --units states them),
 surface area, connected components, boundary loops, manifoldness, orientation, watertightness
 and Euler characteristic.
   --json      machine-readable output (keys include vertices, faces, units, components,

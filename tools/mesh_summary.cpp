@@ -45,7 +45,7 @@ MeshSummary summarise_mesh(const std::filesystem::path& path, const ReadOptions&
     s.units = *stated;
     s.units_stated = true;
   } else {
-    auto detected = detect_units(s.stats.largest_extent);
+    auto detected = detect_mesh_units(s.stats.largest_extent, s.stats.max_abs_coordinate);
     if (!detected)
       throw Error(s.path, 0,
                   "cannot detect units from the largest extent " + fmt("%g", s.stats.largest_extent) +

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cctype>
+#include <cstdio>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -46,11 +47,13 @@ template <class T> T load(const char* p) {
 }
 
 std::string hex(std::uint32_t v) {
-  static const char* digits = "0123456789ABCDEF";
-  std::string s = "0x";
-  for (int shift = 28; shift >= 0; shift -= 4) s += digits[(v >> shift) & 0xF];
-  return s;
+  char text[16];
+  std::snprintf(text, sizeof text, "0x%08X", static_cast<unsigned>(v));
+  return text;
 }
+
+// A string from the file, quoted and escaped so that a message stays on one line.
+std::string quoted(const std::string& s) { return Json(s).dump(-1, ' ', false, Json::error_handler_t::replace); }
 
 struct GlbChunks {
   std::string_view json;
@@ -58,7 +61,8 @@ struct GlbChunks {
 };
 
 GlbChunks split_glb(std::string_view bytes, const std::string& path) {
-  if (bytes.size() >= 4 && load<std::uint32_t>(bytes.data()) != GLB_MAGIC)
+  if (bytes.size() < 4) throw Error(path, 0, "not a glTF file (" + std::to_string(bytes.size()) + " bytes)");
+  if (load<std::uint32_t>(bytes.data()) != GLB_MAGIC)
     throw Error(path, 0, "not a glTF file (bad magic " + hex(load<std::uint32_t>(bytes.data())) + ")");
   if (bytes.size() < 12)
     throw Error(path, 0, "truncated: a .glb header needs 12 bytes, the file has " + std::to_string(bytes.size()));
@@ -181,7 +185,11 @@ public:
       if (visited[n]) throw fail("node " + std::to_string(n) + " is reached twice (the hierarchy is not a tree)");
       visited[n] = 1;
       const Eigen::Matrix4d world = parent * local_transform(node, n);
-      if (node.contains("mesh")) add_mesh(index(node, "mesh", "node " + std::to_string(n)), world);
+      // glTF ignores a skinned mesh node's transform: its joints place it. Until skins are read,
+      // the bind-pose positions as stored are the best pose we have.
+      const bool skinned = node.contains("skin");
+      if (node.contains("mesh"))
+        add_mesh(index(node, "mesh", "node " + std::to_string(n)), skinned ? Eigen::Matrix4d::Identity() : world);
       if (const auto children = node.find("children"); children != node.end()) {
         if (!children->is_array()) throw fail("node " + std::to_string(n) + ": 'children' is not an array");
         for (auto it = children->rbegin(); it != children->rend(); ++it)
@@ -255,12 +263,12 @@ private:
     const auto it = m_root.find("extensionsRequired");
     if (it == m_root.end() || !it->is_array()) return;
     for (const Json& e : *it) {
-      const std::string name = e.is_string() ? e.get<std::string>() : e.dump();
+      const std::string name = e.is_string() ? e.get<std::string>() : "";
       // Material and texture extensions don't change geometry; anything else (Draco, meshopt,
       // quantization, instancing) would be silently misread.
       if (!name.starts_with("KHR_materials_") && !name.starts_with("KHR_texture_") &&
           !name.starts_with("EXT_texture_") && name != "KHR_lights_punctual")
-        throw fail("unsupported required extension " + name);
+        throw fail("unsupported required extension " + quoted(name));
     }
   }
 
@@ -296,12 +304,13 @@ private:
   std::string read_external(const std::string& uri, const std::string& owner) const {
     const std::filesystem::path relative(uri);
     if (uri.find(':') != std::string::npos || relative.is_absolute() || relative.has_root_path())
-      throw fail(owner + ": uri '" + uri + "' is not a relative file path");
+      throw fail(owner + ": uri " + quoted(uri) + " is not a relative file path");
     for (const auto& part : relative)
-      if (part == "..") throw fail(owner + ": uri '" + uri + "' leaves the folder of the .gltf");
+      if (part == "..") throw fail(owner + ": uri " + quoted(uri) + " leaves the folder of the .gltf");
     const std::filesystem::path file = std::filesystem::path(m_path).parent_path() / relative;
     std::ifstream in(file, std::ios::binary);
-    if (!in || std::filesystem::is_directory(file)) throw fail(owner + ": cannot read '" + file.string() + "'");
+    std::error_code ec;
+    if (!in || std::filesystem::is_directory(file, ec)) throw fail(owner + ": cannot read " + quoted(file.string()));
     return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
 
@@ -318,7 +327,7 @@ private:
                                                                   {"VEC4", 4},   {"MAT2", 4}, {"MAT3", 9},
                                                                   {"MAT4", 16}};
     if (const auto it = components.find(type); it != components.end()) l.components = it->second;
-    else throw fail(owner + ": unknown type '" + type + "'");
+    else throw fail(owner + ": unknown type " + quoted(type));
     const int size = l.component_type == FLOAT || l.component_type == UNSIGNED_INT  ? 4
                      : l.component_type == 5122 || l.component_type == UNSIGNED_SHORT ? 2
                      : l.component_type == 5120 || l.component_type == UNSIGNED_BYTE  ? 1

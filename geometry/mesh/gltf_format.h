@@ -1,8 +1,9 @@
 #pragma once
 /// \file
-/// glTF 2.0: binary `.glb` and JSON `.gltf` (buffers embedded as base64 data URIs or in a
-/// `.bin` file beside it). Triangle primitives of every mesh in the default scene are read with
-/// their node transforms applied; POSITION, NORMAL and TEXCOORD_0 are kept.
+/// glTF 2.0: binary `.glb` and JSON `.gltf` (buffers embedded as base64 data URIs or in files
+/// beside it). Triangle primitives of every mesh in the default scene are read with their node
+/// transforms applied; POSITION, NORMAL and TEXCOORD_0 are kept. Skins, morph targets,
+/// materials and animations are ignored here.
 
 #include <span>
 #include <string>
@@ -12,17 +13,39 @@
 
 namespace vfit {
 
-/// Parses a `.glb` (magic "glTF") or `.gltf` (JSON) file. `path` is used in messages and to
-/// resolve external buffer URIs of a `.gltf`. Corners with bit-identical positions are welded
-/// into one vertex (glTF splits vertices at UV seams), so the result has the original topology;
-/// UVs and normals stay per corner. Each glTF mesh becomes a face label (its name).
-/// Throws vfit::Error naming the accessor, buffer view or primitive for malformed input
-/// (bad magic, truncated chunks, out-of-range accessors or indices, non-triangle modes).
+/// Parses a `.glb` (magic "glTF") or `.gltf` (JSON, recognised by its leading `{`). `path` is
+/// used in messages and to resolve a `.gltf`'s buffer URIs, which must be relative paths that
+/// stay in its folder.
+///
+/// The scene is `scene`, else scene 0, else every root node; node transforms (matrix or TRS)
+/// compose down the hierarchy, except that a skinned mesh's node transform is ignored, as the
+/// spec says (its bind-pose positions are kept). Normals go through the inverse transpose and
+/// are renormalised; a mirroring transform has its triangles' corners swapped so they stay
+/// counter-clockwise. Triangle strips and fans become triangles (minus the zero-area joins of
+/// strips); points and lines are skipped with a warning.
+///
+/// Corners with bit-identical positions (−0.0 = 0.0) are welded into one vertex, in accessor
+/// order, across all primitives (glTF splits vertices at UV seams, so this restores the
+/// topology); vertices no triangle uses are dropped. UVs and normals stay per corner
+/// (`uv_triangles`, `normal_triangles`); corners of primitives without them get UV (0, 0) or
+/// their face's normal when others have them. V is flipped (v' = 1 − v): glTF puts the UV origin
+/// at the image's top-left corner, vfit (like OBJ) at its bottom-left. Each glTF mesh becomes a
+/// face label named after it ("mesh<N>" when unnamed). `source.face_origin[f]` = f + 1.
+///
+/// Throws vfit::Error "<path>: <what>" naming the chunk, buffer, bufferView, accessor, node or
+/// primitive for malformed input: bad magic, version or length; truncated chunks or buffers;
+/// invalid JSON; accessors reading past their bufferView or buffer; sparse accessors; indices
+/// out of range; non-finite positions; unreadable buffer files; unsupported required
+/// extensions (Draco, meshopt, quantization); and "no faces" when nothing is a triangle.
 ParsedMesh read_gltf(std::string_view bytes, const std::string& path);
 
 /// A binary glTF (`.glb`) holding each named mesh as a separate mesh and node (its name kept),
-/// with POSITION, NORMAL (computed when the mesh has none) and TEXCOORD_0 (when it has UVs);
-/// vertices are split where a position carries several UVs or normals.
+/// with POSITION (with min/max), NORMAL (the mesh's per-corner normals, or area-weighted vertex
+/// normals computed here; +Z where a vertex has none), TEXCOORD_0 (when it has UVs, v flipped
+/// as read_gltf describes) and UNSIGNED_INT indices. A vertex is split once per distinct (UV,
+/// normal) pair among its corners, so a mesh without seams keeps its vertices and their order.
+/// Throws vfit::Error naming the mesh for a null mesh, a mesh without faces, non-finite
+/// positions or out-of-range indices.
 std::string write_glb(std::span<const NamedMesh> meshes);
 
 } // namespace vfit

@@ -16,7 +16,10 @@ MeshStats mesh_stats(const Mesh& mesh) {
       s.bbox_min[k] = std::min(s.bbox_min[k], mesh.positions[3 * v + k]);
       s.bbox_max[k] = std::max(s.bbox_max[k], mesh.positions[3 * v + k]);
     }
-  for (int k = 0; k < 3; ++k) s.largest_extent = std::max(s.largest_extent, s.bbox_max[k] - s.bbox_min[k]);
+  for (int k = 0; k < 3; ++k) {
+    s.largest_extent = std::max(s.largest_extent, s.bbox_max[k] - s.bbox_min[k]);
+    s.max_abs_coordinate = std::max({s.max_abs_coordinate, std::abs(s.bbox_min[k]), std::abs(s.bbox_max[k])});
+  }
   const double zero_area = 1e-12 * double(s.largest_extent) * s.largest_extent;
   double edge_sum = 0;
   for (std::size_t f = 0; f < nf; ++f) {

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "kernels/error.h"
@@ -18,26 +19,22 @@ namespace {
 
 enum class Scalar : std::uint8_t { I8, U8, I16, U16, I32, U32, F32, F64 };
 
-constexpr std::size_t size_of(Scalar s) {
-  switch (s) {
-  case Scalar::I8:
-  case Scalar::U8: return 1;
-  case Scalar::I16:
-  case Scalar::U16: return 2;
-  case Scalar::F64: return 8;
-  default: return 4;
-  }
-}
+/// PLY's type names (the original and the sized spelling) and their sizes in bytes.
+struct ScalarName {
+  std::string_view name, sized_name;
+  Scalar type;
+  std::size_t bytes;
+};
+constexpr ScalarName SCALARS[] = {{"char", "int8", Scalar::I8, 1},     {"uchar", "uint8", Scalar::U8, 1},
+                                  {"short", "int16", Scalar::I16, 2},  {"ushort", "uint16", Scalar::U16, 2},
+                                  {"int", "int32", Scalar::I32, 4},    {"uint", "uint32", Scalar::U32, 4},
+                                  {"float", "float32", Scalar::F32, 4}, {"double", "float64", Scalar::F64, 8}};
+
+constexpr std::size_t size_of(Scalar s) { return SCALARS[static_cast<int>(s)].bytes; }
 
 std::optional<Scalar> scalar_named(std::string_view n) {
-  if (n == "char" || n == "int8") return Scalar::I8;
-  if (n == "uchar" || n == "uint8") return Scalar::U8;
-  if (n == "short" || n == "int16") return Scalar::I16;
-  if (n == "ushort" || n == "uint16") return Scalar::U16;
-  if (n == "int" || n == "int32") return Scalar::I32;
-  if (n == "uint" || n == "uint32") return Scalar::U32;
-  if (n == "float" || n == "float32") return Scalar::F32;
-  if (n == "double" || n == "float64") return Scalar::F64;
+  for (const ScalarName& s : SCALARS)
+    if (n == s.name || n == s.sized_name) return s.type;
   return std::nullopt;
 }
 
@@ -204,6 +201,12 @@ Header parse_header(std::string_view bytes, const std::string& path, std::vector
   return h;
 }
 
+constexpr std::pair<std::string_view, Role> VERTEX_ROLES[] = {
+    {"x", Role::X},         {"y", Role::Y},         {"z", Role::Z},         {"nx", Role::NX},
+    {"ny", Role::NY},       {"nz", Role::NZ},       {"u", Role::U},         {"v", Role::V},
+    {"s", Role::U},         {"t", Role::V},         {"texture_u", Role::U}, {"texture_v", Role::V},
+    {"texture_s", Role::U}, {"texture_t", Role::V}};
+
 /// Tags the properties read into the mesh and checks the ones it cannot do without.
 void assign_roles(Header& h, const std::string& path) {
   bool have_vertex = false;
@@ -213,15 +216,8 @@ void assign_roles(Header& h, const std::string& path) {
       bool seen[static_cast<int>(Role::COUNT)] = {};
       for (Property& p : e.properties) {
         if (p.is_list) continue;
-        const std::string& n = p.name;
-        if (n == "x") p.role = Role::X;
-        else if (n == "y") p.role = Role::Y;
-        else if (n == "z") p.role = Role::Z;
-        else if (n == "nx") p.role = Role::NX;
-        else if (n == "ny") p.role = Role::NY;
-        else if (n == "nz") p.role = Role::NZ;
-        else if (n == "u" || n == "s" || n == "texture_u" || n == "texture_s") p.role = Role::U;
-        else if (n == "v" || n == "t" || n == "texture_v" || n == "texture_t") p.role = Role::V;
+        for (const auto& [name, role] : VERTEX_ROLES)
+          if (p.name == name) p.role = role;
         seen[static_cast<int>(p.role)] = true;
       }
       for (Role r : {Role::X, Role::Y, Role::Z})

@@ -245,10 +245,11 @@ ParsedMesh read_stl(std::string_view bytes, const std::string& path) {
   if (bytes.size() >= HEADER_BYTES && binary_size == bytes.size()) return read_binary(bytes, path);
   const bool solid = starts_with_solid(bytes);
   if (bytes.size() >= HEADER_BYTES && (!solid || looks_binary(bytes))) {
+    // Without "solid" (or with binary bytes after it) only binary remains, and its size is wrong.
     const std::string sizes = "header declares " + std::to_string(declared) + " facets (" +
-                              std::to_string(binary_size) + " bytes), file has " + std::to_string(bytes.size());
-    if (binary_size > bytes.size()) throw Error(path, 0, "truncated binary STL: " + sizes);
-    throw Error(path, 0, "not an STL file: no 'solid' and the binary size does not match: " + sizes);
+                              std::to_string(binary_size) + " bytes), file has " + std::to_string(bytes.size()) + " bytes";
+    if (binary_size > bytes.size()) throw Error(path, 0, "truncated binary STL (or not an STL file): " + sizes);
+    throw Error(path, 0, "not an STL file: not ASCII, and as binary the sizes do not match: " + sizes);
   }
   if (!solid) throw Error(path, 1, "not an STL file (no 'solid' keyword and too short for binary)");
   ParsedMesh out;

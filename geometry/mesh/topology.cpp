@@ -99,28 +99,36 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
   for (std::size_t v = 0; v < vertex_count; ++v)
     if (referenced[v] && vertex_sets.find(static_cast<std::uint32_t>(v)) == v) ++r.components;
 
-  // Chain boundary half-edges head to tail into loops.
-  std::vector<std::uint32_t> start_offset(vertex_count + 1, 0);
-  for (std::uint32_t c : boundary) ++start_offset[from(c) + 1];
-  for (std::size_t v = 0; v < vertex_count; ++v) start_offset[v + 1] += start_offset[v];
-  std::vector<std::uint32_t> by_start(boundary.size());
-  {
-    std::vector<std::uint32_t> cursor(start_offset.begin(), start_offset.end() - 1);
-    for (std::uint32_t c : boundary) by_start[cursor[from(c)]++] = c;
+  // Chain boundary edges into loops. The walk ignores edge direction, so a garment whose
+  // faces are not consistently oriented (common in real assets) still gets one loop per opening.
+  std::vector<std::uint32_t> incident_offset(vertex_count + 1, 0);
+  for (std::uint32_t c : boundary) {
+    ++incident_offset[from(c) + 1];
+    ++incident_offset[to(c) + 1];
   }
-  std::vector<char> used(by_start.size(), 0);
-  std::vector<std::uint32_t> next_unused(start_offset.begin(), start_offset.end() - 1);
-  for (std::size_t s = 0; s < by_start.size(); ++s) {
+  for (std::size_t v = 0; v < vertex_count; ++v) incident_offset[v + 1] += incident_offset[v];
+  std::vector<std::uint32_t> incident(2 * boundary.size()); // boundary edge numbers per vertex
+  {
+    std::vector<std::uint32_t> cursor(incident_offset.begin(), incident_offset.end() - 1);
+    for (std::uint32_t e = 0; e < boundary.size(); ++e) {
+      incident[cursor[from(boundary[e])]++] = e;
+      incident[cursor[to(boundary[e])]++] = e;
+    }
+  }
+  std::vector<char> used(boundary.size(), 0);
+  std::vector<std::uint32_t> next_unused(incident_offset.begin(), incident_offset.end() - 1);
+  for (std::uint32_t s = 0; s < boundary.size(); ++s) {
     if (used[s]) continue;
     ++r.boundary_loops;
-    std::size_t e = s;
+    used[s] = 1;
+    std::uint32_t v = to(boundary[s]);
     while (true) {
-      used[e] = 1;
-      const std::uint32_t v = to(by_start[e]);
       std::uint32_t& k = next_unused[v];
-      while (k < start_offset[v + 1] && used[k]) ++k;
-      if (k >= start_offset[v + 1]) break; // back at the start, or an open chain (non-manifold)
-      e = k;
+      while (k < incident_offset[v + 1] && used[incident[k]]) ++k;
+      if (k >= incident_offset[v + 1]) break; // back at the start (or an open chain at a pinch)
+      const std::uint32_t e = incident[k];
+      used[e] = 1;
+      v = from(boundary[e]) == v ? to(boundary[e]) : from(boundary[e]);
     }
   }
 

@@ -49,6 +49,11 @@ std::optional<Units> detect_units(double largest_extent) {
   return std::nullopt;
 }
 
+std::optional<Units> detect_mesh_units(double largest_extent, double max_abs_coordinate) {
+  if (!std::isfinite(max_abs_coordinate)) return std::nullopt;
+  return detect_units(std::max(largest_extent, max_abs_coordinate));
+}
+
 void scale_positions(std::span<float> positions, double factor) {
   for (float& x : positions) x = static_cast<float>(x * factor);
 }

@@ -27,6 +27,12 @@ double metres_per_unit(Units units);
 /// dm reads as m): callers show a warning and accept an explicit unit.
 std::optional<Units> detect_units(double largest_extent);
 
+/// Units of a mesh from its largest extent and its largest absolute coordinate: the object's
+/// size is taken as the larger of the two, because a small piece (a 27 cm collar) sits where it
+/// is worn, far from the origin in the file's units (6 dm up), which its extent alone would
+/// read as metres. Same thresholds and nullopt cases as detect_units().
+std::optional<Units> detect_mesh_units(double largest_extent, double max_abs_coordinate);
+
 /// Multiplies every coordinate in `positions` (#V × 3) by `factor`.
 void scale_positions(std::span<float> positions, double factor);
 

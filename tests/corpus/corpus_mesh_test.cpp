@@ -73,7 +73,7 @@ TEST(CorpusMeshes, EveryMeshLoadsValidatesAndMatchesTheManifest) {
     const MeshStats s = mesh_stats(p.mesh);
     EXPECT_GT(p.mesh.face_count(), 0u);
     const std::string rel = std::filesystem::relative(file, *corpus).string();
-    const std::optional<Units> units = detect_units(s.largest_extent);
+    const std::optional<Units> units = detect_mesh_units(s.largest_extent, s.max_abs_coordinate);
     ASSERT_TRUE(units.has_value());
     auto it = rows.find(rel);
     if (it == rows.end()) {

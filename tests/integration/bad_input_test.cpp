@@ -93,6 +93,8 @@ std::vector<BadFile> catalogue() {
   };
 }
 
+void PrintTo(const BadFile& b, std::ostream* os) { *os << b.name; }
+
 class BadInputCatalogue : public ::testing::TestWithParam<BadFile> {};
 
 TEST_P(BadInputCatalogue, InfoExitsTwoWithOneLineNamingTheProblem) {

@@ -261,6 +261,26 @@ TEST(GltfFormatRead, MirroringTransformKeepsTrianglesCounterClockwise) {
   EXPECT_GT(face_normal(p.mesh, 0)[2], 0.0); // +Z before mirroring, so +Z after
 }
 
+TEST(GltfFormatRead, DropsVerticesNoTriangleUses) {
+  const std::string bin = triangle_bin({0, 0, 0, 9, 9, 9, 1, 0, 0, 0, 1, 0}, {0, 2, 3});
+  Json doc = triangle_document(bin);
+  doc["bufferViews"][0]["byteLength"] = 48;
+  doc["bufferViews"][1]["byteOffset"] = 48;
+  doc["accessors"][0]["count"] = 4;
+  const ParsedMesh p = read_gltf(doc.dump(), "unused.gltf");
+  EXPECT_EQ(p.mesh.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+  EXPECT_EQ(p.mesh.triangles, (std::vector<std::int32_t>{0, 1, 2}));
+}
+
+TEST(GltfFormatRead, SkinnedMeshIgnoresItsNodeTransform) {
+  Json doc = triangle_document(triangle_bin());
+  doc["nodes"][0]["translation"] = {5, 0, 0};
+  const std::vector<float> moved = read_gltf(doc.dump(), "moved.gltf").mesh.positions;
+  EXPECT_EQ(moved[0], 5.0f);
+  doc["nodes"][0]["skin"] = 0; // the spec: joints place a skinned mesh, not its node
+  EXPECT_EQ(read_gltf(doc.dump(), "skinned.gltf").mesh.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+}
+
 TEST(GltfFormatRead, ReadsExternalBinBesideTheGltf) {
   test::TempDir dir;
   const std::string bin = triangle_bin({0, 0, 0, 2, 0, 0, 0, 3, 0});
@@ -378,6 +398,8 @@ const std::vector<BadInput> bad_inputs = {
     {"string_for_index", [] { return mutated([](Json& d) { d["nodes"][0]["mesh"] = "0"; }); }, "node 0"},
 };
 
+void PrintTo(const BadInput& input, std::ostream* out) { *out << input.name; }
+
 class GltfFormatBadInput : public testing::TestWithParam<BadInput> {};
 
 TEST_P(GltfFormatBadInput, ThrowsNamingTheFileAndTheProblem) {
@@ -393,7 +415,7 @@ TEST_P(GltfFormatBadInput, ThrowsNamingTheFileAndTheProblem) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Cases, GltfFormatBadInput, testing::ValuesIn(bad_inputs),
-                         [](const testing::TestParamInfo<BadInput>& info) { return info.param.name; });
+                         [](const testing::TestParamInfo<BadInput>& param) { return param.param.name; });
 
 // Every prefix and every single-byte corruption of a valid file must throw vfit::Error or read
 // cleanly: never crash, over-read (ASan) or leak another exception type.

@@ -13,7 +13,7 @@
 #include <random>
 
 #include "kernels/error.h"
-#include "support/test_support.h"
+#include "test_support.h"
 
 namespace vfit {
 namespace {
@@ -129,7 +129,7 @@ INSTANTIATE_TEST_SUITE_P(
                       RoundTripCase{"normals_ascii", octahedron_with_normals, false},
                       RoundTripCase{"awkward_floats_binary", awkward_floats, true},
                       RoundTripCase{"awkward_floats_ascii", awkward_floats, false}),
-    [](const auto& info) { return std::string(info.param.name); });
+    [](const auto& test_case) { return std::string(test_case.param.name); });
 
 TEST(PlyFormat, WriterSkipsNormalsThatAreNotPerVertex) {
   Mesh m = test::octahedron();
@@ -296,23 +296,23 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"truncated_binary_mid_face", binary_faces(2, 2).substr(0, binary_faces(2, 2).size() - 3),
                 {"truncated", "data ends after 1"}},
         BadCase{"truncated_ascii", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", 3),
-                {"bad.ply:11: truncated: header declares 3 faces, data ends after 1"}},
+                {"bad.ply:13: truncated: header declares 3 faces, data ends after 1"}},
         BadCase{"truncated_ascii_vertices", ascii("0 0 0\n1 0 0\n"), {"declares 3 vertices, data ends after 2"}},
-        BadCase{"ascii_nan", ascii("0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n"), {"bad.ply:8: vertex 2: coordinate is NaN"}},
-        BadCase{"ascii_inf", ascii("0 0 0\n1 0 -inf\n0 1 0\n3 0 1 2\n"), {":8:", "infinite"}},
-        BadCase{"ascii_overflow", ascii("0 0 0\n1 0 1e39\n0 1 0\n3 0 1 2\n"), {":8:", "infinite"}},
+        BadCase{"ascii_nan", ascii("0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n"), {"bad.ply:11: vertex 2: coordinate is NaN"}},
+        BadCase{"ascii_inf", ascii("0 0 0\n1 0 -inf\n0 1 0\n3 0 1 2\n"), {":11:", "infinite"}},
+        BadCase{"ascii_overflow", ascii("0 0 0\n1 0 1e39\n0 1 0\n3 0 1 2\n"), {":11:", "infinite"}},
         BadCase{"binary_nan", binary_nan_vertex(), {"bad.ply: vertex 2: coordinate is NaN"}},
         BadCase{"huge_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 99\n"),
-                {"bad.ply:10: face 1: vertex index 99 out of range (3 vertices)"}},
+                {"bad.ply:13: face 1: vertex index 99 out of range (3 vertices)"}},
         BadCase{"binary_huge_index", binary_faces(1, 1, 2147483647), {"bad.ply: face 1: vertex index 2147483647 out of range"}},
-        BadCase{"negative_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n"), {":10:", "negative vertex index -1"}},
+        BadCase{"negative_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n"), {":13:", "negative vertex index -1"}},
         BadCase{"binary_negative_index", binary_faces(1, 1, -5), {"face 1: negative vertex index -5"}},
         BadCase{"fractional_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 1.5\n"), {"not an integer"}},
-        BadCase{"two_vertex_face", ascii("0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), {":10:", "at least 3"}},
+        BadCase{"two_vertex_face", ascii("0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), {":13:", "at least 3"}},
         BadCase{"binary_huge_list", binary_huge_list(), {"truncated", "faces"}},
-        BadCase{"ascii_huge_list", ascii("0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n"), {":10:", "too few values"}},
-        BadCase{"short_vertex_line", ascii("0 0 0\n1 0\n0 1 0\n3 0 1 2\n"), {":8:", "vertex 2: too few values"}},
-        BadCase{"non_numeric", ascii("0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n"), {":8:", "'abc' is not a number"}},
+        BadCase{"ascii_huge_list", ascii("0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n"), {":13:", "too few values"}},
+        BadCase{"short_vertex_line", ascii("0 0 0\n1 0\n0 1 0\n3 0 1 2\n"), {":11:", "vertex 2: too few values"}},
+        BadCase{"non_numeric", ascii("0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n"), {":11:", "'abc' is not a number"}},
         BadCase{"no_faces", ascii("0 0 0\n1 0 0\n0 1 0\n", 0), {"bad.ply: no faces"}},
         BadCase{"no_face_element", "ply\nformat ascii 1.0\n" + VERTEX3 + "end_header\n0 0 0\n1 0 0\n0 1 0\n", {"no faces"}},
         BadCase{"no_vertex_element", "ply\nformat ascii 1.0\nelement face 0\n" + FACES + "end_header\n",
@@ -326,8 +326,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"texcoord_count",
                 "ply\nformat ascii 1.0\n" + VERTEX3 + "element face 1\n" + FACES +
                     "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 4 0 0 1 1\n",
-                {":11:", "texcoord list has 4 values"}}),
-    [](const auto& info) { return std::string(info.param.name); });
+                {":14:", "texcoord list has 4 values"}}),
+    [](const auto& test_case) { return std::string(test_case.param.name); });
 
 } // namespace
 } // namespace vfit

@@ -38,3 +38,19 @@ TEST(Units, ParsesNamesAndScales) {
 
 } // namespace
 } // namespace vfit
+
+namespace vfit {
+namespace {
+
+TEST(Units, SmallPiecesWornAwayFromTheOriginUseTheirPosition) {
+  // A 27 cm collar stored in dm sits 6 dm above the origin: the extent alone says metres.
+  EXPECT_EQ(detect_units(2.7), Units::M);
+  EXPECT_EQ(detect_mesh_units(2.7, 6.1), Units::DM);
+  // A metre-unit body standing on the origin, and a garment worn on it.
+  EXPECT_EQ(detect_mesh_units(1.8, 1.8), Units::M);
+  EXPECT_EQ(detect_mesh_units(0.5, 1.5), Units::M);
+  EXPECT_FALSE(detect_mesh_units(1.0, std::numeric_limits<double>::infinity()).has_value());
+}
+
+} // namespace
+} // namespace vfit
