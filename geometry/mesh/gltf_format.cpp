@@ -5,17 +5,17 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
-#include <cctype>
-#include <cstdio>
 #include <bit>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <numeric>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <unordered_map>
 
@@ -70,8 +70,9 @@ GlbChunks split_glb(std::string_view bytes, const std::string& path) {
   if (version != 2) throw Error(path, 0, "unsupported glTF version " + std::to_string(version));
   const auto length = load<std::uint32_t>(bytes.data() + 8);
   if (length != bytes.size())
-    throw Error(path, 0, "header length field says " + std::to_string(length) + " bytes, the file has " +
-                             std::to_string(bytes.size()));
+    throw Error(path, 0,
+                "header length field says " + std::to_string(length) + " bytes, the file has " +
+                    std::to_string(bytes.size()));
   GlbChunks chunks;
   std::size_t at = 12;
   for (int index = 0; at < bytes.size(); ++index) {
@@ -81,13 +82,15 @@ GlbChunks split_glb(std::string_view bytes, const std::string& path) {
     const auto type = load<std::uint32_t>(bytes.data() + at + 4);
     const std::string kind = type == CHUNK_JSON ? "JSON" : type == CHUNK_BIN ? "BIN" : hex(type);
     if (size > bytes.size() - at - 8)
-      throw Error(path, 0, "truncated: " + kind + " chunk at byte " + std::to_string(at) + " declares " +
-                               std::to_string(size) + " bytes, " + std::to_string(bytes.size() - at - 8) +
-                               " remain");
+      throw Error(path, 0,
+                  "truncated: " + kind + " chunk at byte " + std::to_string(at) + " declares " + std::to_string(size) +
+                      " bytes, " + std::to_string(bytes.size() - at - 8) + " remain");
     const std::string_view data = bytes.substr(at + 8, size);
     if (index == 0 && type != CHUNK_JSON) throw Error(path, 0, "first chunk is " + kind + ", not JSON");
-    if (index == 0) chunks.json = data;
-    else if (type == CHUNK_BIN && !chunks.bin) chunks.bin = data; // the spec says to skip unknown chunks
+    if (index == 0)
+      chunks.json = data;
+    else if (type == CHUNK_BIN && !chunks.bin)
+      chunks.bin = data; // the spec says to skip unknown chunks
     at += 8 + std::size_t{size};
   }
   if (at == 12) throw Error(path, 0, "truncated: no JSON chunk");
@@ -95,7 +98,8 @@ GlbChunks split_glb(std::string_view bytes, const std::string& path) {
 }
 
 std::optional<std::string> decode_base64(std::string_view text) {
-  while (!text.empty() && text.back() == '=') text.remove_suffix(1);
+  while (!text.empty() && text.back() == '=')
+    text.remove_suffix(1);
   if (text.size() % 4 == 1) return std::nullopt;
   std::string out;
   out.reserve(text.size() / 4 * 3 + 2);
@@ -103,11 +107,16 @@ std::optional<std::string> decode_base64(std::string_view text) {
   int pending = 0;
   for (char c : text) {
     int v = -1;
-    if (c >= 'A' && c <= 'Z') v = c - 'A';
-    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
-    else if (c >= '0' && c <= '9') v = c - '0' + 52;
-    else if (c == '+' || c == '-') v = 62; // '-' and '_': the URL-safe alphabet some exporters use
-    else if (c == '/' || c == '_') v = 63;
+    if (c >= 'A' && c <= 'Z')
+      v = c - 'A';
+    else if (c >= 'a' && c <= 'z')
+      v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9')
+      v = c - '0' + 52;
+    else if (c == '+' || c == '-')
+      v = 62; // '-' and '_': the URL-safe alphabet some exporters use
+    else if (c == '/' || c == '_')
+      v = 63;
     if (v < 0) return std::nullopt;
     bits = (bits << 6) | static_cast<std::uint32_t>(v);
     pending += 6;
@@ -124,7 +133,8 @@ using PositionKey = std::array<std::uint32_t, 3>;
 struct KeyHash {
   template <std::size_t N> std::size_t operator()(const std::array<std::uint32_t, N>& k) const {
     std::uint64_t h = 1469598103934665603ull;
-    for (std::uint32_t v : k) h = (h ^ v) * 1099511628211ull;
+    for (std::uint32_t v : k)
+      h = (h ^ v) * 1099511628211ull;
     return static_cast<std::size_t>(h ^ (h >> 29));
   }
 };
@@ -132,13 +142,13 @@ std::uint32_t weld_bits(float x) { return std::bit_cast<std::uint32_t>(x == 0.0f
 
 // Per-corner values (UVs: N = 2, normals: N = 3) → unique values and #F × 3 indices into them.
 template <std::size_t N>
-void dedupe_corners(const std::vector<float>& corners, std::vector<float>& values,
-                    std::vector<std::int32_t>& indices) {
+void dedupe_corners(const std::vector<float>& corners, std::vector<float>& values, std::vector<std::int32_t>& indices) {
   std::unordered_map<std::array<std::uint32_t, N>, std::int32_t, KeyHash> index_of;
   indices.resize(corners.size() / N);
   for (std::size_t c = 0; c < indices.size(); ++c) {
     std::array<std::uint32_t, N> key;
-    for (std::size_t k = 0; k < N; ++k) key[k] = weld_bits(corners[N * c + k]);
+    for (std::size_t k = 0; k < N; ++k)
+      key[k] = weld_bits(corners[N * c + k]);
     auto [it, inserted] = index_of.try_emplace(key, static_cast<std::int32_t>(values.size() / N));
     if (inserted) values.insert(values.end(), corners.begin() + N * c, corners.begin() + N * (c + 1));
     indices[c] = it->second;
@@ -160,7 +170,8 @@ public:
   GltfReader(std::string_view bytes, const std::string& path) : m_path(path) {
     std::size_t first = 0;
     if (bytes.starts_with("\xEF\xBB\xBF")) first = 3; // a UTF-8 byte-order mark
-    while (first < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[first]))) ++first;
+    while (first < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[first])))
+      ++first;
     if (bytes.empty()) throw Error(path, 0, "empty file, not a glTF file");
     if (first < bytes.size() && bytes[first] == '{') {
       parse_json(bytes.substr(first));
@@ -175,7 +186,8 @@ public:
     check_required_extensions();
     std::vector<std::pair<std::size_t, Eigen::Matrix4d>> stack;
     const std::vector<std::size_t> roots = scene_roots();
-    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, Eigen::Matrix4d::Identity());
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it)
+      stack.emplace_back(*it, Eigen::Matrix4d::Identity());
     std::vector<char> visited(array_size("nodes"), 0);
     // An explicit stack: a hostile file can nest nodes deeper than the call stack allows.
     while (!stack.empty()) {
@@ -323,15 +335,16 @@ private:
     l.component_type = static_cast<int>(index(acc, "componentType", owner));
     l.normalized = acc.value("normalized", false);
     const std::string type = acc.value("type", "");
-    static const std::unordered_map<std::string, int> components{{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3},
-                                                                  {"VEC4", 4},   {"MAT2", 4}, {"MAT3", 9},
-                                                                  {"MAT4", 16}};
-    if (const auto it = components.find(type); it != components.end()) l.components = it->second;
-    else throw fail(owner + ": unknown type " + quoted(type));
-    const int size = l.component_type == FLOAT || l.component_type == UNSIGNED_INT  ? 4
+    static const std::unordered_map<std::string, int> components{{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4},
+                                                                 {"MAT2", 4},   {"MAT3", 9}, {"MAT4", 16}};
+    if (const auto it = components.find(type); it != components.end())
+      l.components = it->second;
+    else
+      throw fail(owner + ": unknown type " + quoted(type));
+    const int size = l.component_type == FLOAT || l.component_type == UNSIGNED_INT    ? 4
                      : l.component_type == 5122 || l.component_type == UNSIGNED_SHORT ? 2
                      : l.component_type == 5120 || l.component_type == UNSIGNED_BYTE  ? 1
-                                                                                       : 0;
+                                                                                      : 0;
     if (size == 0) throw fail(owner + ": unknown componentType " + std::to_string(l.component_type));
     const std::uint64_t element_size = std::uint64_t(size) * l.components;
     if (!acc.contains("bufferView")) {
@@ -353,8 +366,8 @@ private:
     const std::uint64_t offset = index(acc, "byteOffset", owner, 0);
     if (l.count > 0 && (offset > view_length || element_size > view_length - offset ||
                         (l.count - 1) > (view_length - offset - element_size) / l.stride))
-      throw fail(owner + " reads past the end of bufferView " + std::to_string(v) + " (" +
-                 std::to_string(view_length) + " bytes)");
+      throw fail(owner + " reads past the end of bufferView " + std::to_string(v) + " (" + std::to_string(view_length) +
+                 " bytes)");
     l.data = data.data() + view_offset + offset;
     return l;
   }
@@ -362,8 +375,8 @@ private:
   // `components` floats per element; normalized unsigned bytes/shorts too where glTF allows them.
   std::vector<float> read_floats(std::size_t a, const char* semantic, int components, bool allow_normalized) {
     const AccessorLayout l = accessor(a);
-    const bool quantized = allow_normalized && l.normalized &&
-                           (l.component_type == UNSIGNED_BYTE || l.component_type == UNSIGNED_SHORT);
+    const bool quantized =
+        allow_normalized && l.normalized && (l.component_type == UNSIGNED_BYTE || l.component_type == UNSIGNED_SHORT);
     if (l.components != components || (l.component_type != FLOAT && !quantized))
       throw fail("accessor " + std::to_string(a) + ": unsupported layout for " + semantic + " (componentType " +
                  std::to_string(l.component_type) + ", " + std::to_string(l.components) + " components)");
@@ -373,9 +386,12 @@ private:
       const char* p = l.data + e * l.stride;
       for (int k = 0; k < components; ++k) {
         float& x = out[e * components + k];
-        if (l.component_type == FLOAT) x = load<float>(p + 4 * k);
-        else if (l.component_type == UNSIGNED_BYTE) x = static_cast<float>(load<std::uint8_t>(p + k)) / 255.0f;
-        else x = static_cast<float>(load<std::uint16_t>(p + 2 * k)) / 65535.0f;
+        if (l.component_type == FLOAT)
+          x = load<float>(p + 4 * k);
+        else if (l.component_type == UNSIGNED_BYTE)
+          x = static_cast<float>(load<std::uint8_t>(p + k)) / 255.0f;
+        else
+          x = static_cast<float>(load<std::uint16_t>(p + 2 * k)) / 65535.0f;
       }
     }
     return out;
@@ -383,8 +399,8 @@ private:
 
   std::vector<std::uint32_t> read_indices(std::size_t a) {
     const AccessorLayout l = accessor(a);
-    if (l.components != 1 || (l.component_type != UNSIGNED_BYTE && l.component_type != UNSIGNED_SHORT &&
-                              l.component_type != UNSIGNED_INT))
+    if (l.components != 1 ||
+        (l.component_type != UNSIGNED_BYTE && l.component_type != UNSIGNED_SHORT && l.component_type != UNSIGNED_INT))
       throw fail("accessor " + std::to_string(a) + ": indices must be unsigned byte, short or int scalars");
     std::vector<std::uint32_t> out(l.count, 0);
     if (!l.data) return out;
@@ -399,13 +415,16 @@ private:
 
   std::vector<std::size_t> scene_roots() const {
     std::optional<std::uint64_t> scene;
-    if (m_root.contains("scene")) scene = index(m_root, "scene", "'scene'");
-    else if (array_size("scenes") > 0) scene = 0;
+    if (m_root.contains("scene"))
+      scene = index(m_root, "scene", "'scene'");
+    else if (array_size("scenes") > 0)
+      scene = 0;
     std::vector<std::size_t> roots;
     if (scene) {
       const Json& s = element("scenes", *scene, "scene");
       if (const auto nodes = s.find("nodes"); nodes != s.end() && nodes->is_array())
-        for (const Json& n : *nodes) roots.push_back(as_index(n, "scene " + std::to_string(*scene) + " node"));
+        for (const Json& n : *nodes)
+          roots.push_back(as_index(n, "scene " + std::to_string(*scene) + " node"));
       return roots;
     }
     // No scene at all: every node that is nobody's child is a root.
@@ -429,8 +448,10 @@ private:
     const auto r = numbers(node, "rotation", 4, owner).value_or(std::vector<double>{0, 0, 0, 1});
     const auto s = numbers(node, "scale", 3, owner).value_or(std::vector<double>{1, 1, 1});
     Eigen::Quaterniond q(r[3], r[0], r[1], r[2]); // glTF stores x, y, z, w
-    if (q.norm() > 0.0) q.normalize();
-    else q = Eigen::Quaterniond::Identity();
+    if (q.norm() > 0.0)
+      q.normalize();
+    else
+      q = Eigen::Quaterniond::Identity();
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
     m.topLeftCorner<3, 3>() = q.toRotationMatrix() * Eigen::Vector3d(s[0], s[1], s[2]).asDiagonal();
     m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]);
@@ -511,8 +532,10 @@ void GltfReader::add_primitive(std::size_t m, std::size_t p, const Json& primiti
   const std::vector<float> uvs = read_attribute("TEXCOORD_0", 2, true);
 
   std::vector<std::uint32_t> indices(n);
-  if (primitive.contains("indices")) indices = read_indices(index(primitive, "indices", owner));
-  else std::iota(indices.begin(), indices.end(), 0u);
+  if (primitive.contains("indices"))
+    indices = read_indices(index(primitive, "indices", owner));
+  else
+    std::iota(indices.begin(), indices.end(), 0u);
   for (std::uint32_t i : indices)
     if (i >= n)
       throw fail(owner + ": index " + std::to_string(i) + " out of range (" + std::to_string(n) + " vertices)");
@@ -521,9 +544,9 @@ void GltfReader::add_primitive(std::size_t m, std::size_t p, const Json& primiti
   std::vector<std::uint32_t> corners = mode == 4 ? indices : std::vector<std::uint32_t>{};
   for (std::size_t i = 0; mode != 4 && i + 2 < indices.size(); ++i) {
     // Strip and fan orders from the glTF spec (3.7.2.1), both keeping the first triangle's winding.
-    const std::array<std::uint32_t, 3> t =
-        mode == 5 ? std::array{indices[i], indices[i + 1 + i % 2], indices[i + 2 - i % 2]}
-                  : std::array{indices[i + 1], indices[i + 2], indices[0]};
+    const std::array<std::uint32_t, 3> t = mode == 5
+                                               ? std::array{indices[i], indices[i + 1 + i % 2], indices[i + 2 - i % 2]}
+                                               : std::array{indices[i + 1], indices[i + 2], indices[0]};
     // Strips are stitched with repeated indices; those zero-area joins are not faces.
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
     corners.insert(corners.end(), t.begin(), t.end());
@@ -536,7 +559,8 @@ void GltfReader::add_primitive(std::size_t m, std::size_t p, const Json& primiti
   const double det = linear.determinant();
   // A mirroring transform turns counter-clockwise triangles clockwise (glTF spec 3.7.4).
   if (det < 0)
-    for (std::size_t c = 0; c < corners.size(); c += 3) std::swap(corners[c + 1], corners[c + 2]);
+    for (std::size_t c = 0; c < corners.size(); c += 3)
+      std::swap(corners[c + 1], corners[c + 2]);
   // Normals transform by the inverse transpose, which is the cofactor matrix over det; the
   // cofactor form (sign-corrected) also survives a singular, zero-scale transform.
   Eigen::Matrix3d cofactor;
@@ -548,7 +572,8 @@ void GltfReader::add_primitive(std::size_t m, std::size_t p, const Json& primiti
   // Weld in accessor order (not first-use order) so a file that lists each vertex once keeps
   // its vertex order; vertices no triangle uses are dropped.
   std::vector<char> used(n, 0);
-  for (std::uint32_t c : corners) used[c] = 1;
+  for (std::uint32_t c : corners)
+    used[c] = 1;
   std::vector<std::int32_t> welded(n, -1);
   std::vector<float>& positions = m_out.mesh.positions;
   for (std::size_t i = 0; i < n; ++i) {
@@ -573,7 +598,8 @@ void GltfReader::add_primitive(std::size_t m, std::size_t p, const Json& primiti
     Eigen::Vector3d nrm = Eigen::Vector3d::Zero();
     if (!normals.empty()) nrm = cofactor * Eigen::Vector3d(normals[3 * c], normals[3 * c + 1], normals[3 * c + 2]);
     if (nrm.norm() > 0.0) nrm.normalize();
-    for (int k = 0; k < 3; ++k) m_corner_normals.push_back(static_cast<float>(nrm[k]));
+    for (int k = 0; k < 3; ++k)
+      m_corner_normals.push_back(static_cast<float>(nrm[k]));
     m_corner_has_normal.push_back(!normals.empty());
   }
   m_out.mesh.face_labels.insert(m_out.mesh.face_labels.end(), corners.size() / 3, label);
@@ -594,7 +620,8 @@ ParsedMesh GltfReader::finish() {
       };
       Eigen::Vector3d nrm = (corner(1) - corner(0)).cross(corner(2) - corner(0));
       if (nrm.norm() > 0.0) nrm.normalize();
-      for (int k = 0; k < 3; ++k) m_corner_normals[3 * c + k] = static_cast<float>(nrm[k]);
+      for (int k = 0; k < 3; ++k)
+        m_corner_normals[3 * c + k] = static_cast<float>(nrm[k]);
     }
     dedupe_corners<3>(m_corner_normals, mesh.normals, mesh.normal_triangles);
   }

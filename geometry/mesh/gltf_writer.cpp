@@ -5,10 +5,10 @@
 
 #include <algorithm>
 #include <array>
-#include <limits>
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "kernels/error.h"
 #include "kernels/vertex_normals.h"
@@ -45,12 +45,14 @@ struct SplitMesh {
 void check_indices(std::span<const std::int32_t> tris, std::size_t faces, std::size_t count, const char* what,
                    const std::string& name) {
   if (tris.size() != 3 * faces)
-    throw Error(name, 0, std::string(what) + " has " + std::to_string(tris.size()) + " indices, expected " +
-                             std::to_string(3 * faces));
+    throw Error(name, 0,
+                std::string(what) + " has " + std::to_string(tris.size()) + " indices, expected " +
+                    std::to_string(3 * faces));
   for (std::size_t c = 0; c < tris.size(); ++c)
     if (tris[c] < 0 || static_cast<std::size_t>(tris[c]) >= count)
-      throw Error(name, 0, "face " + std::to_string(c / 3 + 1) + ": " + what + " index " + std::to_string(tris[c]) +
-                               " out of range");
+      throw Error(name, 0,
+                  "face " + std::to_string(c / 3 + 1) + ": " + what + " index " + std::to_string(tris[c]) +
+                      " out of range");
 }
 
 SplitMesh split_vertices(const Mesh& mesh, const std::string& name) {
@@ -109,7 +111,8 @@ SplitMesh split_vertices(const Mesh& mesh, const std::string& name) {
     }
   }
   out.indices.resize(corners);
-  for (std::size_t c = 0; c < corners; ++c) out.indices[c] = vertex_of_tuple[tuple_of[c]];
+  for (std::size_t c = 0; c < corners; ++c)
+    out.indices[c] = vertex_of_tuple[tuple_of[c]];
   return out;
 }
 
@@ -117,13 +120,13 @@ SplitMesh split_vertices(const Mesh& mesh, const std::string& name) {
 class BinaryBuilder {
 public:
   /// Appends `data` as a new bufferView (4-byte aligned) and returns an accessor for it.
-  template <class T>
-  std::size_t add(const std::vector<T>& data, int components, int component_type, int target) {
-    while (m_bin.size() % 4 != 0) m_bin += '\0';
+  template <class T> std::size_t add(const std::vector<T>& data, int components, int component_type, int target) {
+    while (m_bin.size() % 4 != 0)
+      m_bin += '\0';
     const std::size_t offset = m_bin.size();
     m_bin.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(T));
-    m_views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)},
-                       {"target", target}});
+    m_views.push_back(
+        {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)}, {"target", target}});
     static const char* types[] = {"", "SCALAR", "VEC2", "VEC3"};
     m_accessors.push_back({{"bufferView", m_views.size() - 1},
                            {"componentType", component_type},
@@ -135,7 +138,8 @@ public:
 
   /// Moves the views and accessors into `doc` and returns the padded BIN chunk.
   std::string finish(Json& doc) {
-    while (m_bin.size() % 4 != 0) m_bin += '\0';
+    while (m_bin.size() % 4 != 0)
+      m_bin += '\0';
     if (m_bin.empty()) return {};
     doc["buffers"] = Json::array({{{"byteLength", m_bin.size()}}});
     doc["bufferViews"] = std::move(m_views);
@@ -192,7 +196,8 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
   Json scene = Json::object();
   // The spec forbids empty arrays, so a file of no meshes has a scene without nodes.
   if (!meshes.empty()) {
-    for (std::size_t i = 0; i < meshes.size(); ++i) scene["nodes"].push_back(i);
+    for (std::size_t i = 0; i < meshes.size(); ++i)
+      scene["nodes"].push_back(i);
     doc["nodes"] = std::move(nodes);
     doc["meshes"] = std::move(gltf_meshes);
   }
@@ -201,7 +206,8 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
   const std::string binary = bin.finish(doc);
 
   std::string json = doc.dump();
-  while (json.size() % 4 != 0) json += ' '; // the spec pads the JSON chunk with spaces
+  while (json.size() % 4 != 0)
+    json += ' '; // the spec pads the JSON chunk with spaces
   std::string out;
   const std::size_t total = 12 + 8 + json.size() + (binary.empty() ? 0 : 8 + binary.size());
   if (total > std::numeric_limits<std::uint32_t>::max())

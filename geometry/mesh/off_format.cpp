@@ -20,9 +20,11 @@ public:
   explicit Words(std::string_view line = {}) : m_rest(line) {}
   bool next(std::string_view& word) {
     std::size_t i = 0;
-    while (i < m_rest.size() && is_space(m_rest[i])) ++i;
+    while (i < m_rest.size() && is_space(m_rest[i]))
+      ++i;
     std::size_t j = i;
-    while (j < m_rest.size() && !is_space(m_rest[j])) ++j;
+    while (j < m_rest.size() && !is_space(m_rest[j]))
+      ++j;
     word = m_rest.substr(i, j - i);
     m_rest.remove_prefix(j);
     return !word.empty();
@@ -35,7 +37,8 @@ private:
 /// A word from the file, made printable and short enough for a one-line message.
 std::string quoted(std::string_view word) {
   std::string s = "'";
-  for (char c : word.substr(0, 40)) s += (c >= 0x20 && c < 0x7f) ? c : '?';
+  for (char c : word.substr(0, 40))
+    s += (c >= 0x20 && c < 0x7f) ? c : '?';
   return s + (word.size() > 40 ? "...'" : "'");
 }
 
@@ -96,7 +99,8 @@ public:
     std::string_view w;
     if (!words.next(w)) throw Error(m_path, m_lines.line(), std::string("missing ") + what + " count");
     std::int64_t n = 0;
-    if (!parse_int(w, n)) throw Error(m_path, m_lines.line(), std::string(what) + " count " + quoted(w) + " is not an integer");
+    if (!parse_int(w, n))
+      throw Error(m_path, m_lines.line(), std::string(what) + " count " + quoted(w) + " is not an integer");
     if (n < 0) throw Error(m_path, m_lines.line(), std::string("negative ") + what + " count " + quoted(w));
     return n;
   }
@@ -104,8 +108,9 @@ public:
   /// Moves to element i (0-based) of `declared`; messages then name it "<element> <i+1>".
   void next_line(Words& words, const char* element, const char* elements, std::int64_t i, std::int64_t declared) {
     if (!m_lines.next(words))
-      throw Error(m_path, m_lines.line(), "truncated: header declares " + std::to_string(declared) + " " + elements +
-                                              ", data ends after " + std::to_string(i));
+      throw Error(m_path, m_lines.line(),
+                  "truncated: header declares " + std::to_string(declared) + " " + elements + ", data ends after " +
+                      std::to_string(i));
     m_label = std::string(element) + " " + std::to_string(i + 1) + ": ";
   }
 
@@ -127,8 +132,10 @@ public:
     for (std::int64_t i = 0; i < nv; ++i) {
       Words words;
       next_line(words, "vertex", "vertices", i, nv);
-      for (int c = 0; c < 3; ++c) m.positions.push_back(coordinate(words, "coordinate"));
-      for (int c = 0; with_normals && c < 3; ++c) m.normals.push_back(coordinate(words, "normal"));
+      for (int c = 0; c < 3; ++c)
+        m.positions.push_back(coordinate(words, "coordinate"));
+      for (int c = 0; with_normals && c < 3; ++c)
+        m.normals.push_back(coordinate(words, "normal"));
     }
     if (nv > std::numeric_limits<std::int32_t>::max()) throw Error(m_path, 0, "too many vertices for 32-bit indices");
   }
@@ -154,7 +161,8 @@ public:
         std::int64_t index = 0;
         if (!parse_int(w, index)) fail("vertex index " + quoted(w) + " is not an integer");
         if (index < 0) fail("negative vertex index " + std::to_string(index));
-        if (index >= nv) fail("vertex index " + std::to_string(index) + " out of range (" + std::to_string(nv) + " vertices)");
+        if (index >= nv)
+          fail("vertex index " + std::to_string(index) + " out of range (" + std::to_string(nv) + " vertices)");
         corners.push_back(static_cast<std::int32_t>(index));
       }
       // Anything after the indices is a colour, which vfit does not use.
@@ -218,7 +226,8 @@ ParsedMesh read_off(std::string_view bytes, const std::string& path) {
   Mesh& m = out.mesh;
   if (m.triangles.empty()) throw Error(path, 0, "no faces");
   if (normals) m.normal_triangles = m.triangles;
-  if (lines.next(words)) out.warnings.push_back(path + ":" + std::to_string(lines.line()) + ": data after the last face ignored");
+  if (lines.next(words))
+    out.warnings.push_back(path + ":" + std::to_string(lines.line()) + ": data after the last face ignored");
   return out;
 }
 

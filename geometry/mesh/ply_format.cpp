@@ -25,9 +25,9 @@ struct ScalarName {
   Scalar type;
   std::size_t bytes;
 };
-constexpr ScalarName SCALARS[] = {{"char", "int8", Scalar::I8, 1},     {"uchar", "uint8", Scalar::U8, 1},
-                                  {"short", "int16", Scalar::I16, 2},  {"ushort", "uint16", Scalar::U16, 2},
-                                  {"int", "int32", Scalar::I32, 4},    {"uint", "uint32", Scalar::U32, 4},
+constexpr ScalarName SCALARS[] = {{"char", "int8", Scalar::I8, 1},      {"uchar", "uint8", Scalar::U8, 1},
+                                  {"short", "int16", Scalar::I16, 2},   {"ushort", "uint16", Scalar::U16, 2},
+                                  {"int", "int32", Scalar::I32, 4},     {"uint", "uint32", Scalar::U32, 4},
                                   {"float", "float32", Scalar::F32, 4}, {"double", "float64", Scalar::F64, 8}};
 
 constexpr std::size_t size_of(Scalar s) { return SCALARS[static_cast<int>(s)].bytes; }
@@ -74,9 +74,11 @@ public:
   explicit Words(std::string_view line = {}) : m_rest(line) {}
   bool next(std::string_view& word) {
     std::size_t i = 0;
-    while (i < m_rest.size() && is_space(m_rest[i])) ++i;
+    while (i < m_rest.size() && is_space(m_rest[i]))
+      ++i;
     std::size_t j = i;
-    while (j < m_rest.size() && !is_space(m_rest[j])) ++j;
+    while (j < m_rest.size() && !is_space(m_rest[j]))
+      ++j;
     word = m_rest.substr(i, j - i);
     m_rest.remove_prefix(j);
     return !word.empty();
@@ -89,14 +91,16 @@ private:
 std::vector<std::string_view> split(std::string_view line) {
   std::vector<std::string_view> out;
   Words words(line);
-  for (std::string_view w; words.next(w);) out.push_back(w);
+  for (std::string_view w; words.next(w);)
+    out.push_back(w);
   return out;
 }
 
 /// A word from the file, made printable and short enough for a one-line message.
 std::string quoted(std::string_view word) {
   std::string s = "'";
-  for (char c : word.substr(0, 40)) s += (c >= 0x20 && c < 0x7f) ? c : '?';
+  for (char c : word.substr(0, 40))
+    s += (c >= 0x20 && c < 0x7f) ? c : '?';
   return s + (word.size() > 40 ? "...'" : "'");
 }
 
@@ -156,17 +160,23 @@ Header parse_header(std::string_view bytes, const std::string& path, std::vector
     if (words[0] == "format") {
       if (have_format) throw Error(path, line, "second 'format' line");
       if (words.size() != 3) throw Error(path, line, "bad format line (expected 'format <encoding> 1.0')");
-      if (words[1] == "ascii") h.encoding = Encoding::ASCII;
-      else if (words[1] == "binary_little_endian") h.encoding = Encoding::LITTLE;
-      else if (words[1] == "binary_big_endian") h.encoding = Encoding::BIG;
-      else throw Error(path, line, "unsupported format " + quoted(words[1]));
-      if (words[2] != "1.0") warnings.push_back(path + ":" + std::to_string(line) + ": PLY version " + quoted(words[2]) + " read as 1.0");
+      if (words[1] == "ascii")
+        h.encoding = Encoding::ASCII;
+      else if (words[1] == "binary_little_endian")
+        h.encoding = Encoding::LITTLE;
+      else if (words[1] == "binary_big_endian")
+        h.encoding = Encoding::BIG;
+      else
+        throw Error(path, line, "unsupported format " + quoted(words[1]));
+      if (words[2] != "1.0")
+        warnings.push_back(path + ":" + std::to_string(line) + ": PLY version " + quoted(words[2]) + " read as 1.0");
       have_format = true;
     } else if (words[0] == "element") {
       if (words.size() != 3) throw Error(path, line, "bad element line (expected 'element <name> <count>')");
       Element e{std::string(words[1]), 0, line, {}};
       const auto [p, ec] = std::from_chars(words[2].data(), words[2].data() + words[2].size(), e.count);
-      if (ec == std::errc::result_out_of_range) throw Error(path, line, "element count " + quoted(words[2]) + " is absurdly large");
+      if (ec == std::errc::result_out_of_range)
+        throw Error(path, line, "element count " + quoted(words[2]) + " is absurdly large");
       if (ec != std::errc() || p != words[2].data() + words[2].size())
         throw Error(path, line, "element count " + quoted(words[2]) + " is not an integer");
       if (e.count < 0) throw Error(path, line, "negative element count " + quoted(words[2]));
@@ -202,10 +212,9 @@ Header parse_header(std::string_view bytes, const std::string& path, std::vector
 }
 
 constexpr std::pair<std::string_view, Role> VERTEX_ROLES[] = {
-    {"x", Role::X},         {"y", Role::Y},         {"z", Role::Z},         {"nx", Role::NX},
-    {"ny", Role::NY},       {"nz", Role::NZ},       {"u", Role::U},         {"v", Role::V},
-    {"s", Role::U},         {"t", Role::V},         {"texture_u", Role::U}, {"texture_v", Role::V},
-    {"texture_s", Role::U}, {"texture_t", Role::V}};
+    {"x", Role::X},         {"y", Role::Y},         {"z", Role::Z},         {"nx", Role::NX},      {"ny", Role::NY},
+    {"nz", Role::NZ},       {"u", Role::U},         {"v", Role::V},         {"s", Role::U},        {"t", Role::V},
+    {"texture_u", Role::U}, {"texture_v", Role::V}, {"texture_s", Role::U}, {"texture_t", Role::V}};
 
 /// Tags the properties read into the mesh and checks the ones it cannot do without.
 void assign_roles(Header& h, const std::string& path) {
@@ -222,7 +231,8 @@ void assign_roles(Header& h, const std::string& path) {
       }
       for (Role r : {Role::X, Role::Y, Role::Z})
         if (!seen[static_cast<int>(r)])
-          throw Error(path, e.line, std::string("element 'vertex' has no property '") + "xyz"[static_cast<int>(r) - 1] + "'");
+          throw Error(path, e.line,
+                      std::string("element 'vertex' has no property '") + "xyz"[static_cast<int>(r) - 1] + "'");
     } else if (e.name == "face") {
       bool have_indices = false;
       for (Property& p : e.properties) {
@@ -241,9 +251,12 @@ void assign_roles(Header& h, const std::string& path) {
 }
 
 template <class U> U byte_swapped(U u) {
-  if constexpr (sizeof(U) == 2) return static_cast<U>(__builtin_bswap16(u));
-  else if constexpr (sizeof(U) == 4) return __builtin_bswap32(u);
-  else return __builtin_bswap64(u);
+  if constexpr (sizeof(U) == 2)
+    return static_cast<U>(__builtin_bswap16(u));
+  else if constexpr (sizeof(U) == 4)
+    return __builtin_bswap32(u);
+  else
+    return __builtin_bswap64(u);
 }
 
 template <class T, class U> T load(const char* p, bool swap) {
@@ -275,8 +288,9 @@ public:
     throw Error(m_path, line, m_element->name + " " + std::to_string(m_index + 1) + ": " + what);
   }
   [[noreturn]] void truncated(std::int64_t line) const {
-    throw Error(m_path, line, "truncated: header declares " + std::to_string(m_element->count) + " " +
-                                  plural(m_element->name) + ", data ends after " + std::to_string(m_index));
+    throw Error(m_path, line,
+                "truncated: header declares " + std::to_string(m_element->count) + " " + plural(m_element->name) +
+                    ", data ends after " + std::to_string(m_index));
   }
 
 protected:
@@ -360,7 +374,8 @@ public:
     if (m_extra_lines > 0)
       warnings.push_back(m_path + ": " + std::to_string(m_extra_lines) + " element lines had extra values (ignored)");
     const std::int64_t last = m_line;
-    if (next_line()) warnings.push_back(m_path + ":" + std::to_string(m_line) + ": data after the last element ignored");
+    if (next_line())
+      warnings.push_back(m_path + ":" + std::to_string(m_line) + ": data after the last element ignored");
     m_line = last;
   }
 
@@ -389,7 +404,8 @@ private:
 /// reservation without trusting it beyond what the file could hold.
 std::size_t min_bytes(const Element& e, bool ascii) {
   std::size_t n = 0;
-  for (const Property& p : e.properties) n += ascii ? 2 : size_of(p.is_list ? p.count_type : p.type);
+  for (const Property& p : e.properties)
+    n += ascii ? 2 : size_of(p.is_list ? p.count_type : p.type);
   return std::max<std::size_t>(n, 1);
 }
 
@@ -419,11 +435,14 @@ template <class Source> void read_vertices(const Element& e, Source& src, Builde
   for (std::int64_t i = 0; i < e.count; ++i) {
     src.begin(e, i);
     for (const Property& p : e.properties) {
-      if (p.is_list) src.skip(p.type, src.count(p.count_type));
-      else v[static_cast<int>(p.role)] = src.value(p.type);
+      if (p.is_list)
+        src.skip(p.type, src.count(p.count_type));
+      else
+        v[static_cast<int>(p.role)] = src.value(p.type);
     }
     src.end();
-    for (Role r : {Role::X, Role::Y, Role::Z}) m.positions.push_back(checked_float(src, v[static_cast<int>(r)], "coordinate"));
+    for (Role r : {Role::X, Role::Y, Role::Z})
+      m.positions.push_back(checked_float(src, v[static_cast<int>(r)], "coordinate"));
     if (b.vertex_normals) {
       for (Role r : {Role::NX, Role::NY, Role::NZ}) {
         const double n = v[static_cast<int>(r)];
@@ -439,7 +458,8 @@ template <class Source> void read_vertices(const Element& e, Source& src, Builde
     }
   }
   // Only reachable with a multi-gigabyte file: smaller ones hit "truncated" above.
-  if (e.count > std::numeric_limits<std::int32_t>::max()) throw Error(src.path(), 0, "too many vertices for 32-bit indices");
+  if (e.count > std::numeric_limits<std::int32_t>::max())
+    throw Error(src.path(), 0, "too many vertices for 32-bit indices");
 }
 
 template <class Source> std::int32_t checked_index(Source& src, double d, std::int64_t vertex_count) {
@@ -469,9 +489,11 @@ template <class Source> void read_faces(const Element& e, Source& src, Builder& 
       const std::uint64_t n = src.count(p.count_type);
       src.expect(p.type, n);
       if (p.role == Role::INDICES) {
-        for (std::uint64_t k = 0; k < n; ++k) corners.push_back(checked_index(src, src.value(p.type), b.vertex_count));
+        for (std::uint64_t k = 0; k < n; ++k)
+          corners.push_back(checked_index(src, src.value(p.type), b.vertex_count));
       } else if (p.role == Role::TEXCOORD) {
-        for (std::uint64_t k = 0; k < n; ++k) tex.push_back(checked_float(src, src.value(p.type), "texture coordinate"));
+        for (std::uint64_t k = 0; k < n; ++k)
+          tex.push_back(checked_float(src, src.value(p.type), "texture coordinate"));
       } else {
         src.skip(p.type, n);
       }
@@ -484,7 +506,8 @@ template <class Source> void read_faces(const Element& e, Source& src, Builder& 
                " corners (expected " + std::to_string(2 * n) + ")");
     const std::size_t uv_base = m.uvs.size() / 2;
     if (b.face_texcoords) {
-      if (uv_base + n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) src.fail("too many texture coordinates");
+      if (uv_base + n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        src.fail("too many texture coordinates");
       m.uvs.insert(m.uvs.end(), tex.begin(), tex.end());
     }
     // Fan triangulation (0, k, k+1): exact for the convex polygons PLY writers emit.
@@ -493,7 +516,8 @@ template <class Source> void read_faces(const Element& e, Source& src, Builder& 
       b.out.source.face_origin.push_back(src.origin());
       if (b.face_texcoords) {
         const auto base = static_cast<std::int32_t>(uv_base);
-        m.uv_triangles.insert(m.uv_triangles.end(), {base, base + static_cast<std::int32_t>(k), base + static_cast<std::int32_t>(k + 1)});
+        m.uv_triangles.insert(m.uv_triangles.end(),
+                              {base, base + static_cast<std::int32_t>(k), base + static_cast<std::int32_t>(k + 1)});
       }
     }
   }
@@ -503,7 +527,8 @@ template <class Source> void skip_element(const Element& e, Source& src) {
   if (e.properties.empty()) return;
   for (std::int64_t i = 0; i < e.count; ++i) {
     src.begin(e, i);
-    for (const Property& p : e.properties) src.skip(p.type, p.is_list ? src.count(p.count_type) : 1);
+    for (const Property& p : e.properties)
+      src.skip(p.type, p.is_list ? src.count(p.count_type) : 1);
     src.end();
   }
 }
@@ -511,9 +536,12 @@ template <class Source> void skip_element(const Element& e, Source& src) {
 template <class Source> void read_body(const Header& h, Source& src, Builder& b) {
   const bool ascii = h.encoding == Encoding::ASCII;
   for (const Element& e : h.elements) {
-    if (e.name == "vertex") read_vertices(e, src, b, ascii);
-    else if (e.name == "face") read_faces(e, src, b, ascii);
-    else skip_element(e, src);
+    if (e.name == "vertex")
+      read_vertices(e, src, b, ascii);
+    else if (e.name == "face")
+      read_faces(e, src, b, ascii);
+    else
+      skip_element(e, src);
   }
 }
 
@@ -524,7 +552,8 @@ void plan_attributes(const Header& h, Builder& b) {
   for (const Element& e : h.elements) {
     if (e.name != "vertex" && e.name != "face") continue;
     if (e.name == "vertex") b.vertex_count = e.count;
-    for (const Property& p : e.properties) has[static_cast<int>(p.role)] = true;
+    for (const Property& p : e.properties)
+      has[static_cast<int>(p.role)] = true;
   }
   const auto on = [&](Role r) { return has[static_cast<int>(r)]; };
   b.vertex_normals = on(Role::NX) && on(Role::NY) && on(Role::NZ);
@@ -581,8 +610,8 @@ ParsedMesh read_ply(std::string_view bytes, const std::string& path) {
 }
 
 std::string write_ply(const Mesh& mesh, bool binary) {
-  const bool normals = mesh.has_normals() && mesh.normal_triangles == mesh.triangles &&
-                       mesh.normals.size() == mesh.positions.size();
+  const bool normals =
+      mesh.has_normals() && mesh.normal_triangles == mesh.triangles && mesh.normals.size() == mesh.positions.size();
   const bool uvs = mesh.has_uvs();
   const std::size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   std::string out = "ply\nformat ";
@@ -605,15 +634,19 @@ std::string write_ply(const Mesh& mesh, bool binary) {
     }
   }
   for (std::size_t f = 0; f < nf; ++f) {
-    if (binary) append_binary(out, std::uint8_t{3});
-    else out += "3 ";
+    if (binary)
+      append_binary(out, std::uint8_t{3});
+    else
+      out += "3 ";
     for (int c = 0; c < 3; ++c) {
       const std::int32_t i = mesh.triangles[3 * f + c];
       binary ? append_binary(out, i) : append_text(out, i, uvs || c < 2 ? ' ' : '\n');
     }
     if (!uvs) continue;
-    if (binary) append_binary(out, std::uint8_t{6});
-    else out += "6 ";
+    if (binary)
+      append_binary(out, std::uint8_t{6});
+    else
+      out += "6 ";
     for (int c = 0; c < 6; ++c) {
       const float t = mesh.uvs[2 * static_cast<std::size_t>(mesh.uv_triangles[3 * f + c / 2]) + c % 2];
       binary ? append_binary(out, t) : append_text(out, t, c < 5 ? ' ' : '\n');

@@ -59,7 +59,8 @@ public:
   }
   std::int32_t vertex(const std::array<float, 3>& p) {
     PositionKey key;
-    for (int c = 0; c < 3; ++c) key.bits[c] = std::bit_cast<std::uint32_t>(p[c] == 0.0f ? 0.0f : p[c]);
+    for (int c = 0; c < 3; ++c)
+      key.bits[c] = std::bit_cast<std::uint32_t>(p[c] == 0.0f ? 0.0f : p[c]);
     const auto next = static_cast<std::int32_t>(m_index.size());
     const auto [it, inserted] = m_index.try_emplace(key, next);
     if (inserted) m_mesh.positions.insert(m_mesh.positions.end(), p.begin(), p.end());
@@ -106,9 +107,11 @@ class Tokens {
 public:
   explicit Tokens(std::string_view text) : m_text(text) {}
   bool next(std::string_view& token) {
-    while (m_pos < m_text.size() && is_space(m_text[m_pos])) m_line += m_text[m_pos++] == '\n';
+    while (m_pos < m_text.size() && is_space(m_text[m_pos]))
+      m_line += m_text[m_pos++] == '\n';
     const std::size_t start = m_pos;
-    while (m_pos < m_text.size() && !is_space(m_text[m_pos])) ++m_pos;
+    while (m_pos < m_text.size() && !is_space(m_text[m_pos]))
+      ++m_pos;
     token = m_text.substr(start, m_pos - start);
     return !token.empty();
   }
@@ -135,7 +138,8 @@ bool keyword_is(std::string_view token, std::string_view keyword) {
 /// A word from the file, made printable and short enough for a one-line message.
 std::string quoted(std::string_view word) {
   std::string s = "'";
-  for (char c : word.substr(0, 40)) s += (c >= 0x20 && c < 0x7f) ? c : '?';
+  for (char c : word.substr(0, 40))
+    s += (c >= 0x20 && c < 0x7f) ? c : '?';
   return s + (word.size() > 40 ? "...'" : "'");
 }
 
@@ -197,14 +201,16 @@ private:
   void facet() {
     const std::int64_t line = m_tokens.line();
     expect("normal");
-    for (int k = 0; k < 3; ++k) number("facet normal component"); // recomputed downstream
+    for (int k = 0; k < 3; ++k)
+      number("facet normal component"); // recomputed downstream
     expect("outer");
     expect("loop");
     m_corners.clear();
     for (std::string_view t = token("'vertex'"); !keyword_is(t, "endloop"); t = token("'endloop'")) {
       if (!keyword_is(t, "vertex")) fail("expected 'vertex' or 'endloop', found " + quoted(t));
       std::array<float, 3> p;
-      for (float& c : p) c = number("vertex coordinate");
+      for (float& c : p)
+        c = number("vertex coordinate");
       m_corners.push_back(m_welder.vertex(p));
     }
     if (m_corners.size() < 3) fail("facet has " + std::to_string(m_corners.size()) + " vertices (at least 3 needed)");
@@ -225,7 +231,8 @@ private:
 
 bool starts_with_solid(std::string_view bytes) {
   std::size_t i = 0;
-  while (i < bytes.size() && is_space(bytes[i])) ++i;
+  while (i < bytes.size() && is_space(bytes[i]))
+    ++i;
   return keyword_is(bytes.substr(i, 5), "solid");
 }
 
@@ -247,7 +254,8 @@ ParsedMesh read_stl(std::string_view bytes, const std::string& path) {
   if (bytes.size() >= HEADER_BYTES && (!solid || looks_binary(bytes))) {
     // Without "solid" (or with binary bytes after it) only binary remains, and its size is wrong.
     const std::string sizes = "header declares " + std::to_string(declared) + " facets (" +
-                              std::to_string(binary_size) + " bytes), file has " + std::to_string(bytes.size()) + " bytes";
+                              std::to_string(binary_size) + " bytes), file has " + std::to_string(bytes.size()) +
+                              " bytes";
     if (binary_size > bytes.size()) throw Error(path, 0, "truncated binary STL (or not an STL file): " + sizes);
     throw Error(path, 0, "not an STL file: not ASCII, and as binary the sizes do not match: " + sizes);
   }
@@ -271,16 +279,20 @@ std::string write_stl(const Mesh& mesh) {
   for (std::size_t f = 0; f < n; ++f) {
     std::array<std::array<float, 3>, 3> p;
     for (int c = 0; c < 3; ++c)
-      for (int k = 0; k < 3; ++k) p[c][k] = mesh.positions[3 * static_cast<std::size_t>(mesh.triangles[3 * f + c]) + k];
+      for (int k = 0; k < 3; ++k)
+        p[c][k] = mesh.positions[3 * static_cast<std::size_t>(mesh.triangles[3 * f + c]) + k];
     const float e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
     const float e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
     float normal[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
     const float length = std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
     // A degenerate facet gets the zero normal, which STL readers take as "compute it yourself".
-    for (float& c : normal) c = length > 0 && std::isfinite(length) ? c / length : 0.0f;
-    for (float c : normal) append_u32_le(out, std::bit_cast<std::uint32_t>(c));
+    for (float& c : normal)
+      c = length > 0 && std::isfinite(length) ? c / length : 0.0f;
+    for (float c : normal)
+      append_u32_le(out, std::bit_cast<std::uint32_t>(c));
     for (const auto& corner : p)
-      for (float c : corner) append_u32_le(out, std::bit_cast<std::uint32_t>(c));
+      for (float c : corner)
+        append_u32_le(out, std::bit_cast<std::uint32_t>(c));
     out.append(2, '\0');
   }
   return out;

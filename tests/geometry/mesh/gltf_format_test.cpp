@@ -104,9 +104,11 @@ TEST(GltfFormatRoundTrip, UnitSquareKeepsPositionsTrianglesAndUvs) {
   EXPECT_EQ(p.mesh.positions, square.positions);
   EXPECT_EQ(p.mesh.triangles, square.triangles);
   ASSERT_TRUE(p.mesh.has_uvs());
-  for (std::size_t c = 0; c < 6; ++c) EXPECT_EQ(uv_of(p.mesh, c), uv_of(square, c)) << "corner " << c;
+  for (std::size_t c = 0; c < 6; ++c)
+    EXPECT_EQ(uv_of(p.mesh, c), uv_of(square, c)) << "corner " << c;
   ASSERT_TRUE(p.mesh.has_normals()); // computed by the writer: the square faces +Z
-  for (std::size_t c = 0; c < 6; ++c) EXPECT_EQ(normal_of(p.mesh, c), (std::array<float, 3>{0, 0, 1}));
+  for (std::size_t c = 0; c < 6; ++c)
+    EXPECT_EQ(normal_of(p.mesh, c), (std::array<float, 3>{0, 0, 1}));
   EXPECT_EQ(p.mesh.label_names, std::vector<std::string>{"square"});
   EXPECT_EQ(p.mesh.face_labels, (std::vector<std::int32_t>{0, 0}));
   EXPECT_EQ(p.source.path, "square.glb");
@@ -149,13 +151,15 @@ TEST(GltfFormatRoundTrip, UvSeamIsSplitOnWriteAndWeldedOnRead) {
   EXPECT_EQ(p.mesh.triangles, seam.triangles);
   ASSERT_TRUE(p.mesh.has_uvs());
   EXPECT_EQ(p.mesh.uvs.size(), 12u);
-  for (std::size_t c = 0; c < 6; ++c) EXPECT_EQ(uv_of(p.mesh, c), uv_of(seam, c)) << "corner " << c;
+  for (std::size_t c = 0; c < 6; ++c)
+    EXPECT_EQ(uv_of(p.mesh, c), uv_of(seam, c)) << "corner " << c;
 }
 
 TEST(GltfFormatRoundTrip, TwoMeshesKeepTheirNamesAsLabels) {
   const Mesh body = test::unit_square();
   Mesh shirt = test::octahedron();
-  for (std::size_t i = 2; i < shirt.positions.size(); i += 3) shirt.positions[i] += 5.0f; // apart from body
+  for (std::size_t i = 2; i < shirt.positions.size(); i += 3)
+    shirt.positions[i] += 5.0f; // apart from body
   const std::vector<NamedMesh> meshes{{"body", &body}, {"shirt", &shirt}};
   const std::string glb = write_glb(meshes);
   const Json doc = json_chunk(glb);
@@ -165,8 +169,10 @@ TEST(GltfFormatRoundTrip, TwoMeshesKeepTheirNamesAsLabels) {
   EXPECT_EQ(p.mesh.vertex_count(), 10u);
   ASSERT_EQ(p.mesh.face_count(), 10u);
   EXPECT_EQ(p.mesh.label_names, (std::vector<std::string>{"body", "shirt"}));
-  for (std::size_t f = 0; f < 10; ++f) EXPECT_EQ(p.mesh.face_labels[f], f < 2 ? 0 : 1) << "face " << f;
-  for (std::size_t c = 0; c < 24; ++c) EXPECT_EQ(p.mesh.triangles[6 + c], shirt.triangles[c] + 4);
+  for (std::size_t f = 0; f < 10; ++f)
+    EXPECT_EQ(p.mesh.face_labels[f], f < 2 ? 0 : 1) << "face " << f;
+  for (std::size_t c = 0; c < 24; ++c)
+    EXPECT_EQ(p.mesh.triangles[6 + c], shirt.triangles[c] + 4);
   // The shirt has no UVs, so its corners read back as (0, 0) beside the body's UVs.
   ASSERT_TRUE(p.mesh.has_uvs());
   EXPECT_EQ(uv_of(p.mesh, 6), (std::array<float, 2>{0, 0}));
@@ -242,7 +248,8 @@ TEST(GltfFormatRead, ComposesNodeTransformsAndTransformsNormals) {
   const ParsedMesh p = read_gltf(doc.dump(), "nodes.gltf");
   const std::vector<float> want = {11, 2, 3, 11, 4, 3, 10, 2, 3};
   ASSERT_EQ(p.mesh.positions.size(), want.size());
-  for (std::size_t i = 0; i < want.size(); ++i) EXPECT_NEAR(p.mesh.positions[i], want[i], 1e-5) << i;
+  for (std::size_t i = 0; i < want.size(); ++i)
+    EXPECT_NEAR(p.mesh.positions[i], want[i], 1e-5) << i;
   // Inverse transpose of the scale maps (1, 1, 0) to (0.5, 1, 0), which the rotation turns into
   // (−1, 0.5, 0); transforming by the matrix itself would give (−1, 2, 0) instead.
   ASSERT_TRUE(p.mesh.has_normals());
@@ -294,9 +301,9 @@ TEST(GltfFormatRead, ReadsExternalBinBesideTheGltf) {
 
 TEST(GltfFormatRead, StripsAndFansBecomeTrianglesAndPointsAreSkipped) {
   std::string bin;
-  append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0});               // strip, bytes 0–47
-  append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, -1, 1, 0});     // fan, 48–107
-  append(bin, std::vector<std::uint8_t>{0, 1, 2, 3, 3, 0, 0, 0}); // strip indices, a degenerate join
+  append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0});           // strip, bytes 0–47
+  append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, -1, 1, 0}); // fan, 48–107
+  append(bin, std::vector<std::uint8_t>{0, 1, 2, 3, 3, 0, 0, 0});                // strip indices, a degenerate join
   Json doc = triangle_document(bin);
   doc["bufferViews"] = Json::parse(R"([{"buffer": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48,
     "byteLength": 60}, {"buffer": 0, "byteOffset": 108, "byteLength": 5}])");
@@ -310,13 +317,14 @@ TEST(GltfFormatRead, StripsAndFansBecomeTrianglesAndPointsAreSkipped) {
   EXPECT_EQ(p.mesh.vertex_count(), 5u); // the fan shares four positions with the strip
   EXPECT_EQ(std::vector<std::int32_t>(p.mesh.triangles.begin(), p.mesh.triangles.begin() + 6),
             (std::vector<std::int32_t>{0, 1, 2, 1, 3, 2}));
-  for (std::size_t f = 0; f < p.mesh.face_count(); ++f) EXPECT_GT(face_normal(p.mesh, f)[2], 0.0) << f;
+  for (std::size_t f = 0; f < p.mesh.face_count(); ++f)
+    EXPECT_GT(face_normal(p.mesh, f)[2], 0.0) << f;
   ASSERT_EQ(p.warnings.size(), 1u);
   EXPECT_NE(p.warnings[0].find("points"), std::string::npos) << p.warnings[0];
 }
 
 TEST(GltfFormatRead, HonoursStridesOffsetsAndNormalizedByteUvs) {
-  std::string bin(4, 'x'); // skipped by the view's byteOffset
+  std::string bin(4, 'x');                                                // skipped by the view's byteOffset
   append(bin, std::vector<float>{0, 0, 0, -7, 1, 0, 0, -7, 0, 1, 0, -7}); // stride 16, junk in the 4th
   append(bin, std::vector<std::uint8_t>{0, 0, 255, 0, 0, 255});
   Json doc = triangle_document(bin);
@@ -352,9 +360,27 @@ std::string mutated(const std::function<void(Json&)>& edit) {
 const std::vector<BadInput> bad_inputs = {
     {"empty_file", [] { return std::string(); }, "empty"},
     {"not_gltf", [] { return std::string("solid cube\nendsolid cube\n"); }, "not a glTF"},
-    {"bad_magic", [] { std::string g = square_glb(); g[0] = 'x'; return g; }, "magic"},
-    {"wrong_version", [] { std::string g = square_glb(); set_u32(g, 4, 1); return g; }, "version"},
-    {"wrong_length", [] { std::string g = square_glb(); set_u32(g, 8, u32_at(g, 8) + 4); return g; }, "length"},
+    {"bad_magic",
+     [] {
+       std::string g = square_glb();
+       g[0] = 'x';
+       return g;
+     },
+     "magic"},
+    {"wrong_version",
+     [] {
+       std::string g = square_glb();
+       set_u32(g, 4, 1);
+       return g;
+     },
+     "version"},
+    {"wrong_length",
+     [] {
+       std::string g = square_glb();
+       set_u32(g, 8, u32_at(g, 8) + 4);
+       return g;
+     },
+     "length"},
     {"truncated_json_chunk",
      [] {
        std::string g = square_glb().substr(0, 40);
@@ -367,7 +393,12 @@ const std::vector<BadInput> bad_inputs = {
      "accessor 0 reads past"},
     {"view_past_buffer", [] { return mutated([](Json& d) { d["bufferViews"][1]["byteLength"] = 60; }); },
      "bufferView 1 lies past"},
-    {"index_out_of_range", [] { return mutated([](Json& d) { d["buffers"][0]["uri"] = data_uri(triangle_bin({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 7})); }); },
+    {"index_out_of_range",
+     [] {
+       return mutated([](Json& d) {
+         d["buffers"][0]["uri"] = data_uri(triangle_bin({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 7}));
+       });
+     },
      "primitive 0 of mesh 0: index 7 out of range"},
     {"nan_position",
      [] {
@@ -377,23 +408,25 @@ const std::vector<BadInput> bad_inputs = {
      "accessor 0: POSITION element 1 is not finite"},
     {"missing_buffer_file", [] { return mutated([](Json& d) { d["buffers"][0]["uri"] = "missing.bin"; }); },
      "missing.bin"},
-    {"uri_leaves_folder", [] { return mutated([](Json& d) { d["buffers"][0]["uri"] = "../secret.bin"; }); },
-     "leaves"},
-    {"bad_base64", [] { return mutated([](Json& d) { d["buffers"][0]["uri"] = "data:;base64,@@@@"; }); },
-     "base64"},
-    {"sparse_accessor",
-     [] { return mutated([](Json& d) { d["accessors"][0]["sparse"] = {{"count", 1}}; }); },
+    {"uri_leaves_folder", [] { return mutated([](Json& d) { d["buffers"][0]["uri"] = "../secret.bin"; }); }, "leaves"},
+    {"bad_base64", [] { return mutated([](Json& d) { d["buffers"][0]["uri"] = "data:;base64,@@@@"; }); }, "base64"},
+    {"sparse_accessor", [] { return mutated([](Json& d) {
+                               d["accessors"][0]["sparse"] = {{"count", 1}};
+                             }); },
      "unsupported sparse accessor 0"},
-    {"no_faces", [] { return mutated([](Json& d) { d["meshes"][0]["primitives"][0]["mode"] = 1; }); },
-     "no faces"},
+    {"no_faces", [] { return mutated([](Json& d) { d["meshes"][0]["primitives"][0]["mode"] = 1; }); }, "no faces"},
     {"node_cycle", [] { return mutated([](Json& d) { d["nodes"][0]["children"] = {0}; }); }, "node 0"},
-    {"wrong_position_type",
-     [] { return mutated([](Json& d) { d["accessors"][0]["componentType"] = 5123; }); }, "POSITION"},
+    {"wrong_position_type", [] { return mutated([](Json& d) { d["accessors"][0]["componentType"] = 5123; }); },
+     "POSITION"},
     {"draco_required",
      [] { return mutated([](Json& d) { d["extensionsRequired"] = {"KHR_draco_mesh_compression"}; }); },
      "KHR_draco_mesh_compression"},
     {"huge_zero_accessor",
-     [] { return mutated([](Json& d) { d["accessors"][0] = {{"componentType", 5126}, {"count", 1ull << 40}, {"type", "VEC3"}}; }); },
+     [] {
+       return mutated([](Json& d) {
+         d["accessors"][0] = {{"componentType", 5126}, {"count", 1ull << 40}, {"type", "VEC3"}};
+       });
+     },
      "too large"},
     {"string_for_index", [] { return mutated([](Json& d) { d["nodes"][0]["mesh"] = "0"; }); }, "node 0"},
 };
@@ -414,7 +447,7 @@ TEST_P(GltfFormatBadInput, ThrowsNamingTheFileAndTheProblem) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Cases, GltfFormatBadInput, testing::ValuesIn(bad_inputs),
+INSTANTIATE_TEST_SUITE_P(GltfFiles, GltfFormatBadInput, testing::ValuesIn(bad_inputs),
                          [](const testing::TestParamInfo<BadInput>& param) { return param.param.name; });
 
 // Every prefix and every single-byte corruption of a valid file must throw vfit::Error or read
@@ -454,9 +487,10 @@ TEST(GltfFormatCorpus, ReadsTheRiggedMakeHumanBody) {
   const ParsedMesh p = read_gltf(test::read_file(file), file.string());
   EXPECT_GT(p.mesh.vertex_count(), 10000u);
   EXPECT_GT(p.mesh.face_count(), 10000u);
-  for (std::int32_t v : p.mesh.triangles) ASSERT_LT(static_cast<std::size_t>(v), p.mesh.vertex_count());
-  std::cout << "hm08_body_rigged.glb: " << p.mesh.vertex_count() << " vertices, " << p.mesh.face_count()
-            << " faces, " << p.mesh.uvs.size() / 2 << " uvs, " << p.mesh.normals.size() / 3 << " normals, "
+  for (std::int32_t v : p.mesh.triangles)
+    ASSERT_LT(static_cast<std::size_t>(v), p.mesh.vertex_count());
+  std::cout << "hm08_body_rigged.glb: " << p.mesh.vertex_count() << " vertices, " << p.mesh.face_count() << " faces, "
+            << p.mesh.uvs.size() / 2 << " uvs, " << p.mesh.normals.size() / 3 << " normals, "
             << p.mesh.label_names.size() << " labels, " << p.warnings.size() << " warnings\n";
 }
 

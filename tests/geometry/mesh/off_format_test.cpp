@@ -41,7 +41,8 @@ Mesh awkward_floats() {
     const float v = std::bit_cast<float>(static_cast<std::uint32_t>(rng()));
     if (std::isfinite(v)) m.positions.push_back(v);
   }
-  for (std::int32_t i = 0; i + 2 < 200; ++i) m.triangles.insert(m.triangles.end(), {i, i + 2, i + 1});
+  for (std::int32_t i = 0; i + 2 < 200; ++i)
+    m.triangles.insert(m.triangles.end(), {i, i + 2, i + 1});
   return m;
 }
 
@@ -120,9 +121,12 @@ const std::string TRIANGLE_VERTICES = "0 0 0\n1 0 0\n0 1 0\n";
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, OffFormatBadInput,
     ::testing::Values(
-        BadCase{"empty", "", {"bad.off: empty file"}},
-        BadCase{"only_comments", "# nothing\n\n", {"not an OFF file"}},
-        BadCase{"garbage", std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10), {"bad.off:1: not an OFF file"}},
+        BadCase{"empty", "", {"bad.off: empty file"}}, BadCase{"only_comments", "# nothing\n\n", {"not an OFF file"}},
+        BadCase{"garbage",
+                std::string("\x7f"
+                            "ELF\x02\x01\x01\0\0\0",
+                            10),
+                {"bad.off:1: not an OFF file"}},
         BadCase{"bad_magic", "OBJ\n3 1 0\n", {":1:", "missing 'OFF' header"}},
         BadCase{"four_d", "4OFF\n3 1 0\n", {":1:", "unsupported OFF variant"}},
         BadCase{"binary", "OFF BINARY\n", {":1:", "binary OFF"}},
@@ -130,18 +134,23 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"missing_face_count", "OFF\n3\n", {":2:", "missing face count"}},
         BadCase{"negative_count", "OFF\n-3 1 0\n", {":2:", "negative vertex count"}},
         BadCase{"count_not_integer", "OFF\nthree 1 0\n", {":2:", "'three' is not an integer"}},
-        BadCase{"absurd_count", "OFF\n1000000000000000 1 0\n" + TRIANGLE_VERTICES,
+        BadCase{"absurd_count",
+                "OFF\n1000000000000000 1 0\n" + TRIANGLE_VERTICES,
                 {"bad.off:5: truncated: header declares 1000000000000000 vertices, data ends after 3"}},
         BadCase{"truncated_vertices", "OFF\n3 1 0\n0 0 0\n1 0 0\n", {":4: truncated", "3 vertices, data ends after 2"}},
-        BadCase{"truncated_faces", "OFF\n3 2 0\n" + TRIANGLE_VERTICES + "3 0 1 2\n", {":6: truncated", "2 faces, data ends after 1"}},
+        BadCase{"truncated_faces",
+                "OFF\n3 2 0\n" + TRIANGLE_VERTICES + "3 0 1 2\n",
+                {":6: truncated", "2 faces, data ends after 1"}},
         BadCase{"nan", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n", {"bad.off:5: vertex 3: coordinate is NaN"}},
         BadCase{"inf", "OFF\n3 1 0\n0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n", {":4:", "infinite"}},
         BadCase{"overflow", "OFF\n3 1 0\n0 0 0\n1 -1e39 0\n0 1 0\n3 0 1 2\n", {":4:", "infinite"}},
         BadCase{"short_vertex", "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", {":4:", "vertex 2: missing coordinate"}},
         BadCase{"non_numeric", "OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", {":4:", "'x' is not a number"}},
-        BadCase{"huge_index", "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "3 0 1 99999999999\n",
+        BadCase{"huge_index",
+                "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "3 0 1 99999999999\n",
                 {"bad.off:6: face 1: vertex index 99999999999 out of range (3 vertices)"}},
-        BadCase{"negative_index", "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "3 0 -1 2\n", {":6:", "negative vertex index -1"}},
+        BadCase{
+            "negative_index", "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "3 0 -1 2\n", {":6:", "negative vertex index -1"}},
         BadCase{"two_vertex_face", "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "2 0 1\n", {":6:", "at least 3"}},
         BadCase{"huge_face_count", "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "4000000000 0 1 2\n", {":6:", "fewer indices"}},
         BadCase{"fractional_index", "OFF\n3 1 0\n" + TRIANGLE_VERTICES + "3 0 1 1.5\n", {":6:", "not an integer"}},

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -30,7 +31,8 @@ public:
     return *this;
   }
   template <class T> Bytes& put(std::initializer_list<T> values) {
-    for (T v : values) put(v);
+    for (T v : values)
+      put(v);
     return *this;
   }
   const std::string& str() const { return m_bytes; }
@@ -75,7 +77,8 @@ Mesh awkward_floats() {
     const float v = std::bit_cast<float>(static_cast<std::uint32_t>(rng()));
     if (std::isfinite(v)) m.positions.push_back(v);
   }
-  for (std::int32_t i = 0; i + 2 < 300; ++i) m.triangles.insert(m.triangles.end(), {i, i + 1, i + 2});
+  for (std::int32_t i = 0; i + 2 < 300; ++i)
+    m.triangles.insert(m.triangles.end(), {i, i + 1, i + 2});
   return m;
 }
 
@@ -106,7 +109,8 @@ TEST_P(PlyFormatRoundTrip, ReadsBackWhatItWrote) {
   EXPECT_EQ(out.mesh.has_normals(), in.has_normals());
   ASSERT_EQ(out.mesh.has_uvs(), in.has_uvs());
   for (std::size_t f = 0; in.has_uvs() && f < in.face_count(); ++f)
-    for (int c = 0; c < 3; ++c) EXPECT_EQ(corner_uv(out.mesh, f, c), corner_uv(in, f, c)) << "face " << f;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(corner_uv(out.mesh, f, c), corner_uv(in, f, c)) << "face " << f;
   EXPECT_EQ(out.source.path, "rt.ply");
   EXPECT_EQ(out.source.text, !GetParam().binary);
   ASSERT_EQ(out.source.face_origin.size(), in.face_count());
@@ -119,17 +123,16 @@ TEST_P(PlyFormatRoundTrip, ReadsBackWhatItWrote) {
   EXPECT_TRUE(out.warnings.empty());
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Meshes, PlyFormatRoundTrip,
-    ::testing::Values(RoundTripCase{"square_uvs_binary", test::unit_square, true},
-                      RoundTripCase{"square_uvs_ascii", test::unit_square, false},
-                      RoundTripCase{"octahedron_binary", test::octahedron, true},
-                      RoundTripCase{"octahedron_ascii", test::octahedron, false},
-                      RoundTripCase{"normals_binary", octahedron_with_normals, true},
-                      RoundTripCase{"normals_ascii", octahedron_with_normals, false},
-                      RoundTripCase{"awkward_floats_binary", awkward_floats, true},
-                      RoundTripCase{"awkward_floats_ascii", awkward_floats, false}),
-    [](const auto& test_case) { return std::string(test_case.param.name); });
+INSTANTIATE_TEST_SUITE_P(Meshes, PlyFormatRoundTrip,
+                         ::testing::Values(RoundTripCase{"square_uvs_binary", test::unit_square, true},
+                                           RoundTripCase{"square_uvs_ascii", test::unit_square, false},
+                                           RoundTripCase{"octahedron_binary", test::octahedron, true},
+                                           RoundTripCase{"octahedron_ascii", test::octahedron, false},
+                                           RoundTripCase{"normals_binary", octahedron_with_normals, true},
+                                           RoundTripCase{"normals_ascii", octahedron_with_normals, false},
+                                           RoundTripCase{"awkward_floats_binary", awkward_floats, true},
+                                           RoundTripCase{"awkward_floats_ascii", awkward_floats, false}),
+                         [](const auto& test_case) { return std::string(test_case.param.name); });
 
 TEST(PlyFormat, WriterSkipsNormalsThatAreNotPerVertex) {
   Mesh m = test::octahedron();
@@ -141,10 +144,9 @@ TEST(PlyFormat, WriterSkipsNormalsThatAreNotPerVertex) {
 }
 
 TEST(PlyFormat, ReadsBigEndianWithMixedScalarTypes) {
-  const std::string header = binary_header(
-      "element vertex 4\nproperty double x\nproperty float32 y\nproperty int16 z\n"
-      "element face 1\nproperty list ushort uint vertex_indices\n",
-      "binary_big_endian");
+  const std::string header = binary_header("element vertex 4\nproperty double x\nproperty float32 y\nproperty int16 z\n"
+                                           "element face 1\nproperty list ushort uint vertex_indices\n",
+                                           "binary_big_endian");
   Bytes b(header, true);
   b.put(0.5).put(1.25f).put(std::int16_t{-3});
   b.put(2.0).put(0.0f).put(std::int16_t{300});
@@ -159,13 +161,13 @@ TEST(PlyFormat, ReadsBigEndianWithMixedScalarTypes) {
 }
 
 TEST(PlyFormat, SkipsUnknownElementsAndPropertiesInBinary) {
-  const std::string header = binary_header(
-      "element material 2\nproperty uchar red\nproperty list int float weights\n"
-      "element vertex 3\nproperty uchar flag\nproperty float x\nproperty float y\nproperty float z\n"
-      "property list uchar int8 junk\nproperty double confidence\n"
-      "element face 2\nproperty int flags\nproperty list uchar int vertex_indices\n"
-      "property list uint short extra\n"
-      "element edge 1\nproperty int a\nproperty int b\n");
+  const std::string header =
+      binary_header("element material 2\nproperty uchar red\nproperty list int float weights\n"
+                    "element vertex 3\nproperty uchar flag\nproperty float x\nproperty float y\nproperty float z\n"
+                    "property list uchar int8 junk\nproperty double confidence\n"
+                    "element face 2\nproperty int flags\nproperty list uchar int vertex_indices\n"
+                    "property list uint short extra\n"
+                    "element edge 1\nproperty int a\nproperty int b\n");
   Bytes b(header);
   b.put(std::uint8_t{1}).put(std::int32_t{2}).put({0.5f, 0.25f});
   b.put(std::uint8_t{2}).put(std::int32_t{0});
@@ -182,12 +184,11 @@ TEST(PlyFormat, SkipsUnknownElementsAndPropertiesInBinary) {
 }
 
 TEST(PlyFormat, TriangulatesPolygonsAndRecordsTheirLines) {
-  const std::string text =
-      "ply\nformat ascii 1.0\ncomment a quad and a pentagon\nobj_info made by hand\n"
-      "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
-      "element face 2\nproperty list uchar int vertex_index\nend_header\n"
-      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 1.5 0\n"
-      "4 0 1 2 3\n\n5   0 1 2 4 3\r\n";
+  const std::string text = "ply\nformat ascii 1.0\ncomment a quad and a pentagon\nobj_info made by hand\n"
+                           "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+                           "element face 2\nproperty list uchar int vertex_index\nend_header\n"
+                           "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 1.5 0\n"
+                           "4 0 1 2 3\n\n5   0 1 2 4 3\r\n";
   const ParsedMesh out = read_ply(text, "poly.ply");
   EXPECT_EQ(out.mesh.triangles, (std::vector<std::int32_t>{0, 1, 2, 0, 2, 3, 0, 1, 2, 0, 2, 4, 0, 4, 3}));
   EXPECT_EQ(out.source.face_origin, (std::vector<std::int64_t>{17, 17, 19, 19, 19}));
@@ -237,14 +238,15 @@ const std::string VERTEX3 = "element vertex 3\nproperty float x\nproperty float 
 const std::string FACES = "property list uchar int vertex_indices\n";
 
 std::string ascii(const std::string& body, int faces = 1) {
-  return "ply\nformat ascii 1.0\n" + VERTEX3 + "element face " + std::to_string(faces) + "\n" + FACES +
-         "end_header\n" + body;
+  return "ply\nformat ascii 1.0\n" + VERTEX3 + "element face " + std::to_string(faces) + "\n" + FACES + "end_header\n" +
+         body;
 }
 
 std::string binary_faces(int declared, int written, std::int32_t index = 2) {
   Bytes b(binary_header(VERTEX3 + "element face " + std::to_string(declared) + "\n" + FACES));
   b.put({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f});
-  for (int f = 0; f < written; ++f) b.put(std::uint8_t{3}).put<std::int32_t>({0, 1, index});
+  for (int f = 0; f < written; ++f)
+    b.put(std::uint8_t{3}).put<std::int32_t>({0, 1, index});
   return b.str();
 }
 
@@ -279,32 +281,47 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"no_format", "ply\n" + VERTEX3 + "end_header\n", {"no 'format' line"}},
         BadCase{"bad_encoding", "ply\nformat binary_middle_endian 1.0\nend_header\n", {":2:", "unsupported format"}},
         BadCase{"unknown_keyword", "ply\nformat ascii 1.0\nelemnt vertex 3\nend_header\n", {":3:", "unknown keyword"}},
-        BadCase{"unsupported_type", "ply\nformat ascii 1.0\nelement vertex 1\nproperty int64 x\nend_header\n",
+        BadCase{"unsupported_type",
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty int64 x\nend_header\n",
                 {":4:", "unsupported property type 'int64'"}},
-        BadCase{"float_list_count", "ply\nformat ascii 1.0\nelement face 1\nproperty list float int vertex_indices\n",
+        BadCase{"float_list_count",
+                "ply\nformat ascii 1.0\nelement face 1\nproperty list float int vertex_indices\n",
                 {":4:", "unsupported list count type"}},
-        BadCase{"property_first", "ply\nformat ascii 1.0\nproperty float x\nend_header\n", {"property before any element"}},
-        BadCase{"negative_count", "ply\nformat ascii 1.0\nelement vertex -3\nend_header\n", {":3:", "negative element count"}},
+        BadCase{
+            "property_first", "ply\nformat ascii 1.0\nproperty float x\nend_header\n", {"property before any element"}},
+        BadCase{"negative_count",
+                "ply\nformat ascii 1.0\nelement vertex -3\nend_header\n",
+                {":3:", "negative element count"}},
         BadCase{"count_not_integer", "ply\nformat ascii 1.0\nelement vertex 3.5\nend_header\n", {"not an integer"}},
-        BadCase{"count_overflows", "ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n",
+        BadCase{"count_overflows",
+                "ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n",
                 {"absurdly large"}},
         BadCase{"absurd_vertex_count",
                 binary_header("element vertex 4000000000000\nproperty float x\nproperty float y\nproperty float z\n"
-                              "element face 1\n" + FACES) + std::string(24, '\0'),
+                              "element face 1\n" +
+                              FACES) +
+                    std::string(24, '\0'),
                 {"bad.ply: truncated: header declares 4000000000000 vertices, data ends after 2"}},
-        BadCase{"truncated_binary_faces", binary_faces(12, 7), {"bad.ply: truncated: header declares 12 faces, data ends after 7"}},
-        BadCase{"truncated_binary_mid_face", binary_faces(2, 2).substr(0, binary_faces(2, 2).size() - 3),
+        BadCase{"truncated_binary_faces",
+                binary_faces(12, 7),
+                {"bad.ply: truncated: header declares 12 faces, data ends after 7"}},
+        BadCase{"truncated_binary_mid_face",
+                binary_faces(2, 2).substr(0, binary_faces(2, 2).size() - 3),
                 {"truncated", "data ends after 1"}},
-        BadCase{"truncated_ascii", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", 3),
+        BadCase{"truncated_ascii",
+                ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", 3),
                 {"bad.ply:13: truncated: header declares 3 faces, data ends after 1"}},
         BadCase{"truncated_ascii_vertices", ascii("0 0 0\n1 0 0\n"), {"declares 3 vertices, data ends after 2"}},
         BadCase{"ascii_nan", ascii("0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n"), {"bad.ply:11: vertex 2: coordinate is NaN"}},
         BadCase{"ascii_inf", ascii("0 0 0\n1 0 -inf\n0 1 0\n3 0 1 2\n"), {":11:", "infinite"}},
         BadCase{"ascii_overflow", ascii("0 0 0\n1 0 1e39\n0 1 0\n3 0 1 2\n"), {":11:", "infinite"}},
         BadCase{"binary_nan", binary_nan_vertex(), {"bad.ply: vertex 2: coordinate is NaN"}},
-        BadCase{"huge_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 99\n"),
+        BadCase{"huge_index",
+                ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 99\n"),
                 {"bad.ply:13: face 1: vertex index 99 out of range (3 vertices)"}},
-        BadCase{"binary_huge_index", binary_faces(1, 1, 2147483647), {"bad.ply: face 1: vertex index 2147483647 out of range"}},
+        BadCase{"binary_huge_index",
+                binary_faces(1, 1, 2147483647),
+                {"bad.ply: face 1: vertex index 2147483647 out of range"}},
         BadCase{"negative_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n"), {":13:", "negative vertex index -1"}},
         BadCase{"binary_negative_index", binary_faces(1, 1, -5), {"face 1: negative vertex index -5"}},
         BadCase{"fractional_index", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 1.5\n"), {"not an integer"}},
@@ -314,14 +331,19 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"short_vertex_line", ascii("0 0 0\n1 0\n0 1 0\n3 0 1 2\n"), {":11:", "vertex 2: too few values"}},
         BadCase{"non_numeric", ascii("0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n"), {":11:", "'abc' is not a number"}},
         BadCase{"no_faces", ascii("0 0 0\n1 0 0\n0 1 0\n", 0), {"bad.ply: no faces"}},
-        BadCase{"no_face_element", "ply\nformat ascii 1.0\n" + VERTEX3 + "end_header\n0 0 0\n1 0 0\n0 1 0\n", {"no faces"}},
-        BadCase{"no_vertex_element", "ply\nformat ascii 1.0\nelement face 0\n" + FACES + "end_header\n",
+        BadCase{
+            "no_face_element", "ply\nformat ascii 1.0\n" + VERTEX3 + "end_header\n0 0 0\n1 0 0\n0 1 0\n", {"no faces"}},
+        BadCase{"no_vertex_element",
+                "ply\nformat ascii 1.0\nelement face 0\n" + FACES + "end_header\n",
                 {"no 'vertex' element"}},
-        BadCase{"missing_y", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float z\nend_header\n",
+        BadCase{"missing_y",
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float z\nend_header\n",
                 {":3:", "no property 'y'"}},
-        BadCase{"no_index_list", "ply\nformat ascii 1.0\n" + VERTEX3 + "element face 1\nproperty int foo\nend_header\n",
+        BadCase{"no_index_list",
+                "ply\nformat ascii 1.0\n" + VERTEX3 + "element face 1\nproperty int foo\nend_header\n",
                 {"no 'vertex_indices' list"}},
-        BadCase{"scalar_indices", "ply\nformat ascii 1.0\n" + VERTEX3 + "element face 1\nproperty int vertex_indices\nend_header\n",
+        BadCase{"scalar_indices",
+                "ply\nformat ascii 1.0\n" + VERTEX3 + "element face 1\nproperty int vertex_indices\nend_header\n",
                 {":8:", "must be a list"}},
         BadCase{"texcoord_count",
                 "ply\nformat ascii 1.0\n" + VERTEX3 + "element face 1\n" + FACES +

@@ -40,7 +40,8 @@ std::array<float, 3> corner(const Mesh& m, std::size_t f, int c) {
 
 std::vector<std::array<float, 3>> sorted_positions(const Mesh& m) {
   std::vector<std::array<float, 3>> out;
-  for (std::size_t v = 0; v < m.vertex_count(); ++v) out.push_back({m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]});
+  for (std::size_t v = 0; v < m.vertex_count(); ++v)
+    out.push_back({m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]});
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -61,10 +62,12 @@ TEST(StlFormat, BinaryRoundTripWeldsTheOctahedronBack) {
   ASSERT_EQ(out.mesh.face_count(), 8u);
   EXPECT_EQ(sorted_positions(out.mesh), sorted_positions(in));
   for (std::size_t f = 0; f < 8; ++f)
-    for (int c = 0; c < 3; ++c) EXPECT_EQ(corner(out.mesh, f, c), corner(in, f, c)) << "face " << f << " corner " << c;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(corner(out.mesh, f, c), corner(in, f, c)) << "face " << f << " corner " << c;
   // Welding recovers topology: every vertex is shared by 4 faces, as in the input.
   std::vector<int> valence(6, 0);
-  for (std::int32_t v : out.mesh.triangles) ++valence[static_cast<std::size_t>(v)];
+  for (std::int32_t v : out.mesh.triangles)
+    ++valence[static_cast<std::size_t>(v)];
   EXPECT_EQ(valence, std::vector<int>(6, 4));
   EXPECT_FALSE(out.source.text);
   EXPECT_EQ(out.source.face_origin, (std::vector<std::int64_t>{1, 2, 3, 4, 5, 6, 7, 8}));
@@ -76,8 +79,10 @@ TEST(StlFormat, WriterStoresUnitFacetNormalsAndZeroForDegenerate) {
   const std::string bytes = write_stl(m);
   const float s = 1.0f / std::sqrt(3.0f);
   // Face 0 is (+x, +y, +z): outward normal (1, 1, 1)/√3, to float rounding.
-  for (int k = 0; k < 3; ++k) EXPECT_NEAR(float_at(bytes, 84 + 4 * k), s, 1e-6f);
-  for (int k = 0; k < 3; ++k) EXPECT_EQ(float_at(bytes, 84 + 50 * 8 + 4 * k), 0.0f);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(float_at(bytes, 84 + 4 * k), s, 1e-6f);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_EQ(float_at(bytes, 84 + 50 * 8 + 4 * k), 0.0f);
 }
 
 TEST(StlFormat, BinaryWhoseHeaderStartsWithSolidIsStillBinary) {
@@ -157,14 +162,18 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"short_garbage", "hello, world", {"bad.stl:1: not an STL file"}},
         BadCase{"long_garbage", std::string(200, 'x'), {"bad.stl: ", "not an STL file"}},
         BadCase{"trailing_bytes", binary_octahedron() + "xx", {"not an STL file", "sizes do not match", "486"}},
-        BadCase{"truncated_binary", binary_octahedron().substr(0, 84 + 50 * 5 + 7),
+        BadCase{"truncated_binary",
+                binary_octahedron().substr(0, 84 + 50 * 5 + 7),
                 {"bad.stl: truncated binary STL", "header declares 8 facets (484 bytes), file has 341 bytes"}},
         BadCase{"truncated_binary_solid_header", solid_headed_truncated(), {"truncated binary STL"}},
-        BadCase{"absurd_facet_count", with_float(binary_octahedron(), 80, std::bit_cast<float>(0xFFFFFFFFu)),
+        BadCase{"absurd_facet_count",
+                with_float(binary_octahedron(), 80, std::bit_cast<float>(0xFFFFFFFFu)),
                 {"truncated binary STL", "4294967295 facets"}},
-        BadCase{"binary_nan", with_float(binary_octahedron(), 84 + 50 + 12 + 4, std::numeric_limits<float>::quiet_NaN()),
+        BadCase{"binary_nan",
+                with_float(binary_octahedron(), 84 + 50 + 12 + 4, std::numeric_limits<float>::quiet_NaN()),
                 {"bad.stl: facet 2: vertex coordinate is NaN"}},
-        BadCase{"binary_inf", with_float(binary_octahedron(), 84 + 12, std::numeric_limits<float>::infinity()),
+        BadCase{"binary_inf",
+                with_float(binary_octahedron(), 84 + 12, std::numeric_limits<float>::infinity()),
                 {"facet 1: vertex coordinate is infinite"}},
         BadCase{"binary_no_facets", std::string(80, ' ') + std::string(4, '\0'), {"bad.stl: no faces"}},
         BadCase{"ascii_no_facets", "solid empty\nendsolid empty\n", {"bad.stl: no faces"}},
@@ -172,8 +181,10 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"ascii_nan", FACET_HEAD + "vertex 0 0 0\nvertex nan 0 0\n", {"bad.stl:5: vertex coordinate is NaN"}},
         BadCase{"ascii_inf", FACET_HEAD + "vertex 0 0 0\nvertex 1 0 1e39\n", {":5:", "infinite"}},
         BadCase{"ascii_non_numeric", FACET_HEAD + "vertex 0 zero 0\n", {"bad.stl:4: 'zero' is not a number"}},
-        BadCase{"ascii_bad_keyword", "solid t\nfacet normal 0 0 1\nouter lop\n", {":3:", "expected 'loop', found 'lop'"}},
-        BadCase{"ascii_two_vertex_loop", FACET_HEAD + "vertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\n",
+        BadCase{
+            "ascii_bad_keyword", "solid t\nfacet normal 0 0 1\nouter lop\n", {":3:", "expected 'loop', found 'lop'"}},
+        BadCase{"ascii_two_vertex_loop",
+                FACET_HEAD + "vertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\n",
                 {":6:", "2 vertices"}},
         BadCase{"ascii_trailing_garbage",
                 FACET_HEAD + "vertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid\ngarbage\n",
