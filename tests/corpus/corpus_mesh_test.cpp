@@ -83,7 +83,9 @@ TEST(CorpusMeshes, EveryMeshLoadsValidatesAndMatchesTheManifest) {
     }
     const ManifestRow& row = it->second;
     EXPECT_EQ(p.mesh.vertex_count(), row.vertices);
-    if (row.quads) EXPECT_EQ(p.mesh.face_count(), 2 * row.quads); // each quad becomes two triangles
+    if (row.quads) {
+      EXPECT_EQ(p.mesh.face_count(), 2 * row.quads); // each quad becomes two triangles
+    }
     EXPECT_EQ(t.components, row.components);
     EXPECT_EQ(t.boundary_loops, row.loops);
     EXPECT_EQ(t.watertight(), row.watertight);

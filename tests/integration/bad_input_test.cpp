@@ -127,8 +127,8 @@ TEST_P(BadInputCatalogue, ConvertWritesNothingAndLeavesTheInputAlone) {
   EXPECT_EQ(entries, 1u) << "a temporary or partial file was left behind";
 }
 
-INSTANTIATE_TEST_SUITE_P(Files, BadInputCatalogue, ::testing::ValuesIn(catalogue()), [](const auto& info) {
-  std::string n = info.param.name;
+INSTANTIATE_TEST_SUITE_P(Files, BadInputCatalogue, ::testing::ValuesIn(catalogue()), [](const auto& param) {
+  std::string n = param.param.name;
   for (char& c : n)
     if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
   return n;

@@ -28,7 +28,9 @@ TEST(VertexFaceAdjacency, ListsEveryCornerOnceInAscendingFaceOrder) {
   for (std::size_t v = 0; v < m.vertex_count(); ++v)
     for (std::int32_t k = adj.offsets[v]; k < adj.offsets[v + 1]; ++k) {
       const std::int32_t f = adj.faces[k];
-      if (k > adj.offsets[v]) EXPECT_LT(adj.faces[k - 1], f);
+      if (k > adj.offsets[v]) {
+        EXPECT_LT(adj.faces[k - 1], f);
+      }
       const bool has_v = m.triangles[3 * f] == std::int32_t(v) || m.triangles[3 * f + 1] == std::int32_t(v) ||
                          m.triangles[3 * f + 2] == std::int32_t(v);
       EXPECT_TRUE(has_v) << "vertex " << v << " lists face " << f;

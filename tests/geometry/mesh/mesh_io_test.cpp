@@ -44,7 +44,7 @@ TEST_P(MeshIoRoundTrip, WriteThenReadKeepsGeometryAndUvs) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Formats, MeshIoRoundTrip, ::testing::Values(".obj", ".ply", ".off", ".stl", ".glb"),
-                         [](const auto& info) { return std::string(info.param + 1); });
+                         [](const auto& param) { return std::string(param.param + 1); });
 
 TEST(MeshIo, DetectsFormatFromExtensionCaseInsensitively) {
   EXPECT_EQ(mesh_format_from_path("a/B.OBJ"), MeshFormat::OBJ);

@@ -116,7 +116,7 @@ INSTANTIATE_TEST_SUITE_P(
                       BadObj{"empty", "", "not an OBJ mesh"},
                       BadObj{"bad_face_token", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x3\n", "t.obj:4: bad face index"},
                       BadObj{"huge_integer", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n", "t.obj:4: bad face index"}),
-    [](const ::testing::TestParamInfo<BadObj>& info) { return std::string(info.param.name); });
+    [](const ::testing::TestParamInfo<BadObj>& param) { return std::string(param.param.name); });
 
 } // namespace
 } // namespace vfit
