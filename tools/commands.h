@@ -10,6 +10,7 @@ int run_info(Args& args);
 int run_convert(Args& args);
 int run_devices(Args& args);
 int run_demo(Args& args);
+int run_body(Args& args);
 
 
 

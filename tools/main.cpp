@@ -63,6 +63,19 @@ TBB and OpenCL backends and compares them, and writes DIR/demo.glb (all meshes i
 DIR/demo.json. DIR defaults to ./vfit_demo. It grows into the full fitting demo as stages land.
 )";
 
+constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
+                 [--vertices N] [--out FILE] [--joints FILE.json] [--quiet]
+
+Builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
+--height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,
+--chest, --waist, --hip, --thigh, --calf (girths). --preset starts from a body type:
+average (default), banana, pear, apple, hourglass, tall, petite. The mesh has --vertices
+vertices (default 7000), is watertight, and reproduces the requested girths; the table printed
+compares requested and measured values.
+  --out FILE      the body mesh (.obj, .ply, .glb, ...)
+  --joints FILE   the 24 canonical joints as {"joints": {"pelvis": [x, y, z], ...}}
+)";
+
 bool wants_help(const std::vector<std::string>& args) {
   for (const auto& a : args)
     if (a == "--help" || a == "-h") return true;
@@ -79,7 +92,8 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
   static const Command commands[] = {{"info", INFO_HELP, run_info},
                                      {"convert", CONVERT_HELP, run_convert},
                                      {"devices", DEVICES_HELP, run_devices},
-                                     {"demo", DEMO_HELP, run_demo}};
+                                     {"demo", DEMO_HELP, run_demo},
+                                     {"body", BODY_HELP, run_body}};
   for (const auto& c : commands) {
     if (command != c.name) continue;
     if (wants_help(rest)) {

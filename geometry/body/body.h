@@ -1,0 +1,28 @@
+#pragma once
+/// \file
+/// A rigged body: its rest-pose mesh, the canonical joints in that rest pose, and skin weights.
+
+#include <string>
+
+#include "geometry/mesh/mesh.h"
+#include "skeleton.h"
+
+namespace vfit {
+
+/// The rest pose a body or garment was built in.
+enum class RestPose { TPOSE, APOSE, OTHER };
+
+/// A body with a skeleton. The mesh is closed and in metres; `joints` are the canonical joints
+/// of the rest pose; `weights` skin the mesh to them (≤ 4 influences per vertex).
+struct Body {
+  Mesh mesh;
+  JointPositions joints = JointPositions::Zero();
+  SkinWeights weights;
+  RestPose rest_pose = RestPose::OTHER;
+  std::string source; ///< where it came from: "mannequin", a file path, ...
+};
+
+/// The body's mesh and joints in `pose` (LBS with its weights). Returns a copy.
+Body pose_body(const Body& body, const Pose& pose);
+
+} // namespace vfit
