@@ -40,6 +40,42 @@ void project_to_surface(const MannequinShape& shape, Mesh& mesh, int steps) {
   });
 }
 
+// Tangential relaxation: each vertex moves halfway to its one-ring centroid within its tangent
+// plane, then back onto the surface. Evens out the edge lengths that decimation and projection
+// leave (they can be 100× shorter than the mean).
+void relax_on_surface(const MannequinShape& shape, Mesh& mesh, int iterations) {
+  const std::size_t nv = mesh.vertex_count();
+  std::vector<std::vector<std::int32_t>> nbr(nv);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
+      nbr[a].push_back(b);
+      nbr[b].push_back(a);
+    }
+  std::vector<float> next(mesh.positions.size());
+  for (int it = 0; it < iterations; ++it) {
+    parallel_for_range(nv, 512, [&](std::size_t b, std::size_t e) {
+      for (std::size_t v = b; v < e; ++v) {
+        const Eigen::Vector3d p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+        Eigen::Vector3d c = Eigen::Vector3d::Zero();
+        for (std::int32_t u : nbr[v]) c += Eigen::Vector3d(mesh.positions[3 * u], mesh.positions[3 * u + 1], mesh.positions[3 * u + 2]);
+        c /= double(std::max<std::size_t>(1, nbr[v].size()));
+        const double h = 1e-4;
+        Eigen::Vector3d n((shape.distance(p.x() + h, p.y(), p.z()) - shape.distance(p.x() - h, p.y(), p.z())),
+                          (shape.distance(p.x(), p.y() + h, p.z()) - shape.distance(p.x(), p.y() - h, p.z())),
+                          (shape.distance(p.x(), p.y(), p.z() + h) - shape.distance(p.x(), p.y(), p.z() - h)));
+        if (n.squaredNorm() > 0) n.normalize();
+        Eigen::Vector3d d = c - p;
+        d -= d.dot(n) * n;
+        const Eigen::Vector3d q = p + 0.5 * d;
+        for (int k = 0; k < 3; ++k) next[3 * v + k] = static_cast<float>(q[k]);
+      }
+    });
+    mesh.positions.swap(next);
+    project_to_surface(shape, mesh, 2);
+  }
+}
+
 // Skin weights: the shape's affinities, smoothed over the mesh's one-rings, top 4 kept.
 SkinWeights compute_skin_weights(const MannequinShape& shape, const Mesh& mesh) {
   const std::size_t nv = mesh.vertex_count();
@@ -60,8 +96,22 @@ SkinWeights compute_skin_weights(const MannequinShape& shape, const Mesh& mesh) 
       nbr[a].push_back(b);
       nbr[b].push_back(a);
     }
+  // Diffuse over a fixed physical width (~3 cm) whatever the resolution: the number of
+  // averaging steps grows with (width / edge length)².
+  double edge_sum = 0;
+  std::size_t edges = 0;
+  for (std::size_t v = 0; v < nv; ++v)
+    for (std::int32_t u : nbr[v]) {
+      const float* a = &mesh.positions[3 * v];
+      const float* b = &mesh.positions[3 * u];
+      edge_sum += std::sqrt(double(a[0] - b[0]) * (a[0] - b[0]) + double(a[1] - b[1]) * (a[1] - b[1]) +
+                            double(a[2] - b[2]) * (a[2] - b[2]));
+      ++edges;
+    }
+  const double mean_edge = edges ? edge_sum / double(edges) : 0.01;
+  const int steps = std::clamp(static_cast<int>(std::lround(4.0 * std::pow(0.02 / mean_edge, 2))), 2, 60);
   std::vector<double> next(w.size());
-  for (int iter = 0; iter < 4; ++iter) {
+  for (int iter = 0; iter < steps; ++iter) {
     parallel_for_range(nv, 512, [&](std::size_t b, std::size_t e) {
       for (std::size_t v = b; v < e; ++v)
         for (int j = 0; j < JOINT_COUNT; ++j) {
@@ -162,9 +212,11 @@ Body make_mannequin(const MannequinOptions& options) {
   const MannequinShape shape(options.measurements, options.pose);
   const double s = options.measurements.height / 1.70;
   // Grid: about 3× the target before decimation (fewer would leave the decimator little choice;
-  // more costs time), but never finer than 2.5 mm: large targets are reached by subdivision.
+  // more costs time), never finer than 2.5 mm (large targets are reached by subdivision) and
+  // never coarser than 0.7 × the hand's half-thickness (2 cm), or thin parts would break off.
   const double area = BODY_AREA_AT_170 * s * s;
-  const double cell = std::max(0.0025, std::sqrt(MT_VERTICES_PER_UNIT * area / (3.0 * double(options.target_vertices))));
+  const double cell = std::clamp(std::sqrt(MT_VERTICES_PER_UNIT * area / (3.0 * double(options.target_vertices))),
+                                 0.0025, 0.014 * s);
   const auto [lo, hi] = shape.bounding_box(3 * cell);
   IsosurfaceOptions iso;
   iso.box_min = {lo.x(), lo.y(), lo.z()};
@@ -177,6 +229,7 @@ Body make_mannequin(const MannequinOptions& options) {
   }
   mesh = decimate_to_vertex_count(mesh, options.target_vertices);
   project_to_surface(shape, mesh, 3);
+  relax_on_surface(shape, mesh, 3);
 
   Body body;
   body.joints = shape.joints();
