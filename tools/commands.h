@@ -11,6 +11,7 @@ int run_convert(Args& args);
 int run_devices(Args& args);
 int run_demo(Args& args);
 int run_body(Args& args);
+int run_garment(Args& args);
 
 
 

@@ -76,6 +76,17 @@ compares requested and measured values.
   --joints FILE   the 24 canonical joints as {"joints": {"pelvis": [x, y, z], ...}}
 )";
 
+constexpr const char* GARMENT_HELP = R"(usage: vfit garment TYPE --out FILE [--size S] [--vertices N] [--pose tpose|apose]
+                    [--preset NAME] [--height M] [--chest M] ... [--quiet]
+
+Generates a catalogue garment around the built-in mannequin: TYPE is tee, long-sleeve,
+trousers, shorts, dress or skirt; S is XS, S, M (default), L, XL, XXL, or P1 (tight), P2
+(good), P3 (loose), P4 (too large to stay up) for trousers; N vertices exactly (default 5000);
+the garment's own pose (default tpose), independent of any body. The body it is sized for takes
+the same measurement flags as `vfit body`. Writes the mesh (with UVs, parts as groups) and
+FILE's stem + .labels.json: {"part_names": [...], "vertex_parts": [one per vertex]}.
+)";
+
 bool wants_help(const std::vector<std::string>& args) {
   for (const auto& a : args)
     if (a == "--help" || a == "-h") return true;
@@ -93,7 +104,8 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
                                      {"convert", CONVERT_HELP, run_convert},
                                      {"devices", DEVICES_HELP, run_devices},
                                      {"demo", DEMO_HELP, run_demo},
-                                     {"body", BODY_HELP, run_body}};
+                                     {"body", BODY_HELP, run_body},
+                                     {"garment", GARMENT_HELP, run_garment}};
   for (const auto& c : commands) {
     if (command != c.name) continue;
     if (wants_help(rest)) {

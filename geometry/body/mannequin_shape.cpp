@@ -269,28 +269,40 @@ double MannequinShape::torso_distance(double x, double y, double z) const {
   return smax(bottom, y - m_torso_top, 0.07 * s);
 }
 
-double MannequinShape::distance(double x, double y, double z) const {
+double MannequinShape::distance(double x, double y, double z, const ShapeInflation* inf) const {
   const double s = m_measurements.height / 1.70;
   const Eigen::Vector3d p(x, y, z);
-  double d = torso_distance(x, y, z);
+  const double torso_off = inf && inf->torso_offset ? inf->torso_offset(y) : 0.0;
+  const double leg_off = inf && inf->leg_offset ? inf->leg_offset(y) : 0.0;
+  const double arm_off = inf ? inf->arm_offset : 0.0, neck_off = inf ? inf->neck_offset : 0.0;
+  const bool arms = !inf || inf->with_arms, legs_on = !inf || inf->with_legs, head_on = !inf || inf->with_head,
+             hands = !inf || inf->with_hands, feet = !inf || inf->with_feet;
+  double d = torso_distance(x, y, z) - torso_off;
   // Legs and buttocks blend into the torso; the two legs never blend with each other.
   double legs[2] = {INFINITY, INFINITY};
   for (const auto& c : m_cones) {
-    const double dc = round_cone_distance(p, c);
     const Joint j = static_cast<Joint>(c.joint);
-    if (j == Joint::LEFT_HIP || j == Joint::LEFT_KNEE) legs[0] = smin(legs[0], dc, 0.02 * s);
-    else if (j == Joint::RIGHT_HIP || j == Joint::RIGHT_KNEE) legs[1] = smin(legs[1], dc, 0.02 * s);
-    else if (j == Joint::NECK) d = smin(d, dc, 0.035 * s);
-    else d = smin(d, dc, 0.025 * s); // collar, shoulder, elbow pieces
+    const bool left_leg = j == Joint::LEFT_HIP || j == Joint::LEFT_KNEE, right_leg = j == Joint::RIGHT_HIP || j == Joint::RIGHT_KNEE;
+    if (left_leg || right_leg) {
+      if (!legs_on) continue;
+      legs[left_leg ? 0 : 1] = smin(legs[left_leg ? 0 : 1], round_cone_distance(p, c) - leg_off, 0.02 * s);
+    } else if (j == Joint::NECK) {
+      if (head_on) d = smin(d, round_cone_distance(p, c) - neck_off, 0.035 * s);
+    } else if (arms) {
+      d = smin(d, round_cone_distance(p, c) - arm_off, 0.025 * s); // collar, shoulder, elbow pieces
+    }
   }
   for (const auto& e : m_ellipsoids) {
-    const double de = ellipsoid_distance(p, e);
     const Joint j = static_cast<Joint>(e.joint);
-    if (j == Joint::LEFT_FOOT) legs[0] = smin(legs[0], de, 0.03 * s);
-    else if (j == Joint::RIGHT_FOOT) legs[1] = smin(legs[1], de, 0.03 * s);
-    else if (j == Joint::LEFT_HIP || j == Joint::RIGHT_HIP) d = smin(d, de, 0.04 * s);
-    else if (j == Joint::HEAD) d = smin(d, de, 0.03 * s);
-    else d = smin(d, de, 0.015 * s); // hands
+    if (j == Joint::LEFT_FOOT || j == Joint::RIGHT_FOOT) {
+      if (feet && legs_on) legs[j == Joint::LEFT_FOOT ? 0 : 1] = smin(legs[j == Joint::LEFT_FOOT ? 0 : 1], ellipsoid_distance(p, e), 0.03 * s);
+    } else if (j == Joint::LEFT_HIP || j == Joint::RIGHT_HIP) {
+      d = smin(d, ellipsoid_distance(p, e) - torso_off, 0.04 * s);
+    } else if (j == Joint::HEAD) {
+      if (head_on) d = smin(d, ellipsoid_distance(p, e), 0.03 * s);
+    } else if (hands && arms) {
+      d = smin(d, ellipsoid_distance(p, e), 0.015 * s);
+    }
   }
   d = smin(d, legs[0], 0.035 * s);
   return smin(d, legs[1], 0.035 * s);

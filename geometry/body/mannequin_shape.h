@@ -7,6 +7,7 @@
 /// both generated from it.
 
 #include <array>
+#include <functional>
 #include <vector>
 
 #include "body.h"
@@ -34,6 +35,17 @@ struct Ellipsoid {
   int joint;
 };
 
+/// Which of the mannequin's shapes take part in a distance query and how much each is grown
+/// (m), for garments built around the body: the zero set of the grown distance is a surface
+/// `offset` away from the skin.
+struct ShapeInflation {
+  std::function<double(double y)> torso_offset; ///< torso and buttocks, by height; empty: 0
+  std::function<double(double y)> leg_offset;   ///< legs, by height; empty: 0
+  double arm_offset = 0;
+  double neck_offset = 0;
+  bool with_arms = true, with_legs = true, with_head = true, with_hands = true, with_feet = true;
+};
+
 class MannequinShape {
 public:
   /// Places the skeleton and shapes for `m` in `pose` (TPOSE or APOSE: arms 45° down), then
@@ -42,7 +54,9 @@ public:
   MannequinShape(const BodyMeasurements& m, RestPose pose);
 
   /// Signed distance (m), negative inside; |∇| ≈ 1 near the surface.
-  double distance(double x, double y, double z) const;
+  double distance(double x, double y, double z) const { return distance(x, y, z, nullptr); }
+  /// The distance to the shapes selected by `inflation`, each grown by its offset.
+  double distance(double x, double y, double z, const ShapeInflation* inflation) const;
   const JointPositions& joints() const { return m_joints; }
   const BodyMeasurements& measurements() const { return m_measurements; }
   RestPose pose() const { return m_pose; }
@@ -72,6 +86,15 @@ private:
   void build_shapes();
   TorsoSection torso_at(double y) const;
   double torso_distance(double x, double y, double z) const;
+
+public:
+  /// Shapes of the mannequin (read-only), for garments that follow single parts.
+  const std::vector<RoundCone>& cones() const { return m_cones; }
+  const std::vector<Ellipsoid>& ellipsoids() const { return m_ellipsoids; }
+  /// The torso section at height y (clamped to the torso's extent).
+  TorsoSection torso_section(double y) const { return torso_at(y); }
+
+private:
   void calibrate();
 
   BodyMeasurements m_measurements;

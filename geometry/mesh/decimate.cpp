@@ -24,7 +24,7 @@ using OmMesh = OpenMesh::TriMesh_ArrayKernelT<Traits>;
 
 } // namespace
 
-Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices) {
+Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices, bool lock_boundary) {
   if (target_vertices >= mesh.vertex_count()) return mesh;
   OmMesh om;
   std::vector<OmMesh::VertexHandle> handles(mesh.vertex_count());
@@ -37,6 +37,9 @@ Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices) {
       throw Error("decimate", 0, "face " + std::to_string(f + 1) + " is non-manifold; decimation needs a manifold mesh");
   }
   om.update_face_normals();
+  if (lock_boundary)
+    for (auto v : om.vertices())
+      if (om.is_boundary(v)) om.status(v).set_locked(true);
 
   using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
   Decimater dec(om);

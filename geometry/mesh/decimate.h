@@ -12,8 +12,10 @@ namespace vfit {
 /// Collapses edges of a manifold, consistently oriented triangle mesh until it has exactly
 /// `target_vertices` vertices (or as close as legal collapses allow; the result says how many).
 /// Topology is preserved: a closed mesh stays closed, boundary loops stay loops. UVs, normals
-/// and labels are dropped (callers regenerate them). Throws vfit::Error for non-manifold input.
-Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices);
+/// and labels are dropped (callers regenerate them). With `lock_boundary`, boundary vertices
+/// never move or disappear (a garment's cut openings stay exactly where they were cut).
+/// Throws vfit::Error for non-manifold input.
+Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices, bool lock_boundary = false);
 
 /// One step of midpoint subdivision: every triangle becomes four (1→4), a shared edge gets one
 /// new vertex. Positions only (UVs, normals, labels are dropped). #V grows to V + E.

@@ -1,0 +1,58 @@
+#pragma once
+/// \file
+/// Rigging a bare body scan (seed 001 §5): the 24 canonical joints estimated from the mesh's
+/// geometry alone (horizontal sections for legs, torso, neck and head; sections along each
+/// arm; anatomical proportions between the landmarks they give), then skin weights from the
+/// joints. Conventions: metres, Y up, the body facing +Z, +X = the body's left.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "body.h"
+
+namespace vfit {
+
+/// The joints estimated for a body scan, how sure the estimator is of each, and the rest pose.
+struct JointEstimate {
+  JointPositions joints = JointPositions::Zero(); ///< canonical joints (m), SMPL order
+  /// Per joint, in [0, 1]: 1 for a joint placed on a clear geometric feature (a section's
+  /// centroid, a narrowing), lower for joints placed by proportion alone (the spine) or where
+  /// the estimator fell back to a default (e.g. no narrowing found at the wrist).
+  std::array<double, JOINT_COUNT> confidence{};
+  RestPose pose = RestPose::OTHER; ///< TPOSE (upper arms within 25° of horizontal) or APOSE
+  std::vector<std::string> warnings; ///< things worth showing the user (holes, asymmetry, ...)
+};
+
+/// Estimates the canonical joints of an upright body scan: a closed or nearly closed triangle
+/// mesh (holes at the soles, neck or eyes are tolerated) in metres, Y up, facing +Z, standing
+/// with the legs apart and the arms away from the torso (A-pose: upper arms 25°–65° below
+/// horizontal; T-pose). No skeleton is needed.
+///
+/// Landmarks: the crotch (where the torso's section splits into two legs), the armpits (where
+/// the arms join the torso's section), the top of the shoulders and the neck's narrowest
+/// section, the toes and fingertips. Joints follow from them: section centroids give x and z;
+/// heights come from the landmarks and proportions calibrated on the MakeHuman hm08 rig and on
+/// our mannequins. The spine joints follow SMPL's convention (spine1, spine2, spine3 at 20 %,
+/// 42 % and 63 % of the way from the pelvis to the neck).
+///
+/// Throws vfit::Error, saying why, when the mesh is not an upright human in A- or T-pose: too
+/// few vertices, not metre-sized, lying down (not taller than wide and deep), no crotch with
+/// two legs reaching the floor, no head above the shoulders, arms touching the torso or raised
+/// above the shoulders.
+JointEstimate estimate_joints(const Mesh& body_in_metres);
+
+/// Skin weights of `body` for `joints` (canonical, m): per vertex a weight for each bone by its
+/// distance to the vertex (bones: joint → child joint, the end joints extended), restricted
+/// to the nearest bone's skeletal neighbourhood so that distant limbs never share, smoothed
+/// over the mesh's edges, then the 4 largest kept and renormalised (SkinWeights::from_dense).
+/// Each row sums to 1; neighbouring vertices' weights differ little. Throws vfit::Error for an
+/// empty mesh.
+SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints);
+
+/// A bare body rigged: estimate_joints(), then estimate_skin_weights(). The returned Body owns
+/// the mesh, its joints, weights and detected rest pose; `source` names where it came from (a
+/// file path). Throws like estimate_joints(), the message naming `source`.
+Body rig_bare_body(Mesh body, std::string source);
+
+} // namespace vfit
