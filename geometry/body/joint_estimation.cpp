@@ -19,6 +19,7 @@ constexpr int LEVELS = 500;                      // horizontal sections: 3.4 mm 
 constexpr std::size_t MIN_VERTICES = 300;
 constexpr double MIN_HEIGHT = 0.5, MAX_HEIGHT = 3.0; // m: outside, the mesh is not in metres
 constexpr double TORSO_SEED = 0.62;              // the largest section here is the torso's
+constexpr double LEG_AREA = 0.1;                 // a thigh's section: at least this part of the torso's
 constexpr double HIP_ABOVE_CROTCH = 0.0535;      // hm08 0.057, mannequins 0.050
 constexpr double PELVIS_ABOVE_HIPS = 0.013;      // hm08 0.014, mannequins 0.012
 constexpr double KNEE_FRACTION = 0.60;           // of the crotch's height: hm08 0.58, mannequins 0.61–0.63
@@ -54,17 +55,19 @@ int containing(const std::vector<PlaneSection>& loops, const Eigen::Vector2d& q)
 }
 
 // Follows a body part from loop `first` of level `start` through the levels in direction `dir`
-// (+1 up, −1 down): each level's loop is the one containing the previous centroid, or, with
-// `nearest` > 0, the loop whose centroid lies closest within that distance (m). Returns the
-// loop index per level, −1 outside the part.
-std::vector<int> follow(const Slices& s, int start, int first, int dir, double nearest = 0) {
+// (+1 up, −1 down): each level's loop is the one containing the previous centroid or, failing
+// that (a notch such as an open mouth), the loop whose centroid lies closest within `nearest`
+// (m). Stops before a level where `stop(level)` holds. Returns the loop index per level, −1
+// outside the part.
+template <typename Stop>
+std::vector<int> follow(const Slices& s, int start, int first, int dir, double nearest, const Stop& stop) {
   std::vector<int> track(s.levels.size(), -1);
   track[std::size_t(start)] = first;
   Eigen::Vector2d q = s.levels[std::size_t(start)][std::size_t(first)].centroid_uv;
-  for (int i = start + dir; i >= 0 && i < int(s.levels.size()); i += dir) {
+  for (int i = start + dir; i >= 0 && i < int(s.levels.size()) && !stop(i); i += dir) {
     const auto& loops = s.levels[std::size_t(i)];
     int j = containing(loops, q);
-    for (std::size_t k = 0; j < 0 && nearest > 0 && k < loops.size(); ++k)
+    for (std::size_t k = 0; j < 0 && k < loops.size(); ++k)
       if ((loops[k].centroid_uv - q).norm() < nearest &&
           (j < 0 || (loops[k].centroid_uv - q).norm() < (loops[std::size_t(j)].centroid_uv - q).norm()))
         j = int(k);
@@ -158,15 +161,31 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
     if (seed_loop < 0 || s.levels[std::size_t(seed)][j].area > s.levels[std::size_t(seed)][std::size_t(seed_loop)].area) seed_loop = int(j);
   if (seed_loop < 0) throw Error(source, 0, "no torso section at " + std::to_string(TORSO_SEED) + " of the height");
   const double mid_x = s.levels[std::size_t(seed)][std::size_t(seed_loop)].centroid.x();
-  std::vector<int> torso = follow(s, seed, seed_loop, -1);
-  const std::vector<int> up = follow(s, seed, seed_loop, +1);
+  // Going down, the crotch is the first level holding a large loop on each side of the
+  // mid-plane (two legs); the hands beside the hips are far smaller than a thigh.
+  const double seed_area = s.levels[std::size_t(seed)][std::size_t(seed_loop)].area;
+  auto leg_loop = [&](int i, int side) {
+    const auto& loops = s.levels[std::size_t(i)];
+    int best = -1;
+    for (std::size_t j = 0; j < loops.size(); ++j)
+      if (side * (loops[j].centroid.x() - mid_x) > 0 && std::abs(loops[j].centroid.x() - mid_x) < 0.2 * H &&
+          loops[j].area > LEG_AREA * seed_area && (best < 0 || loops[j].area > loops[std::size_t(best)].area))
+        best = int(j);
+    return best;
+  };
+  auto legs_apart = [&](int i) { return leg_loop(i, 1) >= 0 && leg_loop(i, -1) >= 0 && leg_loop(i, 1) != leg_loop(i, -1); };
+  std::vector<int> torso = follow(s, seed, seed_loop, -1, 0.0, legs_apart);
+  const std::vector<int> up = follow(s, seed, seed_loop, +1, 0.05 * H, [](int) { return false; });
   for (std::size_t i = 0; i < up.size(); ++i)
     if (up[i] >= 0) torso[i] = up[i];
   int bottom = seed, crown = seed;
   while (bottom > 0 && torso[std::size_t(bottom - 1)] >= 0) --bottom;
   while (crown + 1 < LEVELS && torso[std::size_t(crown + 1)] >= 0) ++crown;
   const double crotch = s.y(bottom) - s.step / 2;
-  if (bottom == 0 || crotch < s.floor + 0.3 * H)
+#ifdef VFIT_DEBUG_JOINTS
+  fprintf(stderr, "bottom %d crown %d (%.3f) seed %d\n", bottom, crown, s.y(crown) - s.floor, seed);
+#endif
+  if (bottom == 0 || !legs_apart(bottom - 1) || crotch < s.floor + 0.3 * H)
     throw Error(source, 0, "no crotch found: the torso does not split into two legs (legs apart, standing upright?)");
   if (s.y(crown) < s.top - 0.03 * H)
     throw Error(source, 0, "the highest point is not the top of the head (arms raised? expected an A- or T-pose)");
@@ -175,16 +194,11 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
   // Legs: the largest loop on each side just below the crotch, followed to the floor.
   std::vector<int> legs[2];
   for (int side : {1, -1}) {
-    const auto& loops = s.levels[std::size_t(bottom - 1)];
-    int best = -1;
-    for (std::size_t j = 0; j < loops.size(); ++j)
-      if (side * (loops[j].centroid.x() - mid_x) > 0 && std::abs(loops[j].centroid.x() - mid_x) < 0.2 * H &&
-          (best < 0 || loops[j].area > loops[std::size_t(best)].area))
-        best = int(j);
+    const int best = leg_loop(bottom - 1, side);
     const std::string which = side > 0 ? "left" : "right";
     if (best < 0) throw Error(source, 0, "no " + which + " leg below the crotch");
     std::vector<int>& leg = legs[side > 0 ? 0 : 1];
-    leg = follow(s, bottom - 1, best, -1, 0.05 * H);
+    leg = follow(s, bottom - 1, best, -1, 0.05 * H, [](int) { return false; });
     int foot = bottom - 1;
     while (foot > 0 && leg[std::size_t(foot - 1)] >= 0) --foot;
     if (s.y(foot) > s.floor + 0.03 * H) throw Error(source, 0, "the " + which + " leg does not reach the floor");
