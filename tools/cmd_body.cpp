@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "geometry/body/mannequin.h"
+#include "geometry/body/pose_io.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
 #include "kernels/error.h"
@@ -48,14 +49,21 @@ int run_body(Args& args) {
   if (auto n = args.value("vertices")) options.target_vertices = static_cast<std::size_t>(Args::to_int("--vertices", *n, 1000, 2000000));
   const auto out = args.value("out");
   const auto joints_out = args.value("joints");
+  const auto pose_arg = args.value("pose");
   args.positionals(0, 0);
   const auto t0 = std::chrono::steady_clock::now();
-  const Body body = make_mannequin(options);
+  const Body rest = make_mannequin(options);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  Pose pose;
+  if (pose_arg) {
+    std::error_code ec;
+    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg) : named_pose(*pose_arg, options.pose);
+  }
+  const Body body = pose_body(rest, pose);
   if (out) write_mesh(*out, body.mesh, "body");
   if (joints_out) write_file_atomically(*joints_out, joints_json(body.joints));
   if (!quiet) {
-    const MeasuredBody got = measure_body(body.mesh, body.joints);
+    const MeasuredBody got = measure_body(rest.mesh, rest.joints);
     std::printf("mannequin: %zu vertices, %zu faces, built in %.0f ms\n", body.mesh.vertex_count(), body.mesh.face_count(), ms);
     std::printf("%-16s %10s %10s %8s\n", "measurement", "requested", "measured", "error");
     for (std::string_view n : BodyMeasurements::names())

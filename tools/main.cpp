@@ -64,7 +64,7 @@ DIR/demo.json. DIR defaults to ./vfit_demo. It grows into the full fitting demo 
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
-                 [--vertices N] [--out FILE] [--joints FILE.json] [--quiet]
+                 [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json] [--quiet]
 
 Builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
 --height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,
@@ -72,8 +72,12 @@ Builds the built-in parametric mannequin from the 11 measurements of seed 004 (m
 average (default), banana, pear, apple, hourglass, tall, petite. The mesh has --vertices
 vertices (default 7000), is watertight, and reproduces the requested girths; the table printed
 compares requested and measured values.
+  --pose P        pose the body (linear blend skinning): a pose JSON file mapping canonical
+                  joint names to axis-angle vectors in radians (plus optional global_orient
+                  and translation), or a built-in pose: arms_down, arms_raised, elbows_bent,
+                  walking, knee_bent, legs_apart, demo, contrapposto, tpose, apose
   --out FILE      the body mesh (.obj, .ply, .glb, ...)
-  --joints FILE   the 24 canonical joints as {"joints": {"pelvis": [x, y, z], ...}}
+  --joints FILE   the 24 canonical joints (posed) as {"joints": {"pelvis": [x, y, z], ...}}
 )";
 
 constexpr const char* GARMENT_HELP = R"(usage: vfit garment TYPE --out FILE [--size S] [--vertices N] [--pose tpose|apose]

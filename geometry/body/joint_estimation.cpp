@@ -174,7 +174,7 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
     return best;
   };
   auto legs_apart = [&](int i) { return leg_loop(i, 1) >= 0 && leg_loop(i, -1) >= 0 && leg_loop(i, 1) != leg_loop(i, -1); };
-  std::vector<int> torso = follow(s, seed, seed_loop, -1, 0.0, legs_apart);
+  std::vector<int> torso = follow(s, seed, seed_loop, -1, 0.05 * H, legs_apart);
   const std::vector<int> up = follow(s, seed, seed_loop, +1, 0.05 * H, [](int) { return false; });
   for (std::size_t i = 0; i < up.size(); ++i)
     if (up[i] >= 0) torso[i] = up[i];
@@ -204,12 +204,14 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
     if (s.y(foot) > s.floor + 0.03 * H) throw Error(source, 0, "the " + which + " leg does not reach the floor");
   }
 
-  // Neck: the narrowest section between the shoulders and the head; the top of the shoulders
-  // is where the section below it widens past twice that.
+  // Neck: the thinnest section (least area: the chin widens the sections above it) between
+  // the shoulders and the head; the top of the shoulders is where the section below it widens
+  // past twice the neck's width.
   int neck_level = -1;
   auto width = [&](int i) { const PlaneSection& l = *loop_at(s, torso, i); return half_width(l, mid_x, 1) + half_width(l, mid_x, -1); };
+  auto area = [&](int i) { return loop_at(s, torso, i)->area; };
   for (int i = s.index(s.floor + 0.75 * H); i <= std::min(crown, s.index(s.top - 0.10 * H)); ++i)
-    if (torso[std::size_t(i)] >= 0 && (neck_level < 0 || width(i) < width(neck_level))) neck_level = i;
+    if (torso[std::size_t(i)] >= 0 && (neck_level < 0 || area(i) < area(neck_level))) neck_level = i;
   if (neck_level < 0 || width(neck_level) > 0.5 * width(seed))
     throw Error(source, 0, "no neck found: no section above three quarters of the height is narrower than half the torso");
   int shoulder_level = neck_level;

@@ -1,0 +1,125 @@
+#include "pose_io.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <nlohmann/json.hpp>
+
+#include "geometry/mesh/atomic_write.h"
+#include "kernels/error.h"
+
+namespace vfit {
+namespace {
+
+constexpr double DEG = std::numbers::pi / 180.0;
+
+// Rotation that lowers a rest-pose arm by `degrees` below horizontal (left arm: about −Z).
+void lower_arms(Pose& p, double degrees, RestPose rest) {
+  const double already = rest == RestPose::APOSE ? 45.0 : 0.0;
+  const double a = (degrees - already) * DEG;
+  p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) << 0, 0, -a;
+  p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) << 0, 0, a;
+}
+
+} // namespace
+
+std::vector<std::string> named_pose_names() {
+  return {"rest", "tpose", "apose", "arms_down", "arms_raised", "elbows_bent", "walking", "knee_bent", "legs_apart", "demo", "contrapposto"};
+}
+
+Pose named_pose(std::string_view name, RestPose rest) {
+  Pose p;
+  if (name == "rest") return p;
+  if (name == "tpose") {
+    lower_arms(p, 0, rest);
+  } else if (name == "apose") {
+    lower_arms(p, 45, rest);
+  } else if (name == "arms_down") {
+    lower_arms(p, 75, rest);
+  } else if (name == "arms_raised") {
+    lower_arms(p, -35, rest);
+  } else if (name == "elbows_bent") {
+    lower_arms(p, 70, rest);
+    p.axis_angle.row(idx(Joint::LEFT_ELBOW)) << 0, -80 * DEG, 0; // forearms forward
+    p.axis_angle.row(idx(Joint::RIGHT_ELBOW)) << 0, 80 * DEG, 0;
+  } else if (name == "walking") {
+    lower_arms(p, 72, rest);
+    p.axis_angle.row(idx(Joint::LEFT_HIP)) << -25 * DEG, 0, 0; // left leg forward (+Z)
+    p.axis_angle.row(idx(Joint::RIGHT_HIP)) << 15 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::RIGHT_KNEE)) << 30 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) += Eigen::RowVector3d(15 * DEG, 0, 0);
+    p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) += Eigen::RowVector3d(-15 * DEG, 0, 0);
+  } else if (name == "knee_bent") {
+    p.axis_angle.row(idx(Joint::LEFT_HIP)) << -35 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::LEFT_KNEE)) << 60 * DEG, 0, 0;
+  } else if (name == "legs_apart") {
+    lower_arms(p, 70, rest);
+    p.axis_angle.row(idx(Joint::LEFT_HIP)) << 0, 0, 15 * DEG;
+    p.axis_angle.row(idx(Joint::RIGHT_HIP)) << 0, 0, -15 * DEG;
+  } else if (name == "demo") {
+    lower_arms(p, 72, rest);
+    p.axis_angle.row(idx(Joint::LEFT_HIP)) << -30 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::LEFT_KNEE)) << 50 * DEG, 0, 0;
+  } else if (name == "contrapposto") {
+    lower_arms(p, 70, rest);
+    p.axis_angle.row(idx(Joint::PELVIS)) << 0, 10 * DEG, 0;
+    p.axis_angle.row(idx(Joint::SPINE2)) << 0, -8 * DEG, 4 * DEG;
+    p.axis_angle.row(idx(Joint::RIGHT_KNEE)) << 15 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::LEFT_ELBOW)) << 0, -30 * DEG, 0;
+  } else {
+    std::string all;
+    for (const auto& n : named_pose_names()) all += (all.empty() ? "" : ", ") + n;
+    throw Error("--pose", 0, "unknown pose '" + std::string(name) + "' (expected a JSON file or one of " + all + ")");
+  }
+  return p;
+}
+
+Pose read_pose_json(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_file_bytes(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(file, 0, std::string("invalid JSON: ") + e.what());
+  }
+  if (!j.is_object()) throw Error(file, 0, "expected a JSON object of joint names");
+  auto vec3 = [&](const std::string& key, const nlohmann::json& v) {
+    if (!v.is_array() || v.size() != 3) throw Error(file, 0, "'" + key + "': expected [x, y, z]");
+    Eigen::Vector3d r;
+    for (int k = 0; k < 3; ++k) {
+      if (!v[k].is_number() || !std::isfinite(v[k].get<double>())) throw Error(file, 0, "'" + key + "': not a finite number");
+      r[k] = v[k].get<double>();
+    }
+    return r;
+  };
+  Pose p;
+  for (const auto& [key, value] : j.items()) {
+    if (key == "translation") {
+      p.translation = vec3(key, value);
+    } else if (key == "pose") {
+      if (!value.is_array() || value.size() != 3 * JOINT_COUNT) throw Error(file, 0, "'pose': expected 72 numbers");
+      for (int k = 0; k < 3 * JOINT_COUNT; ++k) {
+        if (!value[k].is_number() || !std::isfinite(value[k].get<double>())) throw Error(file, 0, "'pose': not a finite number at " + std::to_string(k));
+        p.axis_angle(k / 3, k % 3) = value[k].get<double>();
+      }
+    } else {
+      const auto joint = key == "global_orient" ? std::optional<int>(0) : joint_from_name(key);
+      if (!joint) throw Error(file, 0, "unknown joint '" + key + "' (expected SMPL joint names such as left_elbow)");
+      const Eigen::Vector3d r = vec3(key, value);
+      if (r.norm() > 2 * std::numbers::pi) throw Error(file, 0, "'" + key + "': rotation angle above 2π (radians expected)");
+      p.axis_angle.row(*joint) = r.transpose();
+    }
+  }
+  return p;
+}
+
+std::string pose_json(const Pose& pose) {
+  nlohmann::ordered_json j;
+  for (int k = 0; k < JOINT_COUNT; ++k)
+    if (!pose.axis_angle.row(k).isZero(0.0))
+      j[k == 0 ? std::string("global_orient") : std::string(joint_name(k))] = {pose.axis_angle(k, 0), pose.axis_angle(k, 1), pose.axis_angle(k, 2)};
+  j["translation"] = {pose.translation.x(), pose.translation.y(), pose.translation.z()};
+  return j.dump(2) + "\n";
+}
+
+} // namespace vfit

@@ -1,0 +1,31 @@
+#pragma once
+/// \file
+/// Poses by name and from JSON files.
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "body.h"
+
+namespace vfit {
+
+/// Built-in poses, expressed for a body whose rest pose is `rest` (TPOSE or APOSE; OTHER is
+/// treated as TPOSE): "rest", "tpose", "apose", "arms_down", "arms_raised", "elbows_bent",
+/// "walking", "knee_bent" (the left knee, 60°), "legs_apart", "demo" (arms down, left knee
+/// bent), "contrapposto". Throws vfit::Error for an unknown name.
+Pose named_pose(std::string_view name, RestPose rest);
+std::vector<std::string> named_pose_names();
+
+/// Reads a pose JSON: {"<canonical joint name>": [x, y, z] (axis-angle, radians), ...,
+/// "global_orient": [x, y, z], "translation": [x, y, z] (m)} — joints not named stay at rest —
+/// or {"pose": [72 numbers], "translation": [...]}. Throws vfit::Error naming the file and the
+/// key for invalid JSON, an unknown joint name, a value that is not 3 finite numbers, or an
+/// angle above 2π.
+Pose read_pose_json(const std::filesystem::path& path);
+
+/// The JSON text of a pose in the first form above (non-zero joints only).
+std::string pose_json(const Pose& pose);
+
+} // namespace vfit
