@@ -12,6 +12,9 @@
 
 #include "commands.h"
 #include "engine/engine.h"
+#include "geometry/body/mannequin.h"
+#include "geometry/body/pose_io.h"
+#include "geometry/garment/catalogue.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/primitives.h"
@@ -61,7 +64,36 @@ int run_demo(Args& args) {
   };
 
   std::vector<Item> items;
-  // Built-in meshes: a head-sized sphere (closed), a sleeve-like tube (two openings), a cloth grid.
+  // The built-in mannequin (average adult, A-pose), the catalogue tee and trousers built for it,
+  // and the same body posed (arms down, left knee bent) by its skeleton, placed 1 m to its left.
+  const auto tb = std::chrono::steady_clock::now();
+  MannequinOptions mo;
+  const Body body = make_mannequin(mo);
+  const double body_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tb).count();
+  GarmentOptions go;
+  go.pose = RestPose::APOSE;
+  go.type = GarmentType::TEE;
+  const Garment tee = make_garment(go);
+  go.type = GarmentType::TROUSERS;
+  go.size = "P2";
+  const Garment trousers = make_garment(go);
+  Body posed = pose_body(body, named_pose("demo", body.rest_pose));
+  for (std::size_t v = 0; v < posed.mesh.vertex_count(); ++v) posed.mesh.positions[3 * v] += 1.0f;
+  {
+    const MeasuredBody m = measure_body(body.mesh, body.joints);
+    say("mannequin: " + std::to_string(body.mesh.vertex_count()) + " vertices, built in " + std::to_string(int(body_ms)) +
+        " ms; requested vs measured:\n");
+    for (std::string_view n : BodyMeasurements::names()) {
+      char line[128];
+      std::snprintf(line, sizeof line, "  %-15s %7.4f m  %7.4f m\n", std::string(n).c_str(), mo.measurements[n], m.values[n]);
+      say(line);
+    }
+  }
+  items.push_back({"mannequin", body.mesh, {}});
+  items.push_back({"tee_M", tee.mesh, {}});
+  items.push_back({"trousers_P2", trousers.mesh, {}});
+  items.push_back({"mannequin_posed_demo", posed.mesh, {}});
+  // Procedural test meshes: a sphere (closed), a sleeve-like tube (two openings), a cloth grid.
   items.push_back({"builtin_sphere", make_uv_sphere(96, 128, 0.11f), {}});
   items.push_back({"builtin_sleeve_tube", make_tube(60, 48, 0.06f, 0.55f), {}});
   items.push_back({"builtin_cloth_grid", make_grid(80, 80, 1.0f, 1.0f), {}});
@@ -85,7 +117,8 @@ int run_demo(Args& args) {
     say("reading " + std::to_string(files.size()) + " corpus meshes from " + corpus->string() + "\n");
     for (const auto& f : files) {
       MeshSummary s = summarise_mesh(f, {}, std::nullopt);
-      Item it{f.stem().string(), std::move(s.parsed.mesh), summary_json(s)};
+      nlohmann::json summary = summary_json(s); // before the mesh moves out of `s`
+      Item it{f.stem().string(), std::move(s.parsed.mesh), std::move(summary)};
       scale_positions(it.mesh.positions, metres_per_unit(s.units));
       items.push_back(std::move(it));
       ++corpus_files;
@@ -134,7 +167,7 @@ int run_demo(Args& args) {
   std::filesystem::create_directories(out_dir);
   std::vector<NamedMesh> named;
   for (const Item& it : items)
-    if (corpus_files == 0 || it.name.rfind("builtin_", 0) != 0) named.push_back({it.name, &it.mesh});
+    if (it.name.rfind("builtin_", 0) != 0) named.push_back({it.name, &it.mesh});
   const auto glb = out_dir / "demo.glb";
   write_meshes_glb(glb, named);
   nlohmann::json report;

@@ -56,11 +56,13 @@ cpu, or a substring of its name) or the environment variable VFIT_OPENCL_DEVICE.
 
 constexpr const char* DEMO_HELP = R"(usage: vfit demo [--out DIR] [--corpus DIR] [--device SEL] [--quiet]
 
-The built-in demonstration. Builds vfit's procedural meshes and, when the shared corpus is
-present (--corpus, $VFIT_CORPUS, or ../shared/corpus), reads and validates its MakeHuman body and
-garments (detecting their units), prints a summary table, computes vertex normals on the serial,
-TBB and OpenCL backends and compares them, and writes DIR/demo.glb (all meshes in metres) and
-DIR/demo.json. DIR defaults to ./vfit_demo. It grows into the full fitting demo as stages land.
+The built-in demonstration. Builds the parametric mannequin (and measures it back), a catalogue
+tee and trousers made for it, and the mannequin posed by its skeleton (arms down, left knee bent);
+when the shared corpus is present (--corpus, $VFIT_CORPUS, or ../shared/corpus) it reads and
+validates its MakeHuman body and garments (detecting their units); prints a summary table,
+computes vertex normals on the serial, TBB and OpenCL backends and compares them, and writes
+DIR/demo.glb (all meshes in metres, one named mesh each) and DIR/demo.json. DIR defaults to
+./vfit_demo. It grows into the full fitting demo as the fitting stages land.
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]

@@ -29,7 +29,8 @@ constexpr double BALL_HEIGHT = 0.011;            // hm08 0.004, mannequins 0.018
 constexpr double BALL_FRACTION = 0.62;           // ankle → toe tip: hm08 0.63, mannequins 0.60
 constexpr double ARMPIT_JUMP = 0.012;            // a section this much wider than all below has met an arm
 constexpr double SHOULDER_ABOVE_ARMPIT = 0.585;  // of armpit → top of the shoulders (first guess)
-constexpr double SHOULDER_OUTSIDE_TORSO = 0.005; // beyond the torso's side under the armpit
+constexpr double TORSO_SIDE_BELOW_ARMPIT = 0.006; // the torso's side is measured this far under the armpit
+constexpr double SHOULDER_OUTSIDE_TORSO = 0.005; // and the shoulder joint lies this far beyond it
 constexpr double NECK_ABOVE_SHOULDERS = 0.002;   // above the top of the shoulders: hm08 +0.010, mannequins −0.005
 constexpr double HEAD_BELOW_TOP = 0.57;          // of the head and neck's height above the shoulders
 constexpr double COLLAR_BELOW_SHOULDER = 0.0075, COLLAR_X = 0.021;
@@ -218,19 +219,19 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
   while (shoulder_level > seed && width(shoulder_level) <= 2 * width(neck_level)) --shoulder_level;
   const double shoulder_top = s.y(shoulder_level) + s.step / 2;
 
-  // Armpits: going up from the waist, where the torso's section suddenly widens on that side.
+  // Armpits: going up from the waist, where the torso's section widens on that side by more
+  // than ARMPIT_JUMP within as much height (a T-pose's arms blend in over a centimetre or two).
+  const int lag = std::max(1, int(std::ceil(ARMPIT_JUMP * H / s.step)));
   for (int side : {1, -1}) {
     const std::string which = side > 0 ? "left" : "right";
-    double widest = 0;
+    auto side_width = [&](int i) { return half_width(*loop_at(s, torso, i), mid_x, side); };
     int armpit = -1;
-    for (int i = seed; i <= shoulder_level && armpit < 0; ++i) {
-      const double w = half_width(*loop_at(s, torso, i), mid_x, side);
-      if (i > seed && w > widest + ARMPIT_JUMP * H) armpit = i;
-      else widest = std::max(widest, w);
-    }
+    for (int i = seed + lag; i <= shoulder_level && armpit < 0; ++i)
+      if (side_width(i) > side_width(i - lag) + ARMPIT_JUMP * H) armpit = i;
     if (armpit < 0 || s.y(armpit) < shoulder_top - 0.15 * H)
       throw Error(source, 0, "the " + which + " arm does not stand away from the torso below the shoulder (expected an A- or T-pose)");
     const double armpit_y = s.y(armpit) - s.step / 2;
+    const double torso_side = side_width(std::max(seed, s.index(armpit_y - TORSO_SIDE_BELOW_ARMPIT * H)));
     ArmSearch search;
     search.side = side;
     search.floor = s.floor;
@@ -238,7 +239,7 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
     search.mid_x = mid_x;
     search.source = source;
     const double guess_y = armpit_y + SHOULDER_ABOVE_ARMPIT * (shoulder_top - armpit_y);
-    search.shoulder_guess = {mid_x + side * (widest + SHOULDER_OUTSIDE_TORSO * H), guess_y, torso_centroid(guess_y).z()};
+    search.shoulder_guess = {mid_x + side * (torso_side + SHOULDER_OUTSIDE_TORSO * H), guess_y, torso_centroid(guess_y).z()};
     const ArmJoints arm = estimate_arm(mesh, search);
     const bool left = side > 0;
     set(left ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER, arm.shoulder, 0.9);
