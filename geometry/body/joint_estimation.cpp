@@ -262,6 +262,9 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
         front = std::max(front, p.z());
       }
     if (!std::isfinite(back)) back = front = chest.centroid.z();
+#ifdef VFIT_DEBUG_JOINTS
+    fprintf(stderr, "collar y %.3f back %.4f front %.4f centroid %.4f shoulder_top %.3f neck_z %.4f\n", cy - s.floor, back, front, chest.centroid.z(), shoulder_top - s.floor, torso_centroid(shoulder_top).z());
+#endif
     set(left ? Joint::LEFT_COLLAR : Joint::RIGHT_COLLAR, {mid_x + side * COLLAR_X * H, cy, back + COLLAR_DEPTH * (front - back)}, 0.6);
   }
 

@@ -1,4 +1,6 @@
 #include "geometry/garment/catalogue.h"
+#include "geometry/garment/table1.h"
+#include "geometry/body/pose_io.h"
 
 #include <map>
 
@@ -131,6 +133,33 @@ TEST(CatalogueSizes, TrouserSizesGrowFromP1ToP4AndP4IsWiderThanTheHips) {
   GarmentOptions o;
   o.target_vertices = 500;
   EXPECT_THROW(make_garment(o), Error);
+}
+
+} // namespace
+} // namespace vfit
+
+namespace vfit {
+namespace {
+
+TEST(Table1Twins, NineRowsWithThePapersCountsAndKnownPoses) {
+  const auto& rows = table1_rows();
+  ASSERT_EQ(rows.size(), 9u);
+  double total = 0;
+  for (const auto& r : rows) {
+    EXPECT_NO_THROW(named_pose(r.body_pose, RestPose::APOSE)) << r.garment;
+    // The paper's totals include small unlisted steps (coarse move): a few ms above the columns.
+    const double columns = r.paper_segmentation_ms + r.paper_deformation_ms + r.paper_penetration_ms;
+    EXPECT_GE(r.paper_total_ms, columns) << r.garment;
+    EXPECT_LE(r.paper_total_ms, columns + 20) << r.garment;
+    EXPECT_NO_THROW(size_ease(r.size));
+    total += r.paper_total_ms;
+  }
+  EXPECT_EQ(rows[4].size, "P1");
+  EXPECT_EQ(rows[6].size, "P3");
+  EXPECT_NEAR(total, 72830, 1.0); // the sum of the paper's Total column
+  // One twin generated: the paper's vertex count exactly.
+  const Garment g = make_garment(table1_garment_options(rows[7]));
+  EXPECT_EQ(g.mesh.vertex_count(), 3062u);
 }
 
 } // namespace
