@@ -33,10 +33,11 @@ constexpr double TORSO_SIDE_BELOW_ARMPIT = 0.006; // the torso's side is measure
 constexpr double SHOULDER_OUTSIDE_TORSO = 0.005; // and the shoulder joint lies this far beyond it
 constexpr double NECK_ABOVE_SHOULDERS = 0.002;   // above the top of the shoulders: hm08 +0.010, mannequins −0.005
 constexpr double HEAD_BELOW_TOP = 0.57;          // of the head and neck's height above the shoulders
-constexpr double COLLAR_BELOW_SHOULDER = 0.0075, COLLAR_X = 0.021;
-// Depth of the collar joints, back → front of the chest: the sternal end of the clavicle (hm08
-// 0.80) and SMPL-like mid-depth (mannequins 0.53) disagree; this is within 3 cm of both.
-constexpr double COLLAR_DEPTH = 0.66;
+// Collar joints: below the top of the shoulders (hm08 0.032, mannequins 0.039), beside the
+// mid-plane (hm08 0.016, mannequins 0.026) and in front of the upper back (hm08 0.073,
+// mannequins 0.054–0.067). hm08 puts them at the sternal end of the clavicle, SMPL-like rigs
+// (our mannequins) further out and deeper; these values lie within 2 cm of both.
+constexpr double COLLAR_BELOW_SHOULDERS = 0.0355, COLLAR_X = 0.021, COLLAR_DEPTH = 0.0636;
 // SMPL's spine joints, as fractions of pelvis → neck (the mannequins: 0.20, 0.42, 0.63).
 constexpr double SPINE_FRACTIONS[3] = {0.20, 0.42, 0.63};
 
@@ -252,20 +253,15 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
       est.pose = RestPose::OTHER;
       est.warnings.push_back("the arms are in different poses (one T-pose, one A-pose)");
     }
-    // Collar: the sternal end of the clavicle, a little below the shoulder joint.
-    const double cy = arm.shoulder.y() - COLLAR_BELOW_SHOULDER * H;
+    // Collar: near the sternal end of the clavicle, at a depth measured from the upper back
+    // (bony there: chest fat does not move it) on a strip along the mid-sagittal plane.
+    const double cy = shoulder_top - COLLAR_BELOW_SHOULDERS * H;
     const PlaneSection& chest = *loop_at(s, torso, s.index(cy));
-    double back = INFINITY, front = -INFINITY;
+    double back = INFINITY;
     for (const auto& p : chest.points)
-      if (std::abs(p.x() - mid_x) < 0.03 * H) {
-        back = std::min(back, p.z());
-        front = std::max(front, p.z());
-      }
-    if (!std::isfinite(back)) back = front = chest.centroid.z();
-#ifdef VFIT_DEBUG_JOINTS
-    fprintf(stderr, "collar y %.3f back %.4f front %.4f centroid %.4f shoulder_top %.3f neck_z %.4f\n", cy - s.floor, back, front, chest.centroid.z(), shoulder_top - s.floor, torso_centroid(shoulder_top).z());
-#endif
-    set(left ? Joint::LEFT_COLLAR : Joint::RIGHT_COLLAR, {mid_x + side * COLLAR_X * H, cy, back + COLLAR_DEPTH * (front - back)}, 0.6);
+      if (std::abs(p.x() - mid_x) < 0.03 * H) back = std::min(back, p.z());
+    if (!std::isfinite(back)) back = chest.centroid.z() - COLLAR_DEPTH * H;
+    set(left ? Joint::LEFT_COLLAR : Joint::RIGHT_COLLAR, {mid_x + side * COLLAR_X * H, cy, back + COLLAR_DEPTH * H}, 0.6);
   }
 
   // Legs' joints.

@@ -149,6 +149,10 @@ TEST(Table1Twins, NineRowsWithThePapersCountsAndKnownPoses) {
     EXPECT_NO_THROW(named_pose(r.body_pose, RestPose::APOSE)) << r.garment;
     // The paper's totals include small unlisted steps (coarse move): a few ms above the columns.
     const double columns = r.paper_segmentation_ms + r.paper_deformation_ms + r.paper_penetration_ms;
+    if (r.garment == "Pant 2") { // the paper prints a total below its own columns (6593 ms): kept as printed
+      EXPECT_LT(r.paper_total_ms, columns);
+      continue;
+    }
     EXPECT_GE(r.paper_total_ms, columns) << r.garment;
     EXPECT_LE(r.paper_total_ms, columns + 20) << r.garment;
     EXPECT_NO_THROW(size_ease(r.size));
