@@ -39,7 +39,7 @@ void BM_read_bytes(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(vfit::read_file_bytes(f.file));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
-BENCHMARK(BM_read_bytes)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_read_bytes)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_parse_obj(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
@@ -49,21 +49,21 @@ void BM_parse_obj(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * std::int64_t(f.mesh.vertex_count()));
   state.counters["threads"] = double(state.range(1));
 }
-BENCHMARK(BM_parse_obj)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_parse_obj)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_read_mesh_obj(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
   for (auto _ : state) benchmark::DoNotOptimize(vfit::read_mesh(f.file));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
-BENCHMARK(BM_read_mesh_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_read_mesh_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_write_obj(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
   for (auto _ : state) benchmark::DoNotOptimize(vfit::write_obj(f.mesh));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
-BENCHMARK(BM_write_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_write_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace
 
