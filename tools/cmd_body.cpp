@@ -50,6 +50,8 @@ int run_body(Args& args) {
   const auto out = args.value("out");
   const auto joints_out = args.value("joints");
   const auto pose_arg = args.value("pose");
+  const auto rigged = args.value("rigged");
+  if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB) throw Error(*rigged, 0, "--rigged writes a .glb file");
   args.positionals(0, 0);
   const auto t0 = std::chrono::steady_clock::now();
   const Body rest = make_mannequin(options);
@@ -62,6 +64,11 @@ int run_body(Args& args) {
   const Body body = pose_body(rest, pose);
   if (out) write_mesh(*out, body.mesh, "body");
   if (joints_out) write_file_atomically(*joints_out, joints_json(body.joints));
+  if (rigged) {
+    const MeshSkin skin = body_skin(rest);
+    const NamedMesh named{"body", &rest.mesh, &skin};
+    write_meshes_glb(*rigged, std::span<const NamedMesh>(&named, 1));
+  }
   if (!quiet) {
     const MeasuredBody got = measure_body(rest.mesh, rest.joints);
     std::printf("mannequin: %zu vertices, %zu faces, built in %.0f ms\n", body.mesh.vertex_count(), body.mesh.face_count(), ms);

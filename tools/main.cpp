@@ -66,7 +66,8 @@ DIR/demo.glb (all meshes in metres, one named mesh each) and DIR/demo.json. DIR 
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
-                 [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json] [--quiet]
+                 [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
+                 [--rigged FILE.glb] [--quiet]
 
 Builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
 --height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,
@@ -80,6 +81,8 @@ compares requested and measured values.
                   walking, knee_bent, legs_apart, demo, contrapposto, tpose, apose
   --out FILE      the body mesh (.obj, .ply, .glb, ...)
   --joints FILE   the 24 canonical joints (posed) as {"joints": {"pelvis": [x, y, z], ...}}
+  --rigged FILE   the rigged rest-pose body as glTF binary (.glb): 24 joint nodes with SMPL
+                  names, a skin with inverse bind matrices, JOINTS_0/WEIGHTS_0
 )";
 
 constexpr const char* GARMENT_HELP = R"(usage: vfit garment TYPE --out FILE [--size S] [--vertices N] [--pose tpose|apose]

@@ -136,10 +136,6 @@ ArmJoints estimate_arm(const Mesh& mesh, const ArmSearch& search) {
     throw Error(search.source, 0, "the " + which + " arm could not be followed from the hand to the shoulder (it touches the body?)");
 
   ArmJoints arm;
-#ifdef VFIT_DEBUG_JOINTS
-  fprintf(stderr, "arm %d tip %.3f %.3f %.3f guess %.3f %.3f %.3f\n", side, tip.x(), tip.y(), tip.z(), search.shoulder_guess.x(), search.shoulder_guess.y(), search.shoulder_guess.z());
-  for (const auto& a : samples) fprintf(stderr, "  t %.3f A %.5f D %.3f c %.3f %.3f %.3f\n", s_tip - a.s, a.area, a.diameter, a.centroid.x(), a.centroid.y(), a.centroid.z());
-#endif
   double t_narrow = narrowest_before_hand(samples, s_tip, H);
   if (std::isnan(t_narrow)) {
     arm.wrist_found = false;

@@ -2,6 +2,18 @@
 
 namespace vfit {
 
+MeshSkin body_skin(const Body& body) {
+  MeshSkin s;
+  for (int j = 0; j < JOINT_COUNT; ++j) {
+    s.joint_names.emplace_back(joint_name(j));
+    s.joint_parents.push_back(joint_parent(j));
+    for (int k = 0; k < 3; ++k) s.joint_positions.push_back(static_cast<float>(body.joints(j, k)));
+  }
+  s.joints = body.weights.joints;
+  s.weights = body.weights.weights;
+  return s;
+}
+
 Body pose_body(const Body& body, const Pose& pose) {
   Body out = body;
   if (pose.is_rest()) return out;

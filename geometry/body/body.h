@@ -22,6 +22,10 @@ struct Body {
   std::string source; ///< where it came from: "mannequin", a file path, ...
 };
 
+/// The body's skeleton and weights as a generic mesh skin (canonical joint names and parents,
+/// rest joints as the bind pose), for writing a rigged glTF.
+MeshSkin body_skin(const Body& body);
+
 /// The body's mesh and joints in `pose` (LBS with its weights). Returns a copy.
 Body pose_body(const Body& body, const Pose& pose);
 

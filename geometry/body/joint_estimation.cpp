@@ -17,8 +17,9 @@ namespace {
 // petite; A- and T-pose); the two values are given where they differ.
 constexpr int LEVELS = 500;                      // horizontal sections: 3.4 mm apart at 1.7 m
 constexpr std::size_t MIN_VERTICES = 300;
-constexpr double MIN_HEIGHT = 0.5, MAX_HEIGHT = 3.0; // m: outside, the mesh is not in metres
+constexpr double MIN_EXTENT = 0.5, MAX_EXTENT = 3.0; // m: a largest extent outside is not in metres
 constexpr double TORSO_SEED = 0.62;              // the largest section here is the torso's
+constexpr double TRACK_AREA_RATIO = 0.3;         // a part's area changes far less from level to level
 constexpr double LEG_AREA = 0.1;                 // a thigh's section: at least this part of the torso's
 constexpr double HIP_ABOVE_CROTCH = 0.0535;      // hm08 0.057, mannequins 0.050
 constexpr double PELVIS_ABOVE_HIPS = 0.013;      // hm08 0.014, mannequins 0.012
@@ -48,34 +49,39 @@ struct Slices {
   int index(double y) const { return std::clamp(int(std::lround((y - floor) / step - 0.5)), 0, int(levels.size()) - 1); }
 };
 
-// The largest loop containing q (in the sections' (z, x) coordinates), or −1.
-int containing(const std::vector<PlaneSection>& loops, const Eigen::Vector2d& q) {
+// The largest loop of at least `min_area` (m²) containing q (in the sections' (z, x)
+// coordinates), or −1.
+int containing(const std::vector<PlaneSection>& loops, const Eigen::Vector2d& q, double min_area = 0) {
   int best = -1;
   for (std::size_t j = 0; j < loops.size(); ++j)
-    if (loops[j].contains(q) && (best < 0 || loops[j].area > loops[std::size_t(best)].area)) best = int(j);
+    if (loops[j].area >= min_area && loops[j].contains(q) && (best < 0 || loops[j].area > loops[std::size_t(best)].area))
+      best = int(j);
   return best;
 }
 
 // Follows a body part from loop `first` of level `start` through the levels in direction `dir`
 // (+1 up, −1 down): each level's loop is the one containing the previous centroid or, failing
 // that (a notch such as an open mouth), the loop whose centroid lies closest within `nearest`
-// (m). Stops before a level where `stop(level)` holds. Returns the loop index per level, −1
-// outside the part.
+// (m). Loops of less than TRACK_AREA_RATIO times the previous area are passed over (specks from
+// folded or noisy triangles). Stops before a level where `stop(level)` holds. Returns the loop
+// index per level, −1 outside the part.
 template <typename Stop>
 std::vector<int> follow(const Slices& s, int start, int first, int dir, double nearest, const Stop& stop) {
   std::vector<int> track(s.levels.size(), -1);
   track[std::size_t(start)] = first;
-  Eigen::Vector2d q = s.levels[std::size_t(start)][std::size_t(first)].centroid_uv;
+  const PlaneSection* prev = &s.levels[std::size_t(start)][std::size_t(first)];
   for (int i = start + dir; i >= 0 && i < int(s.levels.size()) && !stop(i); i += dir) {
     const auto& loops = s.levels[std::size_t(i)];
-    int j = containing(loops, q);
+    const Eigen::Vector2d q = prev->centroid_uv;
+    const double min_area = TRACK_AREA_RATIO * prev->area;
+    int j = containing(loops, q, min_area);
     for (std::size_t k = 0; j < 0 && k < loops.size(); ++k)
-      if ((loops[k].centroid_uv - q).norm() < nearest &&
+      if (loops[k].area >= min_area && (loops[k].centroid_uv - q).norm() < nearest &&
           (j < 0 || (loops[k].centroid_uv - q).norm() < (loops[std::size_t(j)].centroid_uv - q).norm()))
         j = int(k);
     if (j < 0) break;
     track[std::size_t(i)] = j;
-    q = loops[std::size_t(j)].centroid_uv;
+    prev = &loops[std::size_t(j)];
   }
   return track;
 }
@@ -131,8 +137,8 @@ void check_shape(const Mesh& mesh, const std::string& source, Slices& s) {
   std::ostringstream size;
   size.precision(3);
   size << ext.x() << " m wide, " << ext.y() << " m tall and " << ext.z() << " m deep";
-  if (ext.y() < MIN_HEIGHT || ext.y() > MAX_HEIGHT)
-    throw Error(source, 0, "the mesh is " + size.str() + ": not a body in metres (expected 0.5–3 m tall, Y up)");
+  if (ext.maxCoeff() < MIN_EXTENT || ext.maxCoeff() > MAX_EXTENT)
+    throw Error(source, 0, "the mesh is " + size.str() + ": not a body in metres (expected 0.5–3 m tall)");
   // Upright: far taller than deep, and as tall as a T-pose's arm span at least.
   if (ext.y() < 2 * ext.z() || ext.y() < 0.75 * ext.x())
     throw Error(source, 0, "the mesh is " + size.str() + ": not an upright body (Y up, facing +Z)");
@@ -184,9 +190,6 @@ JointEstimate estimate_joints_named(const Mesh& mesh, const std::string& source)
   while (bottom > 0 && torso[std::size_t(bottom - 1)] >= 0) --bottom;
   while (crown + 1 < LEVELS && torso[std::size_t(crown + 1)] >= 0) ++crown;
   const double crotch = s.y(bottom) - s.step / 2;
-#ifdef VFIT_DEBUG_JOINTS
-  fprintf(stderr, "bottom %d crown %d (%.3f) seed %d\n", bottom, crown, s.y(crown) - s.floor, seed);
-#endif
   if (bottom == 0 || !legs_apart(bottom - 1) || crotch < s.floor + 0.3 * H)
     throw Error(source, 0, "no crotch found: the torso does not split into two legs (legs apart, standing upright?)");
   if (s.y(crown) < s.top - 0.03 * H)

@@ -42,11 +42,13 @@ struct JointEstimate {
 /// above the shoulders.
 JointEstimate estimate_joints(const Mesh& body_in_metres);
 
-/// Skin weights of `body` for `joints` (canonical, m): per vertex a weight for each bone by its
-/// distance to the vertex (bones: joint → child joint, the end joints extended), restricted
-/// to the nearest bone's skeletal neighbourhood so that distant limbs never share, smoothed
-/// over the mesh's edges, then the 4 largest kept and renormalised (SkinWeights::from_dense).
-/// Each row sums to 1; neighbouring vertices' weights differ little. Throws vfit::Error for an
+/// Skin weights of `body` (a mesh in metres) for `joints` (canonical, m). Each joint owns the
+/// bones from it to its children (the end joints, head, feet and hands, a bone continuing
+/// their parent's); a vertex's weight for a bone falls off as 1/d⁶ with its distance d and is
+/// zero for bones more than twice as far as the nearest (so a hand near a thigh never shares
+/// it); the weights are then averaged over the mesh's edges for about 2 cm (1.2 % of the
+/// skeleton's height) and the 4 largest kept and renormalised (SkinWeights::from_dense). Each
+/// row sums to 1; neighbouring vertices' weights differ little. Throws vfit::Error for an
 /// empty mesh.
 SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints);
 

@@ -1,6 +1,8 @@
 #include "plane_sections.h"
 
 #include <algorithm>
+#include <array>
+#include <functional>
 #include <cassert>
 #include <cmath>
 #include <unordered_map>
@@ -11,6 +13,14 @@ namespace {
 // Extent directions for the diameter: the largest width over 16 directions is within
 // 1 − cos(π/32) ≈ 0.5 % of the true diameter.
 constexpr int DIAMETER_DIRECTIONS = 16;
+
+struct PositionHash {
+  std::size_t operator()(const std::array<float, 3>& p) const {
+    std::size_t h = 0;
+    for (float c : p) h = h * 0x9E3779B97F4A7C15ull + std::hash<float>{}(c);
+    return h;
+  }
+};
 
 void summarise(PlaneSection& s, const PlaneSlicer& slicer) {
   const std::size_t n = s.points.size();
@@ -75,6 +85,15 @@ PlaneSlicer::PlaneSlicer(const Mesh& mesh, const Eigen::Vector3d& direction) : m
     m_max = std::max(m_max, m_level[i]);
   }
   if (nv == 0) m_min = m_max = 0;
+  // Corners at the same position share one index, so that an unwelded mesh (a triangle soup,
+  // UV seams split into vertices) still cuts into closed loops.
+  m_weld.resize(nv);
+  std::unordered_map<std::array<float, 3>, std::int32_t, PositionHash> first;
+  first.reserve(nv);
+  for (std::size_t i = 0; i < nv; ++i) {
+    const std::array<float, 3> key{mesh.positions[3 * i] + 0.0f, mesh.positions[3 * i + 1] + 0.0f, mesh.positions[3 * i + 2] + 0.0f};
+    m_weld[i] = first.try_emplace(key, std::int32_t(i)).first->second;
+  }
   // About 8 faces per bucket on average: a plane then visits a few hundred faces, not all.
   const std::size_t buckets = std::clamp<std::size_t>(nf / 8, 1, 1 << 16);
   m_bucket = std::max((m_max - m_min) / double(buckets), 1e-12);
@@ -136,7 +155,8 @@ std::vector<PlaneSection> PlaneSlicer::sections(double level) const {
   };
   for (std::int32_t i = m_bucket_start[b]; i < m_bucket_start[b + 1]; ++i) {
     const std::size_t f = std::size_t(m_bucket_faces[std::size_t(i)]);
-    const std::int32_t* v = &m_mesh.triangles[3 * f];
+    const std::int32_t v[3] = {m_weld[std::size_t(m_mesh.triangles[3 * f])], m_weld[std::size_t(m_mesh.triangles[3 * f + 1])],
+                               m_weld[std::size_t(m_mesh.triangles[3 * f + 2])]};
     std::size_t ends[2];
     int n = 0;
     for (int k = 0; k < 3; ++k) {

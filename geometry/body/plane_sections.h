@@ -57,7 +57,8 @@ public:
 private:
   const Mesh& m_mesh;
   Eigen::Vector3d m_d, m_u, m_v;
-  std::vector<double> m_level; ///< p · d per vertex
+  std::vector<double> m_level;        ///< p · d per vertex
+  std::vector<std::int32_t> m_weld;  ///< per vertex, the first vertex at the same position
   double m_min = 0, m_max = 0, m_bucket = 1;
   std::vector<std::int32_t> m_bucket_start, m_bucket_faces; ///< CSR: faces overlapping each bucket
 };

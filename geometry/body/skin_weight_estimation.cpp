@@ -1,5 +1,5 @@
-// estimate_skin_weights() (declared in joint_estimation.h): bone-distance weights restricted to
-// the nearest bone's neighbourhood, smoothed over the mesh, 4 largest kept.
+// estimate_skin_weights() (declared in joint_estimation.h): inverse-distance weights to the
+// bones near a vertex, smoothed over the mesh, the 4 largest kept.
 
 #include <algorithm>
 #include <cmath>
@@ -11,8 +11,13 @@
 namespace vfit {
 namespace {
 
-constexpr int SMOOTHING_ITERATIONS = 8; // one-ring averaging passes (half self, half neighbours)
-constexpr double FALLOFF = 4;           // weight ∝ 1 / (d² + ε²)^(FALLOFF / 2)
+// One-ring averaging passes (half self, half neighbours) spread a weight over about
+// edge·√(passes / 2): enough passes to blur the transitions over SMOOTHING_LENGTH of the
+// skeleton's height, within these bounds.
+constexpr double SMOOTHING_LENGTH = 0.012;
+constexpr int MIN_SMOOTHING = 4, MAX_SMOOTHING = 40;
+constexpr double FALLOFF = 6;           // weight ∝ 1 / (d² + ε²)^(FALLOFF / 2)
+constexpr double CUTOFF_RATIO = 2;      // bones this many times farther than the nearest get nothing
 constexpr double CORE_RADIUS = 0.01;    // ε, as a fraction of the skeleton's height
 constexpr double LEAF_EXTENSION = 0.8;  // end joints' bones: this much of the parent bone again
 constexpr std::size_t GRAIN = 512;
@@ -44,8 +49,6 @@ double distance_to_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, c
   return (a + t * ab - p).norm();
 }
 
-bool related(int a, int b) { return a == b || joint_parent(a) == b || joint_parent(b) == a; }
-
 } // namespace
 
 SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints) {
@@ -63,16 +66,17 @@ SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints
         d[k] = distance_to_segment(p, bones[k].a, bones[k].b);
         if (d[k] < d[nearest]) nearest = k;
       }
-      // Only the nearest bone's joint and its skeletal neighbours share the vertex, so a hand
-      // near a thigh never takes the thigh's weight.
+      // Bones more than CUTOFF_RATIO times farther than the nearest get nothing, so that a
+      // hand near a thigh never takes the thigh's weight; the offset keeps the cut continuous.
       double* row = &w[v * JOINT_COUNT];
+      const double dn = d[nearest] * d[nearest] + eps * eps, offset = std::pow(CUTOFF_RATIO, -FALLOFF);
       double sum = 0;
-      for (std::size_t k = 0; k < bones.size(); ++k)
-        if (related(bones[k].joint, bones[nearest].joint)) {
-          const double x = std::pow(d[k] * d[k] + eps * eps, -FALLOFF / 2);
-          row[bones[k].joint] += x;
-          sum += x;
-        }
+      for (std::size_t k = 0; k < bones.size(); ++k) {
+        const double x = std::pow(dn / (d[k] * d[k] + eps * eps), FALLOFF / 2) - offset;
+        if (x <= 0) continue;
+        row[bones[k].joint] += x;
+        sum += x;
+      }
       for (int j = 0; j < JOINT_COUNT; ++j) row[j] /= sum;
     }
   });
@@ -90,8 +94,18 @@ SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints
       nbr[fill[v]++] = t[3 * f + (k + 1) % 3];
       nbr[fill[v]++] = t[3 * f + (k + 2) % 3];
     }
+  double edge_sum = 0;
+  for (std::size_t v = 0; v < nv; ++v)
+    for (std::size_t k = start[v]; k < start[v + 1]; ++k) {
+      const float* a = &body.positions[3 * v];
+      const float* b = &body.positions[3 * std::size_t(nbr[k])];
+      edge_sum += std::sqrt(double((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2])));
+    }
+  const double mean_edge = nbr.empty() ? 1.0 : edge_sum / double(nbr.size());
+  const double reach = SMOOTHING_LENGTH * (joints.col(1).maxCoeff() - joints.col(1).minCoeff()) / std::max(mean_edge, 1e-9);
+  const int passes = std::clamp(int(std::lround(2 * reach * reach)), MIN_SMOOTHING, MAX_SMOOTHING);
   std::vector<double> next(w.size());
-  for (int iter = 0; iter < SMOOTHING_ITERATIONS; ++iter) {
+  for (int iter = 0; iter < passes; ++iter) {
     parallel_for_range(nv, GRAIN, [&](std::size_t begin, std::size_t end) {
       for (std::size_t v = begin; v < end; ++v)
         for (int j = 0; j < JOINT_COUNT; ++j) {

@@ -23,6 +23,7 @@ static_assert(std::endian::native == std::endian::little, "GLB is little-endian;
 constexpr std::uint32_t GLB_MAGIC = 0x46546C67;  // "glTF"
 constexpr std::uint32_t CHUNK_JSON = 0x4E4F534A; // "JSON"
 constexpr std::uint32_t CHUNK_BIN = 0x004E4942;  // "BIN\0"
+constexpr int UNSIGNED_SHORT = 5123;
 constexpr int UNSIGNED_INT = 5125;
 constexpr int FLOAT = 5126;
 constexpr int ARRAY_BUFFER = 34962;
@@ -40,6 +41,7 @@ struct SplitMesh {
   std::vector<float> normals;   // #W × 3
   std::vector<float> uvs;       // #W × 2, or empty
   std::vector<std::uint32_t> indices;
+  std::vector<std::uint32_t> source_vertex; // #W: the input vertex each glTF vertex copies
 };
 
 void check_indices(std::span<const std::int32_t> tris, std::size_t faces, std::size_t count, const char* what,
@@ -105,6 +107,7 @@ SplitMesh split_vertices(const Mesh& mesh, const std::string& name) {
   for (std::size_t v = 0; v < tuples_at.size(); ++v) {
     for (std::uint32_t k : tuples_at[v]) {
       vertex_of_tuple[k] = static_cast<std::uint32_t>(out.positions.size() / 3);
+      out.source_vertex.push_back(static_cast<std::uint32_t>(v));
       out.positions.insert(out.positions.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
       out.normals.insert(out.normals.end(), tuples[k].begin() + 2, tuples[k].end());
       if (mesh.has_uvs()) out.uvs.insert(out.uvs.end(), tuples[k].begin(), tuples[k].begin() + 2);
@@ -120,18 +123,21 @@ SplitMesh split_vertices(const Mesh& mesh, const std::string& name) {
 class BinaryBuilder {
 public:
   /// Appends `data` as a new bufferView (4-byte aligned) and returns an accessor for it.
+  /// `target` < 0: no bufferView target (inverse bind matrices must have none).
   template <class T> std::size_t add(const std::vector<T>& data, int components, int component_type, int target) {
     while (m_bin.size() % 4 != 0)
       m_bin += '\0';
     const std::size_t offset = m_bin.size();
     m_bin.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(T));
-    m_views.push_back(
-        {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)}, {"target", target}});
-    static const char* types[] = {"", "SCALAR", "VEC2", "VEC3"};
+    Json view = {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)}};
+    if (target >= 0) view["target"] = target;
+    m_views.push_back(std::move(view));
+    const char* type = components == 1 ? "SCALAR" : components == 2 ? "VEC2" : components == 3 ? "VEC3"
+                     : components == 4 ? "VEC4" : "MAT4";
     m_accessors.push_back({{"bufferView", m_views.size() - 1},
                            {"componentType", component_type},
                            {"count", data.size() / components},
-                           {"type", types[components]}});
+                           {"type", type}});
     return m_accessors.size() - 1;
   }
   Json& accessor(std::size_t a) { return m_accessors[a]; }
@@ -158,9 +164,14 @@ private:
 std::string write_glb(std::span<const NamedMesh> meshes) {
   Json doc;
   doc["asset"] = {{"version", "2.0"}, {"generator", "vfit"}};
-  Json nodes = Json::array();
+  Json nodes = Json::array();       // one per mesh, in order
+  Json joint_nodes = Json::array(); // after the mesh nodes: node index = meshes.size() + position
   Json gltf_meshes = Json::array();
+  Json skins = Json::array();
+  std::vector<std::size_t> skin_roots; // root joint nodes, listed in the scene
   BinaryBuilder bin;
+  // Joint nodes come after the mesh nodes.
+  std::size_t next_node = meshes.size();
   for (std::size_t i = 0; i < meshes.size(); ++i) {
     const std::string name = meshes[i].name.empty() ? "mesh " + std::to_string(i) : meshes[i].name;
     if (!meshes[i].mesh) throw Error(name, 0, "no mesh to write");
@@ -186,9 +197,51 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
     if (!split.uvs.empty()) attributes["TEXCOORD_0"] = bin.add(split.uvs, 2, FLOAT, ARRAY_BUFFER);
     const std::size_t indices = bin.add(split.indices, 1, UNSIGNED_INT, ELEMENT_ARRAY_BUFFER);
 
+    Json node = {{"mesh", i}};
+    if (const MeshSkin* skin = meshes[i].skin) {
+      const std::size_t nj = skin->joint_names.size(), nv = meshes[i].mesh->vertex_count();
+      if (skin->joint_parents.size() != nj || skin->joint_positions.size() != 3 * nj || skin->joints.size() != 4 * nv ||
+          skin->weights.size() != 4 * nv || nj == 0 || nj > 65535)
+        throw Error(name, 0, "skin does not match the mesh (joints, parents, positions, weights)");
+      std::vector<std::uint16_t> vj;
+      std::vector<float> vw;
+      for (std::uint32_t v : split.source_vertex)
+        for (int k = 0; k < 4; ++k) {
+          const std::int32_t j = skin->joints[4 * v + k];
+          if (j < 0 || static_cast<std::size_t>(j) >= nj) throw Error(name, 0, "vertex " + std::to_string(v + 1) + ": joint index out of range");
+          vj.push_back(static_cast<std::uint16_t>(j));
+          vw.push_back(skin->weights[4 * v + k]);
+        }
+      attributes["JOINTS_0"] = bin.add(vj, 4, UNSIGNED_SHORT, ARRAY_BUFFER);
+      attributes["WEIGHTS_0"] = bin.add(vw, 4, FLOAT, ARRAY_BUFFER);
+      // Joint nodes: translation relative to the parent's bind position; inverse bind matrices
+      // undo the bind position (column-major 4×4, rotation-free bind pose).
+      std::vector<float> ibm;
+      Json skin_joints = Json::array();
+      const std::size_t first = next_node;
+      for (std::size_t j = 0; j < nj; ++j) {
+        const std::int32_t p = skin->joint_parents[j];
+        if (p >= static_cast<std::int32_t>(j)) throw Error(name, 0, "skin: a joint's parent must come before it");
+        const float* pj = &skin->joint_positions[3 * j];
+        Json jn = {{"name", skin->joint_names[j]}};
+        jn["translation"] = p < 0 ? Json::array({pj[0], pj[1], pj[2]})
+                                  : Json::array({pj[0] - skin->joint_positions[3 * p], pj[1] - skin->joint_positions[3 * p + 1],
+                                                 pj[2] - skin->joint_positions[3 * p + 2]});
+        joint_nodes.push_back(std::move(jn));
+        skin_joints.push_back(first + j);
+        if (p < 0) skin_roots.push_back(first + j);
+        else joint_nodes[first + p - meshes.size()]["children"].push_back(first + j);
+        const float m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -pj[0], -pj[1], -pj[2], 1};
+        ibm.insert(ibm.end(), m, m + 16);
+      }
+      next_node += nj;
+      Json skin_json = {{"joints", std::move(skin_joints)}, {"inverseBindMatrices", bin.add(ibm, 16, FLOAT, -1)}};
+      if (!skin_roots.empty()) skin_json["skeleton"] = skin_roots.back();
+      node["skin"] = skins.size();
+      skins.push_back(std::move(skin_json));
+    }
     Json primitive = {{"attributes", std::move(attributes)}, {"indices", indices}, {"mode", 4}};
     Json mesh = {{"primitives", Json::array({std::move(primitive)})}};
-    Json node = {{"mesh", i}};
     if (!meshes[i].name.empty()) mesh["name"] = node["name"] = meshes[i].name;
     gltf_meshes.push_back(std::move(mesh));
     nodes.push_back(std::move(node));
@@ -198,8 +251,11 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
   if (!meshes.empty()) {
     for (std::size_t i = 0; i < meshes.size(); ++i)
       scene["nodes"].push_back(i);
+    for (std::size_t r : skin_roots) scene["nodes"].push_back(r);
+    for (auto& jn : joint_nodes) nodes.push_back(std::move(jn));
     doc["nodes"] = std::move(nodes);
     doc["meshes"] = std::move(gltf_meshes);
+    if (!skins.empty()) doc["skins"] = std::move(skins);
   }
   doc["scene"] = 0;
   doc["scenes"] = Json::array({std::move(scene)});

@@ -60,10 +60,22 @@ struct ParsedMesh {
   std::vector<std::string> warnings;
 };
 
-/// A mesh with a name, for writers of multi-mesh files (glTF scenes: body and garments).
+/// A skeleton and per-vertex skin weights attached to a mesh, for writers of rigged files
+/// (glTF skins). Joint positions are the bind (rest) pose, world space (m).
+struct MeshSkin {
+  std::vector<std::string> joint_names;   ///< #J
+  std::vector<std::int32_t> joint_parents; ///< #J, −1 for a root; parents precede children
+  std::vector<float> joint_positions;      ///< #J × 3
+  std::vector<std::int32_t> joints;        ///< #V × 4 joint indices
+  std::vector<float> weights;              ///< #V × 4, rows sum to 1
+};
+
+/// A mesh with a name, for writers of multi-mesh files (glTF scenes: body and garments), and
+/// optionally its skin.
 struct NamedMesh {
   std::string name;
   const Mesh* mesh = nullptr;
+  const MeshSkin* skin = nullptr;
 };
 
 } // namespace vfit

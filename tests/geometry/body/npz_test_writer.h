@@ -28,6 +28,7 @@ using NpyList = std::vector<std::pair<std::string, NpyData>>;
 
 enum class ZipMode { STORED, DEFLATED, STORED_ZIP64 };
 
+/// Appends the low `width` (≤ 8) bytes of `value`, little-endian.
 inline void put_le(std::string& out, std::uint64_t value, int width) {
   for (int i = 0; i < width; ++i)
     out.push_back(static_cast<char>((value >> (8 * i)) & 0xFF));
@@ -141,7 +142,10 @@ inline std::string zip_bytes(const std::vector<std::pair<std::string, std::strin
     put_le(central, zip64 ? saturated : data.size(), 4);
     put_le(central, name.size(), 2);
     put_le(central, zip64 ? 28 : 0, 2);
-    put_le(central, 0, 2 + 2 + 2 + 4); // comment length, disk, internal and external attributes
+    put_le(central, 0, 2); // comment length
+    put_le(central, 0, 2); // disk number
+    put_le(central, 0, 2); // internal attributes
+    put_le(central, 0, 4); // external attributes
     put_le(central, zip64 ? saturated : local, 4);
     central += name;
     if (zip64) {
