@@ -62,8 +62,8 @@ int containing(const std::vector<PlaneSection>& loops, const Eigen::Vector2d& q,
 // Follows a body part from loop `first` of level `start` through the levels in direction `dir`
 // (+1 up, −1 down): each level's loop is the one containing the previous centroid or, failing
 // that (a notch such as an open mouth), the loop whose centroid lies closest within `nearest`
-// (m). Loops of less than TRACK_AREA_RATIO times the previous area are passed over (specks from
-// folded or noisy triangles). Stops before a level where `stop(level)` holds. Returns the loop
+// (m). Loops of less than TRACK_AREA_RATIO times the previous area (specks from folded or noisy
+// triangles) are taken only when nothing larger qualifies. Stops before a level where `stop(level)` holds. Returns the loop
 // index per level, −1 outside the part.
 template <typename Stop>
 std::vector<int> follow(const Slices& s, int start, int first, int dir, double nearest, const Stop& stop) {
@@ -79,6 +79,7 @@ std::vector<int> follow(const Slices& s, int start, int first, int dir, double n
       if (loops[k].area >= min_area && (loops[k].centroid_uv - q).norm() < nearest &&
           (j < 0 || (loops[k].centroid_uv - q).norm() < (loops[std::size_t(j)].centroid_uv - q).norm()))
         j = int(k);
+    if (j < 0) j = containing(loops, q); // the part really narrows (the neck above shoulders and raised arms)
     if (j < 0) break;
     track[std::size_t(i)] = j;
     prev = &loops[std::size_t(j)];

@@ -169,7 +169,18 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
     const double s_calf[2] = {want.calf / right_calf, want.calf / got.values.calf};
     double worst = 0;
     for (double s : {s_chest, s_waist, s_hip, s_thigh[0], s_thigh[1], s_calf[0], s_calf[1]}) worst = std::max(worst, std::abs(s - 1));
-    if (worst < 5e-4) return;
+    // The crotch is a saddle that coarse meshes cut low: lift (or lower) the region around it
+    // with a smooth bump so the measured crotch height meets the request too.
+    const double crotch_error = want.crotch_height - (lm.crotch - lm.floor);
+    if (worst < 5e-4 && std::abs(crotch_error) < 5e-4) return;
+    if (std::abs(crotch_error) >= 5e-4) {
+      const double rx = std::abs(J(Joint::LEFT_HIP).x()), ry = 0.08 * want.height / 1.70;
+      for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+        float* p = &mesh.positions[3 * v];
+        const double fx = 1 - (p[0] / rx) * (p[0] / rx), fy = 1 - ((p[1] - lm.crotch) / ry) * ((p[1] - lm.crotch) / ry);
+        if (fx > 0 && fy > 0) p[1] = static_cast<float>(p[1] + crotch_error * fx * fy);
+      }
+    }
     const double shoulder_y = J(Joint::LEFT_SHOULDER).y(), knee_y = J(Joint::LEFT_KNEE).y(),
                  ankle_y = J(Joint::LEFT_ANKLE).y();
     for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
