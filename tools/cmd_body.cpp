@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "body_args.h"
 #include "commands.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
@@ -14,21 +15,6 @@
 #include "kernels/error.h"
 
 namespace vfit::cli {
-
-BodyMeasurements measurements_from_args(Args& args) {
-  BodyMeasurements m = body_preset(args.value("preset").value_or("average"));
-  for (std::string_view name : BodyMeasurements::names()) {
-    std::string flag(name);
-    std::replace(flag.begin(), flag.end(), '_', '-');
-    if (auto v = args.value(flag)) {
-      char* end = nullptr;
-      const double x = std::strtod(v->c_str(), &end);
-      if (end == v->c_str() || *end != '\0') throw Error("--" + flag, 0, "expected a length in metres, got '" + *v + "'");
-      m[name] = x;
-    }
-  }
-  return m;
-}
 
 std::string joints_json(const JointPositions& joints) {
   nlohmann::ordered_json j;

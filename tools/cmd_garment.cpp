@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "body_args.h"
 #include "commands.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/atomic_write.h"
@@ -14,13 +15,6 @@
 
 namespace vfit::cli {
 
-BodyMeasurements measurements_from_args(Args& args); // cmd_body.cpp
-
-RestPose parse_rest_pose(const std::string& flag, const std::string& value) {
-  if (value == "tpose") return RestPose::TPOSE;
-  if (value == "apose") return RestPose::APOSE;
-  throw Error(flag, 0, "expected tpose or apose, got '" + value + "'");
-}
 
 /// The labels file written beside a garment mesh: out.obj → out.labels.json.
 std::filesystem::path labels_path(const std::filesystem::path& mesh_path) {

@@ -12,6 +12,7 @@ int run_devices(Args& args);
 int run_demo(Args& args);
 int run_body(Args& args);
 int run_garment(Args& args);
+int run_measure(Args& args);
 
 
 

@@ -19,6 +19,9 @@ commands:
                   watertightness and Euler characteristic of a mesh file
   convert IN OUT  converts between OBJ, PLY, OFF, STL (read) and OBJ, PLY, OFF, STL, GLB (write)
   devices         the compute backends: TBB threads and OpenCL platforms/devices
+  body            builds the parametric mannequin (measurements, preset, pose, rigged glTF)
+  garment TYPE    generates a catalogue garment (tee, long-sleeve, trousers, shorts, dress, skirt)
+  measure BODY    the 11 body measurements of any body, rigged or bare
   demo            the built-in demonstration (README's main job)
 
 mesh formats read: .obj .ply .off .stl .glb .gltf
@@ -96,6 +99,18 @@ the same measurement flags as `vfit body`. Writes the mesh (with UVs, parts as g
 FILE's stem + .labels.json: {"part_names": [...], "vertex_parts": [one per vertex]}.
 )";
 
+constexpr const char* MEASURE_HELP = R"(usage: vfit measure BODY [--json] [--units U] [--joints-in FILE.json] [--betas B1,B2,...]
+                    [--rig-mapping FILE.json]
+
+Measures any body in its rest pose (upright, arms away from the torso): the 11 measurements of
+seed 004 (height, crotch height, knee height, arm and forearm length, shoulder width; chest,
+waist, hip, thigh and calf girths as convex-hull perimeters of horizontal sections). BODY is
+"mannequin" (with the `vfit body` flags), an SMPL-format model (.npz, with --betas), a rigged
+glTF (.glb/.gltf; bones mapped to the canonical joints by name, or by --rig-mapping), or a plain
+mesh (a scan) whose joints come from --joints-in or are estimated from its geometry. Units are
+detected (m, dm, cm, mm) unless --units states them.
+)";
+
 bool wants_help(const std::vector<std::string>& args) {
   for (const auto& a : args)
     if (a == "--help" || a == "-h") return true;
@@ -114,7 +129,8 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
                                      {"devices", DEVICES_HELP, run_devices},
                                      {"demo", DEMO_HELP, run_demo},
                                      {"body", BODY_HELP, run_body},
-                                     {"garment", GARMENT_HELP, run_garment}};
+                                     {"garment", GARMENT_HELP, run_garment},
+                                     {"measure", MEASURE_HELP, run_measure}};
   for (const auto& c : commands) {
     if (command != c.name) continue;
     if (wants_help(rest)) {

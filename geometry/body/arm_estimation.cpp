@@ -13,18 +13,19 @@ namespace {
 
 // Lengths are fractions of the body's height H. The proportions were calibrated on the
 // MakeHuman hm08 rig and on our mannequins (average, pear, tall, petite; A- and T-pose).
-constexpr double STEP = 0.003;           // slicing step along the arm: 5 mm at 1.7 m
-constexpr double CLUSTER_RADIUS = 0.05;  // loops centred this close to the last centroid are the arm's (fingers too)
+constexpr double STEP = 0.003;             // slicing step along the arm: 5 mm at 1.7 m
+constexpr double CLUSTER_RADIUS = 0.05;    // loops centred this close to the last centroid are the arm's (fingers too)
 constexpr double MIN_LATERAL_REACH = 0.10; // the fingertip lies at least this far beyond the shoulder guess
 constexpr double MIN_ARM_LENGTH = 0.25;    // shoulder → fingertip along the arm (hm08 0.35, mannequins 0.43)
 constexpr double HAND_LENGTH_MAX = 0.15;   // past this distance from the fingertip, a jump in area is the torso
 constexpr double WRIST_SEARCH_MIN = 0.065, WRIST_SEARCH_MAX = 0.15; // the wrist's distance from the fingertip
-constexpr double NARROW_TOLERANCE = 1.04;  // sections within 4 % of the narrowest make the narrow region
+constexpr double NARROW_TOLERANCE = 1.04;    // sections within 4 % of the narrowest make the narrow region
+constexpr double NARROWEST_FROM_TIP = 0.106; // if no narrowing shows (hm08 and the mannequins: 0.10–0.11)
 // The narrowest forearm section lies just proximal of the wrist joint (the styloid processes
 // widen the wrist itself): 1.3 cm on hm08, 1.6 cm on the mannequins.
 constexpr double WRIST_PAST_NARROWEST = 0.010;
-constexpr double HAND_PAST_WRIST = 0.052;  // knuckles beyond the wrist (hm08 0.058, mannequins 0.050)
-constexpr double ELBOW_FRACTION = 0.52;    // shoulder → wrist (hm08 0.49, mannequins 0.545)
+constexpr double HAND_PAST_WRIST = 0.052;                  // knuckles beyond the wrist (hm08 0.058, mannequins 0.050)
+constexpr double ELBOW_FRACTION = 0.52;                    // shoulder → wrist (hm08 0.49, mannequins 0.545)
 constexpr double UPPER_FIT_LO = 0.10, UPPER_FIT_HI = 0.40; // part of shoulder → wrist that fits the upper arm's line
 constexpr double MAX_DROP_DEGREES = 70, MIN_DROP_DEGREES = -25;
 
@@ -92,14 +93,18 @@ double narrowest_before_hand(const std::vector<ArmSample>& samples, double s_tip
     if (t >= WRIST_SEARCH_MIN * height && t <= WRIST_SEARCH_MAX * height) window.push_back(i);
   }
   if (window.size() < 5) return NAN;
-  auto smoothed = [&](std::size_t i) { return (samples[i - 1].diameter + samples[i].diameter + samples[i + 1].diameter) / 3; };
+  auto smoothed = [&](std::size_t i) {
+    return (samples[i - 1].diameter + samples[i].diameter + samples[i + 1].diameter) / 3;
+  };
   std::size_t best = window.front();
   for (std::size_t i : window)
     if (smoothed(i) < smoothed(best)) best = i;
   const double limit = NARROW_TOLERANCE * smoothed(best);
   std::size_t lo = best, hi = best;
-  while (lo > window.front() && smoothed(lo - 1) <= limit) --lo;
-  while (hi < window.back() && smoothed(hi + 1) <= limit) ++hi;
+  while (lo > window.front() && smoothed(lo - 1) <= limit)
+    --lo;
+  while (hi < window.back() && smoothed(hi + 1) <= limit)
+    ++hi;
   return s_tip - 0.5 * (samples[lo].s + samples[hi].s);
 }
 
@@ -127,19 +132,21 @@ ArmJoints estimate_arm(const Mesh& mesh, const ArmSearch& search) {
     throw Error(search.source, 0, "no " + which + " arm stands away from the torso (expected an A- or T-pose)");
   const Eigen::Vector3d axis = tip - search.shoulder_guess;
   if (axis.norm() < MIN_ARM_LENGTH * H)
-    throw Error(search.source, 0, "the " + which + " arm is too short for the body (" + std::to_string(axis.norm()) + " m)");
+    throw Error(search.source, 0,
+                "the " + which + " arm is too short for the body (" + std::to_string(axis.norm()) + " m)");
   const PlaneSlicer slicer(mesh, axis);
   const Eigen::Vector3d& d = slicer.direction();
   const double s_tip = tip.dot(d), s_guess = search.shoulder_guess.dot(d);
   const std::vector<ArmSample> samples = trace_arm(slicer, tip, s_guess, H);
   if (samples.size() < 10 || s_tip - samples.back().s < 0.5 * (s_tip - s_guess))
-    throw Error(search.source, 0, "the " + which + " arm could not be followed from the hand to the shoulder (it touches the body?)");
+    throw Error(search.source, 0,
+                "the " + which + " arm could not be followed from the hand to the shoulder (it touches the body?)");
 
   ArmJoints arm;
   double t_narrow = narrowest_before_hand(samples, s_tip, H);
   if (std::isnan(t_narrow)) {
     arm.wrist_found = false;
-    t_narrow = 0.106 * H; // hm08 and the mannequins: the narrowest section 0.10–0.11 H from the fingertip
+    t_narrow = NARROWEST_FROM_TIP * H;
   }
   const double s_wrist = s_tip - t_narrow + WRIST_PAST_NARROWEST * H;
   arm.wrist = centre_at(samples, s_wrist);
@@ -154,10 +161,12 @@ ArmJoints estimate_arm(const Mesh& mesh, const ArmSearch& search) {
   if (upper.size() < 4)
     throw Error(search.source, 0, "the " + which + " upper arm merges with the torso (arms must stand away from it)");
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& c : upper) mean += c;
+  for (const auto& c : upper)
+    mean += c;
   mean /= double(upper.size());
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& c : upper) cov += (c - mean) * (c - mean).transpose();
+  for (const auto& c : upper)
+    cov += (c - mean) * (c - mean).transpose();
   Eigen::Vector3d dir = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(2);
   if (dir.dot(d) < 0) dir = -dir;
   arm.drop_degrees = std::asin(std::clamp(-dir.y(), -1.0, 1.0)) * 180 / M_PI;
@@ -168,7 +177,8 @@ ArmJoints estimate_arm(const Mesh& mesh, const ArmSearch& search) {
   arm.shoulder = mean + (search.shoulder_guess.x() - mean.x()) / dir.x() * dir;
   const double s_shoulder = arm.shoulder.dot(d);
   const double s_elbow = s_shoulder + ELBOW_FRACTION * (s_wrist - s_shoulder);
-  arm.elbow = s_elbow >= samples.back().s ? centre_at(samples, s_elbow) : Eigen::Vector3d(mean + (s_elbow - mean.dot(d)) / dir.dot(d) * dir);
+  arm.elbow = s_elbow >= samples.back().s ? centre_at(samples, s_elbow)
+                                          : Eigen::Vector3d(mean + (s_elbow - mean.dot(d)) / dir.dot(d) * dir);
   return arm;
 }
 

@@ -16,18 +16,20 @@ namespace vfit {
 /// The joints estimated for a body scan, how sure the estimator is of each, and the rest pose.
 struct JointEstimate {
   JointPositions joints = JointPositions::Zero(); ///< canonical joints (m), SMPL order
-  /// Per joint, in [0, 1]: 1 for a joint placed on a clear geometric feature (a section's
-  /// centroid, a narrowing), lower for joints placed by proportion alone (the spine) or where
-  /// the estimator fell back to a default (e.g. no narrowing found at the wrist).
+  /// Per joint, in (0, 1]: 0.9 for a joint placed on a clear geometric feature (the wrist's
+  /// narrowing, the shoulder on the upper arm's axis, the ankle on the shank's), 0.7–0.8 for a
+  /// section's centroid at a height set by proportion (knees, elbows, hips, neck, head), 0.5–0.6
+  /// where rigs disagree on the convention (spine, collars) or the estimator fell back to a
+  /// default (no narrowing found before the hand).
   std::array<double, JOINT_COUNT> confidence{};
-  RestPose pose = RestPose::OTHER; ///< TPOSE (upper arms within 25° of horizontal) or APOSE
+  RestPose pose = RestPose::OTHER;   ///< TPOSE (upper arms within 25° of horizontal) or APOSE
   std::vector<std::string> warnings; ///< things worth showing the user (holes, asymmetry, ...)
 };
 
 /// Estimates the canonical joints of an upright body scan: a closed or nearly closed triangle
 /// mesh (holes at the soles, neck or eyes are tolerated) in metres, Y up, facing +Z, standing
-/// with the legs apart and the arms away from the torso (A-pose: upper arms 25°–65° below
-/// horizontal; T-pose). No skeleton is needed.
+/// with the legs apart and the arms away from the torso (T-pose: upper arms within 25° of
+/// horizontal; A-pose: 25°–70° below it). No skeleton is needed. About 50 ms for 15k vertices.
 ///
 /// Landmarks: the crotch (where the torso's section splits into two legs), the armpits (where
 /// the arms join the torso's section), the top of the shoulders and the neck's narrowest
@@ -37,9 +39,9 @@ struct JointEstimate {
 /// 42 % and 63 % of the way from the pelvis to the neck).
 ///
 /// Throws vfit::Error, saying why, when the mesh is not an upright human in A- or T-pose: too
-/// few vertices, not metre-sized, lying down (not taller than wide and deep), no crotch with
-/// two legs reaching the floor, no head above the shoulders, arms touching the torso or raised
-/// above the shoulders.
+/// few vertices, not metre-sized, lying down (not taller than twice its depth and three
+/// quarters of its width), no crotch with two legs reaching the floor, no neck, feet not
+/// pointing to +Z, arms touching the torso, hanging down or raised above the head.
 JointEstimate estimate_joints(const Mesh& body_in_metres);
 
 /// Skin weights of `body` (a mesh in metres) for `joints` (canonical, m). Each joint owns the

@@ -167,9 +167,35 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
     return g;
   };
 
-  lm.chest = spine3.y();
-  v.chest = need(girth_around(mesh, lm.chest, spine3.x(), spine3.z()), "chest");
-  const double wlo = hips.y() + 0.25 * (spine3.y() - hips.y()), whi = hips.y() + 0.85 * (spine3.y() - hips.y());
+  // Torso landmarks are searched between the hips and the shoulders, so they do not depend on
+  // where a rig puts its spine joints. Loops holding an arm's axis (A-pose arms beside the
+  // chest) are skipped.
+  const Eigen::Vector3d lsh = J(joints, Joint::LEFT_SHOULDER), rsh = J(joints, Joint::RIGHT_SHOULDER);
+  const Eigen::Vector3d lel = J(joints, Joint::LEFT_ELBOW), rel = J(joints, Joint::RIGHT_ELBOW);
+  const double shoulder_y = 0.5 * (lsh.y() + rsh.y()), span = shoulder_y - hips.y();
+  auto arm_at = [&](const Eigen::Vector3d& sh, const Eigen::Vector3d& el, double y) {
+    return std::abs(el.y() - sh.y()) < 1e-6 ? Eigen::Vector3d(1e9, y, 1e9) : at_height(sh, el, y);
+  };
+  auto chest_girth = [&](double y) {
+    const Eigen::Vector3d c = torso_axis(y), la = arm_at(lsh, lel, y), ra = arm_at(rsh, rel, y);
+    double g = 0;
+    for (const auto& loop : horizontal_section(mesh, y)) {
+      if (loop.size() < 3 || !loop_contains(loop, c.x(), c.z())) continue;
+      if (loop_contains(loop, la.x(), la.z()) || loop_contains(loop, ra.x(), ra.z())) continue;
+      g = std::max(g, convex_hull_perimeter(loop));
+    }
+    return g;
+  };
+  v.chest = -1;
+  for (int i = 0; i <= 40; ++i) {
+    const double y = hips.y() + (0.55 + 0.25 * i / 40.0) * span, g = chest_girth(y);
+    if (g > v.chest) {
+      v.chest = g;
+      lm.chest = y;
+    }
+  }
+  need(v.chest, "chest");
+  const double wlo = hips.y() + 0.20 * span, whi = hips.y() + 0.60 * span;
   std::tie(v.waist, lm.waist) = search_girth(mesh, wlo, whi, 40, false, torso_axis);
   need(std::isfinite(v.waist) ? v.waist : 0, "waist");
   std::tie(v.hip, lm.hip) = search_girth(mesh, lm.crotch + 0.005, pelvis.y(), 40, true, torso_axis);

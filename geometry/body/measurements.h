@@ -58,8 +58,10 @@ struct MeasuredBody {
 /// Measures an upright body in its rest pose (Y up, arms away from the torso as in A- or
 /// T-pose) from its closed mesh (m) and canonical joints. Landmarks: floor and top are the
 /// mesh's lowest and highest points; the crotch is the highest point below the pelvis where
-/// the mid-line leaves the body; chest = the section at the spine3 joint; waist = the smallest
-/// torso section between 25 % and 85 % of the way from the hip joints up to spine3; hip = the
+/// the mid-line leaves the body; chest = the largest torso section between 55 % and 80 % of the
+/// way from the hip joints up to the shoulder joints (below the armpits' fold), arms left out;
+/// waist = the smallest torso
+/// section between 20 % and 60 % of that way; hip = the
 /// largest torso section between the crotch and the pelvis joint; thigh = the largest left-leg
 /// section in the 8 cm below the crotch that holds that leg alone; calf = the largest left-leg section between 15 % and
 /// 60 % of the way from knee to ankle. Each girth is the convex-hull perimeter of the section

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <array>
-#include <functional>
 #include <cassert>
 #include <cmath>
+#include <functional>
 #include <unordered_map>
 
 namespace vfit {
@@ -17,7 +17,8 @@ constexpr int DIAMETER_DIRECTIONS = 16;
 struct PositionHash {
   std::size_t operator()(const std::array<float, 3>& p) const {
     std::size_t h = 0;
-    for (float c : p) h = h * 0x9E3779B97F4A7C15ull + std::hash<float>{}(c);
+    for (float c : p)
+      h = h * 0x9E3779B97F4A7C15ull + std::hash<float>{}(c);
     return h;
   }
 };
@@ -25,7 +26,8 @@ struct PositionHash {
 void summarise(PlaneSection& s, const PlaneSlicer& slicer) {
   const std::size_t n = s.points.size();
   s.uv.resize(n);
-  for (std::size_t i = 0; i < n; ++i) s.uv[i] = slicer.project(s.points[i]);
+  for (std::size_t i = 0; i < n; ++i)
+    s.uv[i] = slicer.project(s.points[i]);
   // Shoelace area and centroid about the first point (keeps the sums well conditioned).
   const Eigen::Vector2d o = s.uv[0];
   double a2 = 0;
@@ -80,7 +82,8 @@ PlaneSlicer::PlaneSlicer(const Mesh& mesh, const Eigen::Vector3d& direction) : m
   m_min = INFINITY;
   m_max = -INFINITY;
   for (std::size_t i = 0; i < nv; ++i) {
-    m_level[i] = m_d.x() * mesh.positions[3 * i] + m_d.y() * mesh.positions[3 * i + 1] + m_d.z() * mesh.positions[3 * i + 2];
+    m_level[i] =
+        m_d.x() * mesh.positions[3 * i] + m_d.y() * mesh.positions[3 * i + 1] + m_d.z() * mesh.positions[3 * i + 2];
     m_min = std::min(m_min, m_level[i]);
     m_max = std::max(m_max, m_level[i]);
   }
@@ -91,7 +94,8 @@ PlaneSlicer::PlaneSlicer(const Mesh& mesh, const Eigen::Vector3d& direction) : m
   std::unordered_map<std::array<float, 3>, std::int32_t, PositionHash> first;
   first.reserve(nv);
   for (std::size_t i = 0; i < nv; ++i) {
-    const std::array<float, 3> key{mesh.positions[3 * i] + 0.0f, mesh.positions[3 * i + 1] + 0.0f, mesh.positions[3 * i + 2] + 0.0f};
+    const std::array<float, 3> key{mesh.positions[3 * i] + 0.0f, mesh.positions[3 * i + 1] + 0.0f,
+                                   mesh.positions[3 * i + 2] + 0.0f};
     m_weld[i] = first.try_emplace(key, std::int32_t(i)).first->second;
   }
   // About 8 faces per bucket on average: a plane then visits a few hundred faces, not all.
@@ -112,21 +116,25 @@ PlaneSlicer::PlaneSlicer(const Mesh& mesh, const Eigen::Vector3d& direction) : m
   };
   for (std::size_t f = 0; f < nf; ++f) {
     const auto [b0, b1] = face_range(f);
-    for (std::size_t b = b0; b <= b1; ++b) ++count[b + 1];
+    for (std::size_t b = b0; b <= b1; ++b)
+      ++count[b + 1];
   }
-  for (std::size_t b = 0; b < buckets; ++b) count[b + 1] += count[b];
+  for (std::size_t b = 0; b < buckets; ++b)
+    count[b + 1] += count[b];
   m_bucket_start = count;
   m_bucket_faces.resize(static_cast<std::size_t>(count[buckets]));
   for (std::size_t f = 0; f < nf; ++f) {
     const auto [b0, b1] = face_range(f);
-    for (std::size_t b = b0; b <= b1; ++b) m_bucket_faces[static_cast<std::size_t>(count[b]++)] = static_cast<std::int32_t>(f);
+    for (std::size_t b = b0; b <= b1; ++b)
+      m_bucket_faces[static_cast<std::size_t>(count[b]++)] = static_cast<std::int32_t>(f);
   }
 }
 
 std::vector<PlaneSection> PlaneSlicer::sections(double level) const {
   std::vector<PlaneSection> out;
   if (m_mesh.face_count() == 0 || level < m_min || level > m_max) return out;
-  const std::size_t b = static_cast<std::size_t>(std::clamp((level - m_min) / m_bucket, 0.0, double(m_bucket_start.size() - 2)));
+  const std::size_t b =
+      static_cast<std::size_t>(std::clamp((level - m_min) / m_bucket, 0.0, double(m_bucket_start.size() - 2)));
   // One node per crossing edge; each crossing face links its two nodes.
   struct Node {
     std::int64_t link[2] = {-1, -1};
@@ -141,7 +149,8 @@ std::vector<PlaneSection> PlaneSlicer::sections(double level) const {
     if (fresh) {
       const double la = m_level[std::size_t(a)], lc = m_level[std::size_t(c)], t = (level - la) / (lc - la);
       Node n;
-      for (int k = 0; k < 3; ++k) n.point[k] = p[3 * std::size_t(a) + k] + t * (p[3 * std::size_t(c) + k] - p[3 * std::size_t(a) + k]);
+      for (int k = 0; k < 3; ++k)
+        n.point[k] = p[3 * std::size_t(a) + k] + t * (p[3 * std::size_t(c) + k] - p[3 * std::size_t(a) + k]);
       nodes.push_back(n);
     }
     return it->second;
@@ -149,13 +158,16 @@ std::vector<PlaneSection> PlaneSlicer::sections(double level) const {
   auto link = [&](std::size_t a, std::size_t c) {
     for (auto [s, o] : {std::pair{a, c}, std::pair{c, a}}) {
       Node& n = nodes[s];
-      if (n.link[0] < 0) n.link[0] = std::int64_t(o);
-      else if (n.link[1] < 0) n.link[1] = std::int64_t(o);
+      if (n.link[0] < 0)
+        n.link[0] = std::int64_t(o);
+      else if (n.link[1] < 0)
+        n.link[1] = std::int64_t(o);
     }
   };
   for (std::int32_t i = m_bucket_start[b]; i < m_bucket_start[b + 1]; ++i) {
     const std::size_t f = std::size_t(m_bucket_faces[std::size_t(i)]);
-    const std::int32_t v[3] = {m_weld[std::size_t(m_mesh.triangles[3 * f])], m_weld[std::size_t(m_mesh.triangles[3 * f + 1])],
+    const std::int32_t v[3] = {m_weld[std::size_t(m_mesh.triangles[3 * f])],
+                               m_weld[std::size_t(m_mesh.triangles[3 * f + 1])],
                                m_weld[std::size_t(m_mesh.triangles[3 * f + 2])]};
     std::size_t ends[2];
     int n = 0;

@@ -18,8 +18,8 @@ namespace vfit {
 /// One loop where a plane cuts a mesh. Open chains (the plane crossing a hole in the mesh) are
 /// closed by a straight segment from their last point to their first.
 struct PlaneSection {
-  std::vector<Eigen::Vector3d> points; ///< the loop's points in order (m)
-  std::vector<Eigen::Vector2d> uv;     ///< the same points in the plane's basis (u, v) (m)
+  std::vector<Eigen::Vector3d> points;                ///< the loop's points in order (m)
+  std::vector<Eigen::Vector2d> uv;                    ///< the same points in the plane's basis (u, v) (m)
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero(); ///< area centroid (vertex mean when degenerate)
   Eigen::Vector2d centroid_uv = Eigen::Vector2d::Zero();
   double area = 0;      ///< enclosed area (m², ≥ 0)
@@ -48,7 +48,9 @@ public:
   const Eigen::Vector3d& v() const { return m_v; }
   const Eigen::Vector3d& direction() const { return m_d; }
   /// The point of the plane at `level` with in-plane coordinates q.
-  Eigen::Vector3d point(double level, const Eigen::Vector2d& q) const { return level * m_d + q.x() * m_u + q.y() * m_v; }
+  Eigen::Vector3d point(double level, const Eigen::Vector2d& q) const {
+    return level * m_d + q.x() * m_u + q.y() * m_v;
+  }
   /// In-plane coordinates of p.
   Eigen::Vector2d project(const Eigen::Vector3d& p) const { return {p.dot(m_u), p.dot(m_v)}; }
   double min_level() const { return m_min; }
@@ -57,8 +59,8 @@ public:
 private:
   const Mesh& m_mesh;
   Eigen::Vector3d m_d, m_u, m_v;
-  std::vector<double> m_level;        ///< p · d per vertex
-  std::vector<std::int32_t> m_weld;  ///< per vertex, the first vertex at the same position
+  std::vector<double> m_level;      ///< p · d per vertex
+  std::vector<std::int32_t> m_weld; ///< per vertex, the first vertex at the same position
   double m_min = 0, m_max = 0, m_bucket = 1;
   std::vector<std::int32_t> m_bucket_start, m_bucket_faces; ///< CSR: faces overlapping each bucket
 };

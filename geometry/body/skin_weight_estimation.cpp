@@ -16,10 +16,10 @@ namespace {
 // skeleton's height, within these bounds.
 constexpr double SMOOTHING_LENGTH = 0.012;
 constexpr int MIN_SMOOTHING = 4, MAX_SMOOTHING = 40;
-constexpr double FALLOFF = 6;           // weight ∝ 1 / (d² + ε²)^(FALLOFF / 2)
-constexpr double CUTOFF_RATIO = 2;      // bones this many times farther than the nearest get nothing
-constexpr double CORE_RADIUS = 0.01;    // ε, as a fraction of the skeleton's height
-constexpr double LEAF_EXTENSION = 0.8;  // end joints' bones: this much of the parent bone again
+constexpr double FALLOFF = 6;          // weight ∝ 1 / (d² + ε²)^(FALLOFF / 2)
+constexpr double CUTOFF_RATIO = 2;     // bones this many times farther than the nearest get nothing
+constexpr double CORE_RADIUS = 0.01;   // ε, as a fraction of the skeleton's height
+constexpr double LEAF_EXTENSION = 0.8; // end joints' bones: this much of the parent bone again
 constexpr std::size_t GRAIN = 512;
 
 // A bone segment and the joint whose rotation moves the flesh around it.
@@ -38,7 +38,8 @@ std::vector<Bone> bones_of(const JointPositions& joints) {
   }
   // End joints (head, feet, hands) carry a bone continuing their parent's.
   for (int j = 1; j < JOINT_COUNT; ++j)
-    if (child_count[std::size_t(j)] == 0) bones.push_back({j, at(j), at(j) + LEAF_EXTENSION * (at(j) - at(joint_parent(j)))});
+    if (child_count[std::size_t(j)] == 0)
+      bones.push_back({j, at(j), at(j) + LEAF_EXTENSION * (at(j) - at(joint_parent(j)))});
   return bones;
 }
 
@@ -77,15 +78,18 @@ SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints
         row[bones[k].joint] += x;
         sum += x;
       }
-      for (int j = 0; j < JOINT_COUNT; ++j) row[j] /= sum;
+      for (int j = 0; j < JOINT_COUNT; ++j)
+        row[j] /= sum;
     }
   });
   // One-ring neighbours (CSR) for smoothing.
   std::vector<std::size_t> start(nv + 1, 0);
   const auto& t = body.triangles;
   for (std::size_t f = 0; f < body.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) start[std::size_t(t[3 * f + k]) + 1] += 2;
-  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+    for (int k = 0; k < 3; ++k)
+      start[std::size_t(t[3 * f + k]) + 1] += 2;
+  for (std::size_t v = 0; v < nv; ++v)
+    start[v + 1] += start[v];
   std::vector<std::int32_t> nbr(start[nv]);
   std::vector<std::size_t> fill(start.begin(), start.end() - 1);
   for (std::size_t f = 0; f < body.face_count(); ++f)
@@ -99,10 +103,12 @@ SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints
     for (std::size_t k = start[v]; k < start[v + 1]; ++k) {
       const float* a = &body.positions[3 * v];
       const float* b = &body.positions[3 * std::size_t(nbr[k])];
-      edge_sum += std::sqrt(double((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2])));
+      edge_sum += std::sqrt(
+          double((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2])));
     }
   const double mean_edge = nbr.empty() ? 1.0 : edge_sum / double(nbr.size());
-  const double reach = SMOOTHING_LENGTH * (joints.col(1).maxCoeff() - joints.col(1).minCoeff()) / std::max(mean_edge, 1e-9);
+  const double reach =
+      SMOOTHING_LENGTH * (joints.col(1).maxCoeff() - joints.col(1).minCoeff()) / std::max(mean_edge, 1e-9);
   const int passes = std::clamp(int(std::lround(2 * reach * reach)), MIN_SMOOTHING, MAX_SMOOTHING);
   std::vector<double> next(w.size());
   for (int iter = 0; iter < passes; ++iter) {
@@ -110,7 +116,8 @@ SkinWeights estimate_skin_weights(const Mesh& body, const JointPositions& joints
       for (std::size_t v = begin; v < end; ++v)
         for (int j = 0; j < JOINT_COUNT; ++j) {
           double s = 0;
-          for (std::size_t k = start[v]; k < start[v + 1]; ++k) s += w[std::size_t(nbr[k]) * JOINT_COUNT + std::size_t(j)];
+          for (std::size_t k = start[v]; k < start[v + 1]; ++k)
+            s += w[std::size_t(nbr[k]) * JOINT_COUNT + std::size_t(j)];
           const double own = w[v * JOINT_COUNT + std::size_t(j)];
           const std::size_t n = start[v + 1] - start[v];
           next[v * JOINT_COUNT + std::size_t(j)] = n == 0 ? own : 0.5 * own + 0.5 * s / double(n);

@@ -19,15 +19,30 @@ namespace vfit {
 namespace {
 
 // Canonical joint → the game_engine bone whose head is that joint.
-const std::map<Joint, std::string> BONE_OF = {
-    {Joint::PELVIS, "pelvis"},           {Joint::LEFT_HIP, "thigh_l"},        {Joint::RIGHT_HIP, "thigh_r"},
-    {Joint::SPINE1, "spine_01"},         {Joint::LEFT_KNEE, "calf_l"},        {Joint::RIGHT_KNEE, "calf_r"},
-    {Joint::SPINE2, "spine_02"},         {Joint::LEFT_ANKLE, "foot_l"},       {Joint::RIGHT_ANKLE, "foot_r"},
-    {Joint::SPINE3, "spine_03"},         {Joint::LEFT_FOOT, "ball_l"},        {Joint::RIGHT_FOOT, "ball_r"},
-    {Joint::NECK, "neck_01"},            {Joint::LEFT_COLLAR, "clavicle_l"},  {Joint::RIGHT_COLLAR, "clavicle_r"},
-    {Joint::HEAD, "head"},               {Joint::LEFT_SHOULDER, "upperarm_l"}, {Joint::RIGHT_SHOULDER, "upperarm_r"},
-    {Joint::LEFT_ELBOW, "lowerarm_l"},   {Joint::RIGHT_ELBOW, "lowerarm_r"},  {Joint::LEFT_WRIST, "hand_l"},
-    {Joint::RIGHT_WRIST, "hand_r"},      {Joint::LEFT_HAND, "middle_01_l"},   {Joint::RIGHT_HAND, "middle_01_r"}};
+const std::map<Joint, std::string> BONE_OF = {{Joint::PELVIS, "pelvis"},
+                                              {Joint::LEFT_HIP, "thigh_l"},
+                                              {Joint::RIGHT_HIP, "thigh_r"},
+                                              {Joint::SPINE1, "spine_01"},
+                                              {Joint::LEFT_KNEE, "calf_l"},
+                                              {Joint::RIGHT_KNEE, "calf_r"},
+                                              {Joint::SPINE2, "spine_02"},
+                                              {Joint::LEFT_ANKLE, "foot_l"},
+                                              {Joint::RIGHT_ANKLE, "foot_r"},
+                                              {Joint::SPINE3, "spine_03"},
+                                              {Joint::LEFT_FOOT, "ball_l"},
+                                              {Joint::RIGHT_FOOT, "ball_r"},
+                                              {Joint::NECK, "neck_01"},
+                                              {Joint::LEFT_COLLAR, "clavicle_l"},
+                                              {Joint::RIGHT_COLLAR, "clavicle_r"},
+                                              {Joint::HEAD, "head"},
+                                              {Joint::LEFT_SHOULDER, "upperarm_l"},
+                                              {Joint::RIGHT_SHOULDER, "upperarm_r"},
+                                              {Joint::LEFT_ELBOW, "lowerarm_l"},
+                                              {Joint::RIGHT_ELBOW, "lowerarm_r"},
+                                              {Joint::LEFT_WRIST, "hand_l"},
+                                              {Joint::RIGHT_WRIST, "hand_r"},
+                                              {Joint::LEFT_HAND, "middle_01_l"},
+                                              {Joint::RIGHT_HAND, "middle_01_r"}};
 
 bool is_spine(int j) { return j == idx(Joint::SPINE1) || j == idx(Joint::SPINE2) || j == idx(Joint::SPINE3); }
 
@@ -60,15 +75,16 @@ struct CorpusJointEstimation : ::testing::Test {
 
 TEST_F(CorpusJointEstimation, Hm08JointsMatchTheRig) {
   std::map<std::string, Eigen::Vector3d> head;
-  for (const auto& bone : s_rig["bones"]) head[bone["name"]] = 0.1 * Eigen::Vector3d(bone["head"][0], bone["head"][1], bone["head"][2]);
+  for (const auto& bone : s_rig["bones"])
+    head[bone["name"]] = 0.1 * Eigen::Vector3d(bone["head"][0], bone["head"][1], bone["head"][2]);
   EXPECT_EQ(s_estimate.pose, RestPose::APOSE);
   std::cout << "hm08: estimated joint − rig bone head (cm)\n" << std::fixed << std::setprecision(1);
   for (const auto& [joint, bone] : BONE_OF) {
     const int j = idx(joint);
     ASSERT_TRUE(head.contains(bone)) << bone;
     const Eigen::Vector3d got = s_estimate.joints.row(j).transpose(), d = got - head[bone];
-    std::cout << "  " << std::setw(15) << std::left << joint_name(j) << std::right << std::setw(6) << 100 * d.norm() << "  ("
-              << 100 * d.x() << ", " << 100 * d.y() << ", " << 100 * d.z() << ")\n";
+    std::cout << "  " << std::setw(15) << std::left << joint_name(j) << std::right << std::setw(6) << 100 * d.norm()
+              << "  (" << 100 * d.x() << ", " << 100 * d.y() << ", " << 100 * d.z() << ")\n";
     if (!is_spine(j)) {
       EXPECT_LT(d.norm(), 0.03) << joint_name(j) << " vs " << bone;
       continue;
@@ -92,13 +108,15 @@ TEST_F(CorpusJointEstimation, Hm08SkinWeightsAgreeWithTheRig) {
   const SkinWeights w = estimate_skin_weights(*s_body, s_estimate.joints);
   ASSERT_NO_THROW(validate_skin_weights(w, s_body->vertex_count(), "hm08"));
   std::map<std::string, int> joint_of_bone;
-  for (const auto& [joint, bone] : BONE_OF) joint_of_bone[bone] = idx(joint);
+  for (const auto& [joint, bone] : BONE_OF)
+    joint_of_bone[bone] = idx(joint);
   std::vector<std::string> bones;
   for (const auto& bone : s_rig["bones"]) {
     const std::string name = bone["name"];
     bones.push_back(name);
     for (const char* finger : {"thumb", "index", "middle", "ring", "pinky"})
-      if (name.rfind(finger, 0) == 0) joint_of_bone[name] = idx(name.back() == 'l' ? Joint::LEFT_HAND : Joint::RIGHT_HAND);
+      if (name.rfind(finger, 0) == 0)
+        joint_of_bone[name] = idx(name.back() == 'l' ? Joint::LEFT_HAND : Joint::RIGHT_HAND);
   }
   const auto& rig_weights = s_rig["vertex_weights"];
   ASSERT_EQ(rig_weights.size(), s_body->vertex_count());
@@ -140,7 +158,8 @@ TEST_F(CorpusJointEstimation, ProxyBodiesGivePlausibleSkeletons) {
       hi = hi.max(p);
     }
     for (int j = 0; j < JOINT_COUNT; ++j)
-      EXPECT_TRUE((J.row(j).transpose().array() > lo).all() && (J.row(j).transpose().array() < hi).all()) << joint_name(j);
+      EXPECT_TRUE((J.row(j).transpose().array() > lo).all() && (J.row(j).transpose().array() < hi).all())
+          << joint_name(j);
     EXPECT_LT(y(Joint::LEFT_FOOT), y(Joint::LEFT_ANKLE));
     EXPECT_LT(y(Joint::LEFT_ANKLE), y(Joint::LEFT_KNEE));
     EXPECT_LT(y(Joint::LEFT_KNEE), y(Joint::LEFT_HIP));

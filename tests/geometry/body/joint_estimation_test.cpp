@@ -41,12 +41,12 @@ const Body& mannequin(const Case& c) {
 
 const Case AVERAGE_A{"average_apose", "average", RestPose::APOSE};
 
-template <typename F>
-Mesh transformed(const Mesh& in, F&& f) {
+template <typename F> Mesh transformed(const Mesh& in, F&& f) {
   Mesh m = in;
   for (std::size_t v = 0; v < m.vertex_count(); ++v) {
     const Eigen::Vector3d p = f(Eigen::Vector3d(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]));
-    for (int k = 0; k < 3; ++k) m.positions[3 * v + k] = static_cast<float>(p[k]);
+    for (int k = 0; k < 3; ++k)
+      m.positions[3 * v + k] = static_cast<float>(p[k]);
   }
   return m;
 }
@@ -70,7 +70,8 @@ TEST_P(JointEstimationMannequin, JointsWithin3cmOfTheGeneratedOnes) {
   EXPECT_EQ(est.pose, GetParam().pose);
   for (int j = 0; j < JOINT_COUNT; ++j) {
     const double err = (est.joints.row(j) - body.joints.row(j)).norm();
-    EXPECT_LT(err, 0.03) << joint_name(j) << ": estimated " << est.joints.row(j) << ", generated " << body.joints.row(j);
+    EXPECT_LT(err, 0.03) << joint_name(j) << ": estimated " << est.joints.row(j) << ", generated "
+                         << body.joints.row(j);
     EXPECT_GT(est.confidence[std::size_t(j)], 0.0) << joint_name(j);
     EXPECT_LE(est.confidence[std::size_t(j)], 1.0) << joint_name(j);
   }
@@ -80,15 +81,18 @@ std::string case_name(const ::testing::TestParamInfo<Case>& c) { return c.param.
 
 INSTANTIATE_TEST_SUITE_P(JointEstimation, JointEstimationMannequin,
                          ::testing::Values(AVERAGE_A, Case{"average_tpose", "average", RestPose::TPOSE},
-                                           Case{"pear_apose", "pear", RestPose::APOSE}, Case{"pear_tpose", "pear", RestPose::TPOSE},
-                                           Case{"tall_apose", "tall", RestPose::APOSE}, Case{"tall_tpose", "tall", RestPose::TPOSE}),
+                                           Case{"pear_apose", "pear", RestPose::APOSE},
+                                           Case{"pear_tpose", "pear", RestPose::TPOSE},
+                                           Case{"tall_apose", "tall", RestPose::APOSE},
+                                           Case{"tall_tpose", "tall", RestPose::TPOSE}),
                          case_name);
 
 TEST(JointEstimation, FollowsTheBodyWhereverItStands) {
   const Body& body = mannequin(AVERAGE_A);
   const JointEstimate ref = estimate_joints(body.mesh);
   const Eigen::Vector3d shift(0.7, -0.4, 1.3);
-  const JointEstimate moved = estimate_joints(transformed(body.mesh, [&](const Eigen::Vector3d& p) { return p + shift; }));
+  const JointEstimate moved =
+      estimate_joints(transformed(body.mesh, [&](const Eigen::Vector3d& p) { return p + shift; }));
   // 1 mm: moving the float positions rounds them differently; nothing else changes.
   for (int j = 0; j < JOINT_COUNT; ++j)
     EXPECT_LT((moved.joints.row(j) - ref.joints.row(j) - shift.transpose()).norm(), 1e-3) << joint_name(j);
@@ -98,7 +102,8 @@ TEST(JointEstimation, MirroredBodyGivesMirroredJoints) {
   const Body& body = mannequin(AVERAGE_A);
   const JointEstimate ref = estimate_joints(body.mesh);
   Mesh m = transformed(body.mesh, [](const Eigen::Vector3d& p) { return Eigen::Vector3d(-p.x(), p.y(), p.z()); });
-  for (std::size_t f = 0; f < m.face_count(); ++f) std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
   const JointEstimate mirrored = estimate_joints(m);
   // 5 mm: the mannequin's two sides differ by its decimation, nothing more.
   for (int j = 0; j < JOINT_COUNT; ++j) {
@@ -130,9 +135,11 @@ TEST(JointEstimation, ToleratesHolesAtTheSolesAndScalp) {
   ASSERT_LT(kept.size(), m.triangles.size());
   m.triangles = kept;
   const JointEstimate est = estimate_joints(m);
-  for (int j = 0; j < JOINT_COUNT; ++j) EXPECT_LT((est.joints.row(j) - body.joints.row(j)).norm(), 0.03) << joint_name(j);
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    EXPECT_LT((est.joints.row(j) - body.joints.row(j)).norm(), 0.03) << joint_name(j);
   bool warned = false;
-  for (const auto& w : est.warnings) warned |= w.find("holes") != std::string::npos;
+  for (const auto& w : est.warnings)
+    warned |= w.find("holes") != std::string::npos;
   EXPECT_TRUE(warned);
 }
 
@@ -149,7 +156,8 @@ TEST(JointEstimation, RejectsWhatIsNotAnUprightBodyInAOrTPose) {
   EXPECT_NE(error_of(lying).find("not an upright body"), std::string::npos) << error_of(lying);
   const Mesh in_mm = transformed(body, [](const Eigen::Vector3d& p) { return Eigen::Vector3d(1000 * p); });
   EXPECT_NE(error_of(in_mm).find("not a body in metres"), std::string::npos) << error_of(in_mm);
-  const Mesh backwards = transformed(body, [](const Eigen::Vector3d& p) { return Eigen::Vector3d(-p.x(), p.y(), -p.z()); });
+  const Mesh backwards =
+      transformed(body, [](const Eigen::Vector3d& p) { return Eigen::Vector3d(-p.x(), p.y(), -p.z()); });
   EXPECT_NE(error_of(backwards).find("+Z"), std::string::npos) << error_of(backwards);
   // Arms hanging down along the torso (the A-pose's shoulders turned down by 40°).
   Pose down;
@@ -182,7 +190,8 @@ TEST(JointEstimation, SkinWeightsAreValidSmoothAndAgreeWithTheMannequins) {
     for (int k = 0; k < 3; ++k) {
       const std::size_t a = std::size_t(m.triangles[3 * f + k]), b = std::size_t(m.triangles[3 * f + (k + 1) % 3]);
       double d = 0;
-      for (int j = 0; j < JOINT_COUNT; ++j) d += std::abs(dense[a * JOINT_COUNT + std::size_t(j)] - dense[b * JOINT_COUNT + std::size_t(j)]);
+      for (int j = 0; j < JOINT_COUNT; ++j)
+        d += std::abs(dense[a * JOINT_COUNT + std::size_t(j)] - dense[b * JOINT_COUNT + std::size_t(j)]);
       worst = std::max(worst, d);
       total += d;
     }
@@ -197,7 +206,8 @@ TEST(JointEstimation, SkinWeightsAreValidSmoothAndAgreeWithTheMannequins) {
     return s.joints[4 * v + best];
   };
   std::size_t agree = 0;
-  for (std::size_t v = 0; v < nv; ++v) agree += dominant(w, v) == dominant(body.weights, v);
+  for (std::size_t v = 0; v < nv; ++v)
+    agree += dominant(w, v) == dominant(body.weights, v);
   EXPECT_GT(double(agree) / double(nv), 0.8);
   // Extremities belong to their end joints.
   std::size_t fingertip = 0, crown = 0;

@@ -1,0 +1,114 @@
+#include "body_loader.h"
+
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "geometry/mesh/atomic_write.h"
+#include "geometry/mesh/mesh_io.h"
+#include "geometry/mesh/mesh_stats.h"
+#include "gltf_body.h"
+#include "joint_estimation.h"
+#include "kernels/error.h"
+#include "rig_mapping.h"
+#include "smpl_model.h"
+
+namespace vfit {
+
+LoadedBody::LoadedBody() = default;
+LoadedBody::~LoadedBody() = default;
+LoadedBody::LoadedBody(LoadedBody&&) noexcept = default;
+LoadedBody& LoadedBody::operator=(LoadedBody&&) noexcept = default;
+
+Body LoadedBody::posed(const Pose& pose) const {
+  if (!m_smpl) return pose_body(rest, pose);
+  Body out = rest;
+  out.mesh.positions = m_smpl->posed_mesh(m_betas, pose).positions;
+  out.joints = m_smpl->posed_joints(m_betas, pose);
+  return out;
+}
+
+JointPositions read_joints_json(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_file_bytes(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(file, 0, std::string("invalid JSON: ") + e.what());
+  }
+  const nlohmann::json& joints = j.contains("joints") ? j["joints"] : j;
+  if (!joints.is_object()) throw Error(file, 0, "expected {\"joints\": {\"pelvis\": [x, y, z], ...}}");
+  JointPositions out = JointPositions::Zero();
+  std::vector<bool> seen(JOINT_COUNT, false);
+  for (const auto& [name, value] : joints.items()) {
+    const auto jj = joint_from_name(name);
+    if (!jj) throw Error(file, 0, "unknown joint '" + name + "' (expected the 24 SMPL joint names)");
+    if (!value.is_array() || value.size() != 3) throw Error(file, 0, "'" + name + "': expected [x, y, z]");
+    for (int k = 0; k < 3; ++k) {
+      if (!value[k].is_number() || !std::isfinite(value[k].get<double>())) throw Error(file, 0, "'" + name + "': not a finite number");
+      out(*jj, k) = value[k].get<double>();
+    }
+    seen[*jj] = true;
+  }
+  for (int k = 0; k < JOINT_COUNT; ++k)
+    if (!seen[k]) throw Error(file, 0, "joint '" + std::string(joint_name(k)) + "' is missing");
+  return out;
+}
+
+LoadedBody load_body(const BodyRequest& r) {
+  LoadedBody out;
+  if (r.source == "mannequin") {
+    out.rest = make_mannequin(r.mannequin);
+    out.kind = "mannequin";
+    return out;
+  }
+  const std::filesystem::path path = r.source;
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".npz") {
+    auto model = std::make_shared<SmplModel>(SmplModel::load(path));
+    out.rest = model->rest_body(r.betas);
+    out.m_smpl = std::move(model);
+    out.m_betas = r.betas;
+    out.kind = "smpl";
+    return out;
+  }
+  if (ext == ".glb" || ext == ".gltf") {
+    // A rigged glTF body when it has a skin; a plain mesh otherwise.
+    const std::string bytes = read_file_bytes(path);
+    if (bytes.find("\"skins\"") != std::string::npos) {
+      std::optional<RigMapping> mapping;
+      if (r.rig_mapping_file) mapping = load_rig_mapping(*r.rig_mapping_file);
+      out.rest = parse_gltf_body(bytes, path.string(), mapping, &out.warnings);
+      out.kind = "gltf-rig";
+      return out;
+    }
+  }
+  ParsedMesh parsed = read_mesh(path);
+  out.warnings = parsed.warnings;
+  const MeshStats stats = mesh_stats(parsed.mesh);
+  Units units = Units::M;
+  if (r.units) {
+    units = *r.units;
+  } else {
+    const auto detected = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+    if (!detected) throw Error(path.string(), 0, "cannot detect the body's units; state them with --units");
+    units = *detected;
+    if (units != Units::M)
+      out.warnings.push_back(path.string() + ": units detected as " + units_name(units) + "; converted to metres");
+  }
+  scale_positions(parsed.mesh.positions, metres_per_unit(units));
+  if (r.joints_file) {
+    out.rest.mesh = std::move(parsed.mesh);
+    out.rest.joints = read_joints_json(*r.joints_file);
+    out.rest.weights = estimate_skin_weights(out.rest.mesh, out.rest.joints);
+    out.rest.source = path.string();
+    out.kind = "mesh+joints";
+    return out;
+  }
+  out.rest = rig_bare_body(std::move(parsed.mesh), path.string());
+  out.kind = "scan";
+  return out;
+}
+
+} // namespace vfit

@@ -1,0 +1,60 @@
+#pragma once
+/// \file
+/// One entry point for every kind of body a user brings (seed 000 §3, seed 001 §5): the
+/// built-in mannequin, an SMPL-format model file with shape β, a rigged glTF body, or a plain
+/// mesh with no skeleton (a scan) whose joints are given in a JSON file or estimated.
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "body.h"
+#include "geometry/mesh/units.h"
+#include "mannequin.h"
+
+namespace vfit {
+
+class SmplModel;
+
+struct BodyRequest {
+  /// "mannequin", or a file: .npz (SMPL format), .glb/.gltf (rigged, or plain), .obj/.ply/...
+  std::string source = "mannequin";
+  MannequinOptions mannequin;          ///< for "mannequin"
+  std::vector<double> betas;           ///< for SMPL-format files (missing ones are 0)
+  std::optional<std::string> rig_mapping_file; ///< explicit bone → joint mapping for glTF rigs
+  std::optional<std::string> joints_file; ///< {"joints": {"pelvis": [x, y, z], ...}} for plain meshes
+  std::optional<Units> units;          ///< a plain mesh's units (detected when absent)
+};
+
+/// A body ready for fitting: rigged, in metres, in its rest pose, plus how to pose it.
+class LoadedBody {
+public:
+  Body rest;                          ///< rest-pose mesh, joints, weights
+  std::vector<std::string> warnings;  ///< unit conversion, joint estimation notes, ...
+  std::string kind;                   ///< "mannequin" | "smpl" | "gltf-rig" | "mesh+joints" | "scan"
+
+  /// The body in `pose`: SMPL's own model (pose blend shapes included) for SMPL-format files,
+  /// linear blend skinning otherwise.
+  Body posed(const Pose& pose) const;
+
+  LoadedBody();
+  ~LoadedBody();
+  LoadedBody(LoadedBody&&) noexcept;
+  LoadedBody& operator=(LoadedBody&&) noexcept;
+
+private:
+  friend LoadedBody load_body(const BodyRequest& request);
+  std::shared_ptr<const SmplModel> m_smpl;
+  std::vector<double> m_betas;
+};
+
+/// Loads the requested body. Throws vfit::Error naming the file and the problem (missing file,
+/// unknown format, no recognisable skeleton, joints file incomplete, ...).
+LoadedBody load_body(const BodyRequest& request);
+
+/// Reads a joints JSON file {"joints": {"<canonical name>": [x, y, z], ...}} (all 24, metres).
+JointPositions read_joints_json(const std::filesystem::path& path);
+
+} // namespace vfit
