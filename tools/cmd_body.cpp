@@ -25,43 +25,46 @@ std::string joints_json(const JointPositions& joints) {
 
 int run_body(Args& args) {
   const bool quiet = args.flag("quiet");
-  MannequinOptions options;
-  options.measurements = measurements_from_args(args);
-  if (auto p = args.value("pose-rest")) {
-    if (*p == "tpose") options.pose = RestPose::TPOSE;
-    else if (*p == "apose") options.pose = RestPose::APOSE;
-    else throw Error("--pose-rest", 0, "expected tpose or apose, got '" + *p + "'");
-  }
-  if (auto n = args.value("vertices")) options.target_vertices = static_cast<std::size_t>(Args::to_int("--vertices", *n, 1000, 2000000));
+  const std::string source = args.value("from").value_or("mannequin");
+  BodyRequest request = body_request_from_args(args, source);
   const auto out = args.value("out");
   const auto joints_out = args.value("joints");
   const auto pose_arg = args.value("pose");
   const auto rigged = args.value("rigged");
   if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB) throw Error(*rigged, 0, "--rigged writes a .glb file");
+  if (out) mesh_format_from_path(*out);
   args.positionals(0, 0);
   const auto t0 = std::chrono::steady_clock::now();
-  const Body rest = make_mannequin(options);
+  const LoadedBody loaded = load_body(request);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   Pose pose;
   if (pose_arg) {
     std::error_code ec;
-    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg) : named_pose(*pose_arg, options.pose);
+    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg) : named_pose(*pose_arg, loaded.rest.rest_pose);
   }
-  const Body body = pose_body(rest, pose);
+  const Body body = loaded.posed(pose);
+  if (!quiet)
+    for (const auto& w : loaded.warnings) std::cerr << "vfit: warning: " << w << "\n";
   if (out) write_mesh(*out, body.mesh, "body");
   if (joints_out) write_file_atomically(*joints_out, joints_json(body.joints));
   if (rigged) {
-    const MeshSkin skin = body_skin(rest);
-    const NamedMesh named{"body", &rest.mesh, &skin};
+    const MeshSkin skin = body_skin(loaded.rest);
+    const NamedMesh named{"body", &loaded.rest.mesh, &skin};
     write_meshes_glb(*rigged, std::span<const NamedMesh>(&named, 1));
   }
   if (!quiet) {
-    const MeasuredBody got = measure_body(rest.mesh, rest.joints);
-    std::printf("mannequin: %zu vertices, %zu faces, built in %.0f ms\n", body.mesh.vertex_count(), body.mesh.face_count(), ms);
-    std::printf("%-16s %10s %10s %8s\n", "measurement", "requested", "measured", "error");
-    for (std::string_view n : BodyMeasurements::names())
-      std::printf("%-16s %9.4f m %9.4f m %7.2f%%\n", std::string(n).c_str(), options.measurements[n], got.values[n],
-                  100.0 * (got.values[n] / options.measurements[n] - 1.0));
+    std::printf("%s body: %zu vertices, %zu faces, loaded in %.0f ms\n", loaded.kind.c_str(), body.mesh.vertex_count(),
+                body.mesh.face_count(), ms);
+    const MeasuredBody got = measure_body(loaded.rest.mesh, loaded.rest.joints);
+    const bool requested = source == "mannequin";
+    std::printf("%-16s %10s %10s %8s\n", "measurement", requested ? "requested" : "", "measured", requested ? "error" : "");
+    for (std::string_view n : BodyMeasurements::names()) {
+      if (requested)
+        std::printf("%-16s %9.4f m %9.4f m %7.2f%%\n", std::string(n).c_str(), request.mannequin.measurements[n], got.values[n],
+                    100.0 * (got.values[n] / request.mannequin.measurements[n] - 1.0));
+      else
+        std::printf("%-16s %10s %9.4f m\n", std::string(n).c_str(), "", got.values[n]);
+    }
   }
   return 0;
 }

@@ -69,10 +69,17 @@ DIR/demo.glb (all meshes in metres, one named mesh each) and DIR/demo.json. DIR 
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
+                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
                  [--rigged FILE.glb] [--quiet]
 
-Builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
+Builds a body and writes it, posed. --from takes a body you bring instead of the mannequin: an
+SMPL-format model (.npz: v_template, shapedirs, posedirs, J_regressor, weights, kintree_table,
+f) with shape --betas; a rigged glTF (.glb/.gltf; SMPL, Mixamo or MakeHuman bone names, or
+--rig-mapping FILE.json); or a plain mesh (a scan) whose joints come from --joints-in or are
+estimated from its geometry.
+
+Without --from, builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
 --height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,
 --chest, --waist, --hip, --thigh, --calf (girths). --preset starts from a body type:
 average (default), banana, pear, apple, hourglass, tall, petite. The mesh has --vertices

@@ -1,0 +1,93 @@
+// `vfit body`, `vfit garment` and `vfit measure` end to end, and their bad inputs.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "geometry/body/gltf_body.h"
+#include "geometry/mesh/mesh_io.h"
+#include "geometry/mesh/topology.h"
+#include "test_support.h"
+
+namespace vfit {
+namespace {
+
+TEST(BodyCli, WritesMeshJointsAndRiggedGltfThatMeasuresBack) {
+  test::TempDir tmp;
+  const auto mesh = tmp / "body.obj", joints = tmp / "joints.json", rigged = tmp / "body.glb";
+  auto r = test::run_cli({"body", "--preset", "pear", "--vertices", "2000", "--out", mesh.string(), "--joints",
+                          joints.string(), "--rigged", rigged.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const ParsedMesh m = read_mesh(mesh);
+  EXPECT_EQ(m.mesh.vertex_count(), 2000u);
+  EXPECT_TRUE(analyse_topology(m.mesh.triangle_view(), m.mesh.vertex_count()).watertight());
+  const auto j = nlohmann::json::parse(test::read_file(joints));
+  EXPECT_EQ(j["joints"].size(), 24u);
+  // The rigged glTF loads back as a body with the same joints.
+  const Body b = read_gltf_body(rigged.string());
+  EXPECT_EQ(b.mesh.vertex_count(), 2000u);
+  for (int k = 0; k < JOINT_COUNT; ++k)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(b.joints(k, c), j["joints"][std::string(joint_name(k))][c].get<double>(), 1e-5);
+  r = test::run_cli({"measure", rigged.string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto got = nlohmann::json::parse(r.out);
+  EXPECT_EQ(got["kind"], "gltf-rig");
+  EXPECT_NEAR(got["measurements_m"]["hip"].get<double>(), 1.06, 0.01); // the pear preset's hip
+  EXPECT_NEAR(got["measurements_m"]["waist"].get<double>(), 0.76, 0.008);
+}
+
+TEST(BodyCli, PosesByNameAndByJsonFile) {
+  test::TempDir tmp;
+  const auto pose = tmp / "pose.json";
+  test::write_file(pose, R"({"left_elbow": [0, -1.2, 0], "translation": [0, 0, 0.5]})");
+  const auto joints = tmp / "j.json";
+  auto r = test::run_cli({"body", "--vertices", "1000", "--pose", pose.string(), "--joints", joints.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(test::read_file(joints));
+  EXPECT_NEAR(j["joints"]["pelvis"][2].get<double>(), 0.5 - 0.005, 1e-3); // translated by 0.5 m in z
+  r = test::run_cli({"body", "--vertices", "1000", "--pose", "walking", "--quiet"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+TEST(GarmentCli, WritesTheGarmentAndItsLabels) {
+  test::TempDir tmp;
+  const auto out = tmp / "pants.ply";
+  const auto r = test::run_cli({"garment", "trousers", "--size", "P3", "--vertices", "1500", "--pose", "apose", "--out", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_mesh(out).mesh.vertex_count(), 1500u);
+  const auto labels = nlohmann::json::parse(test::read_file(tmp / "pants.labels.json"));
+  EXPECT_EQ(labels["vertex_parts"].size(), 1500u);
+  EXPECT_EQ(labels["size"], "P3");
+  EXPECT_EQ(labels["part_names"][3], "left_leg");
+}
+
+struct BadCall {
+  const char* name;
+  std::vector<std::string> args;
+  const char* expect;
+};
+void PrintTo(const BadCall& b, std::ostream* os) { *os << b.name; }
+
+class BodyCliBadInput : public ::testing::TestWithParam<BadCall> {};
+
+TEST_P(BodyCliBadInput, ExitsTwoNamingTheProblem) {
+  const auto r = test::run_cli(GetParam().args);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(GetParam().expect), std::string::npos) << r.err;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Calls, BodyCliBadInput,
+    ::testing::Values(BadCall{"height", {"body", "--height", "5"}, "height"},
+                      BadCall{"not_a_number", {"body", "--chest", "big"}, "--chest"},
+                      BadCall{"preset", {"body", "--preset", "giraffe"}, "unknown body preset"},
+                      BadCall{"pose", {"body", "--pose", "cartwheel"}, "unknown pose"},
+                      BadCall{"vertices", {"body", "--vertices", "12"}, "--vertices"},
+                      BadCall{"rigged_not_glb", {"body", "--rigged", "x.obj"}, "--rigged writes a .glb"},
+                      BadCall{"garment_type", {"garment", "cape", "--out", "x.obj"}, "unknown garment type"},
+                      BadCall{"garment_size", {"garment", "tee", "--size", "XXXL", "--out", "x.obj"}, "unknown size"},
+                      BadCall{"garment_no_out", {"garment", "tee"}, "--out"},
+                      BadCall{"measure_missing", {"measure", "no/such/body.obj"}, "cannot open"},
+                      BadCall{"measure_betas", {"measure", "x.npz", "--betas", "1,,2"}, "--betas"}),
+    [](const auto& p) { return std::string(p.param.name); });
+
+} // namespace
+} // namespace vfit
