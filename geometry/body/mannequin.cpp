@@ -226,7 +226,9 @@ Body make_mannequin(const MannequinOptions& options) {
   // more costs time), never finer than 2.5 mm (large targets are reached by subdivision) and
   // never coarser than 0.7 × the hand's half-thickness (2 cm), or thin parts would break off.
   const double area = BODY_AREA_AT_170 * s * s;
-  const double cell = std::clamp(std::sqrt(MT_VERTICES_PER_UNIT * area / (3.0 * double(options.target_vertices))),
+  // Large targets need less slack: the fine grid already resolves every part.
+  const double slack = options.target_vertices > 20000 ? 1.6 : 3.0;
+  const double cell = std::clamp(std::sqrt(MT_VERTICES_PER_UNIT * area / (slack * double(options.target_vertices))),
                                  0.0025, 0.014 * s);
   const auto [lo, hi] = shape.bounding_box(3 * cell);
   IsosurfaceOptions iso;
