@@ -92,9 +92,12 @@ VFIT_INLINE vfit_closest_point vfit_closest_on_edge(vfit_vec3 q, vfit_vec3 p0, v
   }
   vfit_vec3 point = t == 1.0f ? p1 : vfit_v3_along(p0, d, t);
   float u = 0.0f, v = 0.0f;
-  if (k == 0) u = t;                /* a → b */
-  if (k == 1) { u = 1.0f - t; v = t; } /* b → c */
-  if (k == 2) v = 1.0f - t;         /* c → a */
+  if (k == 0) u = t; /* a → b */
+  if (k == 1) {      /* b → c */
+    u = 1.0f - t;
+    v = t;
+  }
+  if (k == 2) v = 1.0f - t; /* c → a */
   return vfit_make_closest(q, point, u, v, feature);
 }
 
@@ -149,8 +152,10 @@ VFIT_INLINE vfit_closest_point vfit_closest_point_on_triangle(vfit_vec3 q, vfit_
     return vfit_make_closest(q, vfit_v3_along(b, vfit_v3_sub(c, b), t), 1.0f - t, t, VFIT_FEATURE_EDGE_1);
   }
 
-  float inv = 1.0f / (va + vb + vc);
-  float u = vb * inv, v = vc * inv;
+  /* va + vb + vc = |n|² > 0 here; the guard catches only rounding on near-degenerate input. */
+  float denom = va + vb + vc;
+  if (!(denom > 0.0f)) return vfit_closest_on_degenerate(q, a, b, c);
+  float u = vb / denom, v = vc / denom;
   return vfit_make_closest(q, vfit_barycentric_point(a, b, c, u, v), u, v, VFIT_FEATURE_FACE);
 }
 

@@ -109,19 +109,30 @@ Garment make_garment(const GarmentOptions& options) {
   const Ease ease = options.ease ? *options.ease : size_ease(options.size);
   const GarmentShape shape(options.type, options.body, ease, options.pose);
 
-  // Grid for about 1.3× the target on the whole closed surface (the cut removes some), capped
-  // so the finest features (cuffs, straps) keep several cells.
+  // The grid is sized by a trial: a coarse garment gives the vertex count per unit of 1/h²,
+  // then the final grid aims at 1.15× the target so decimation only trims (it is the slow
+  // step), never coarser than a size that keeps cuffs and straps several cells wide.
   const double s = options.body.height / 1.70;
-  const double area = shape.closed_area_estimate();
-  const double cell = std::clamp(std::sqrt(4.4 * area / (1.3 * double(options.target_vertices))), 0.0025, 0.016 * s);
-  const auto [lo, hi] = shape.bounding_box(3 * cell);
-  IsosurfaceOptions iso;
-  iso.box_min = {lo.x(), lo.y(), lo.z()};
-  iso.box_max = {hi.x(), hi.y(), hi.z()};
-  iso.cell_size = cell;
-  Mesh closed = extract_isosurface([&](double x, double y, double z) { return shape.distance({x, y, z}); }, iso);
-  Mesh mesh = largest_component(clip_mesh(
-      closed, [&](double x, double y, double z) { return shape.keep({x, y, z}); }, 0.35 * cell));
+  auto build = [&](double cell) {
+    const auto [lo, hi] = shape.bounding_box(3 * cell);
+    IsosurfaceOptions iso;
+    iso.box_min = {lo.x(), lo.y(), lo.z()};
+    iso.box_max = {hi.x(), hi.y(), hi.z()};
+    iso.cell_size = cell;
+    Mesh closed = extract_isosurface([&](double x, double y, double z) { return shape.distance({x, y, z}); }, iso);
+    return largest_component(clip_mesh(
+        closed, [&](double x, double y, double z) { return shape.keep({x, y, z}); }, 0.35 * cell));
+  };
+  const double max_cell = 0.016 * s, min_cell = 0.0015;
+  const double trial_cell = max_cell;
+  const Mesh trial = build(trial_cell);
+  double cell = std::clamp(trial_cell * std::sqrt(double(trial.vertex_count()) / (1.15 * double(options.target_vertices))),
+                           min_cell, max_cell);
+  Mesh mesh = cell == trial_cell ? trial : build(cell);
+  if (mesh.vertex_count() < options.target_vertices && cell > min_cell) {
+    cell = std::max(min_cell, cell * std::sqrt(double(mesh.vertex_count()) / (1.25 * double(options.target_vertices))));
+    mesh = build(cell);
+  }
   while (mesh.vertex_count() < options.target_vertices) {
     mesh = subdivide_midpoints(mesh);
     for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {

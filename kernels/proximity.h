@@ -1,0 +1,113 @@
+#pragma once
+/// \file
+/// Proximity queries against a triangle mesh: for each query point, the closest point on the
+/// mesh, its triangle, barycentrics and feature, and the signed distance that detects
+/// penetration (seed 000 §6.2, eq. 18: f = (g − h)·n_h < 0 ⇒ the garment vertex g is inside
+/// the body, h its closest body point). An Embree BVH finds the closest triangle; the side is
+/// decided by the angle-weighted pseudo-normal of the closest feature (Bærentzen & Aanæs 2005,
+/// "Signed distance computation using the angle weighted pseudonormal"), which is exact where
+/// a plain face normal fails: queries whose closest point is an edge or a vertex.
+
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace vfit {
+
+/// What the closest point lies on. Edge k joins corner k to corner (k + 1) mod 3 of the
+/// triangle; vertex k is its corner k. Values match VFIT_FEATURE_* in closest_point_math.h.
+enum class TriangleFeature : std::int8_t {
+  NONE = -1, ///< no hit within the query radius
+  FACE = 0,
+  EDGE_0 = 1,
+  EDGE_1 = 2,
+  EDGE_2 = 3,
+  VERTEX_0 = 4,
+  VERTEX_1 = 5,
+  VERTEX_2 = 6,
+};
+
+/// Answers for #Q query points, one row per query, in query order. A query with no triangle
+/// within max_distance has triangle −1, feature NONE, point = the query itself,
+/// barycentrics (0, 0) and signed distance +∞.
+struct ClosestHits {
+  std::vector<float> points;                 ///< #Q × 3 closest points on the mesh (m)
+  std::vector<std::int32_t> triangles;       ///< #Q closest triangle, or −1 for no hit
+  std::vector<float> barycentrics;           ///< #Q × 2 (u, v): point = (1−u−v)·a + u·b + v·c
+  /// #Q signed distances (m): |query − point|, negative when the query is inside the closed
+  /// mesh, i.e. when (query − point)·n < 0 with n the pseudo-normal of the closest feature
+  /// (seed 000 eq. 18). Zero for a query on the surface.
+  std::vector<float> signed_distances;
+  std::vector<std::int8_t> features;         ///< #Q TriangleFeature values
+
+  /// Number of queries answered (#Q).
+  std::size_t size() const { return triangles.size(); }
+  /// Resizes every array for `query_count` queries (contents unspecified until written).
+  void resize(std::size_t query_count);
+};
+
+/// Queries per TBB task in ProximityIndex::closest_points (each query is ~1 µs of traversal).
+inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
+
+/// Closest-point index over one triangle mesh: build once, refit when the vertices move,
+/// query many points. Holds an Embree scene (two-level, robust; the mesh BVH is refitted,
+/// not rebuilt, on refit()) and the pseudo-normals of every face, edge and vertex.
+///
+/// The side (sign) is meaningful for a closed, edge-manifold, consistently outward-oriented
+/// mesh whose shared vertices share indices (edges are found by vertex index). On an open
+/// mesh a boundary edge's pseudo-normal is its one face's normal. A degenerate triangle
+/// (zero area) has a zero face normal and adds nothing to its edges' and vertices'
+/// pseudo-normals; a query whose feature has a zero pseudo-normal is reported outside.
+///
+/// Thread safety: the query functions are const and may run concurrently; refit() may not run
+/// concurrently with anything else on the same index. Embree failures (out of memory, invalid
+/// input that slipped past validation) throw std::runtime_error naming the Embree call.
+class ProximityIndex {
+public:
+  /// Builds the index. positions: #V × 3 (m); triangles: #F × 3 vertex indices in [0, #V),
+  /// counter-clockwise seen from outside. Inputs are validated by the caller (assert only).
+  /// An empty mesh (#F = 0) is allowed: every query then reports no hit.
+  ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles);
+  ~ProximityIndex();
+  ProximityIndex(ProximityIndex&&) noexcept;
+  ProximityIndex& operator=(ProximityIndex&&) noexcept;
+  ProximityIndex(const ProximityIndex&) = delete;
+  ProximityIndex& operator=(const ProximityIndex&) = delete;
+
+  /// Moves the vertices (same topology, e.g. an animated body): positions is #V × 3 (m) with
+  /// the #V of construction. Refits the BVH bounds and recomputes the pseudo-normals; answers
+  /// afterwards equal those of a fresh index over the same positions.
+  void refit(std::span<const float> positions);
+
+  /// Closest points of `queries` (#Q × 3, m), TBB-parallel over the queries (grain
+  /// PROXIMITY_QUERY_GRAIN). Only triangles within `max_distance` (m, ≥ 0; +∞ for no limit)
+  /// count: a query farther than that from the mesh reports no hit. `hits` is resized to #Q.
+  /// Ties between equally close triangles go to the lower triangle index when both are seen.
+  void closest_points(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
+
+  /// Serial reference of closest_points(): the same Embree query, one point after another.
+  void closest_points_serial(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
+
+  /// Brute-force reference for tests and benchmarks: every triangle is measured for every
+  /// query (O(#Q·#F), serial), with the same per-triangle math and tie rule as the BVH path.
+  void closest_points_brute_force(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
+
+  /// #V and #F of the indexed mesh.
+  std::size_t vertex_count() const;
+  std::size_t face_count() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+/// One-call wrapper: builds a ProximityIndex over (positions, triangles) and answers
+/// `queries` with closest_points(). Shapes, units and signs as there.
+void closest_points(std::span<const float> positions, std::span<const std::int32_t> triangles,
+                    std::span<const float> queries, ClosestHits& hits,
+                    float max_distance = std::numeric_limits<float>::infinity());
+
+} // namespace vfit
