@@ -37,14 +37,14 @@ const Garment& garment(const Case& c) {
 
 class Catalogue : public ::testing::TestWithParam<Case> {};
 
-TEST_P(Catalogue, IsOneOpenManifoldSurfaceWithItsOpenings) {
-  const Garment& g = garment(GetParam());
-  EXPECT_EQ(g.mesh.vertex_count(), GetParam().vertices); // exact: decimated to the request
+void IsOneOpenManifoldSurfaceWithItsOpenings(const Case& param) {
+  const Garment& g = garment(param);
+  EXPECT_EQ(g.mesh.vertex_count(), param.vertices); // exact: decimated to the request
   const TopologyReport t = analyse_topology(g.mesh.triangle_view(), g.mesh.vertex_count());
   EXPECT_TRUE(t.manifold());
   EXPECT_TRUE(t.oriented());
   EXPECT_EQ(t.components, 1u);
-  EXPECT_EQ(t.boundary_loops, expected_openings(GetParam().type));
+  EXPECT_EQ(t.boundary_loops, expected_openings(param.type));
   EXPECT_EQ(t.unreferenced_vertices, 0u);
   // Valid as a file would be: no degenerate or duplicate faces, UV indices in range.
   Mesh copy = g.mesh;
@@ -53,9 +53,9 @@ TEST_P(Catalogue, IsOneOpenManifoldSurfaceWithItsOpenings) {
   EXPECT_NO_THROW(validate_mesh(copy, src, {}, warnings));
 }
 
-TEST_P(Catalogue, NormalsPointAwayFromTheBodyAndClothStaysOutside) {
-  const Garment& g = garment(GetParam());
-  const MannequinShape body(BodyMeasurements{}, GetParam().pose);
+void NormalsPointAwayFromTheBodyAndClothStaysOutside(const Case& param) {
+  const Garment& g = garment(param);
+  const MannequinShape body(BodyMeasurements{}, param.pose);
   std::size_t outward = 0;
   const Mesh& m = g.mesh;
   for (std::size_t f = 0; f < m.face_count(); ++f) {
@@ -75,13 +75,13 @@ TEST_P(Catalogue, NormalsPointAwayFromTheBodyAndClothStaysOutside) {
     ASSERT_GT(body.distance(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]), 0.0) << "vertex " << v;
 }
 
-TEST_P(Catalogue, LabelsAndUvsCoverEveryPart) {
-  const Garment& g = garment(GetParam());
+void LabelsAndUvsCoverEveryPart(const Case& param) {
+  const Garment& g = garment(param);
   ASSERT_EQ(g.vertex_parts.size(), g.mesh.vertex_count());
   std::map<GarmentPart, std::size_t> count;
   for (GarmentPart p : g.vertex_parts) ++count[p];
   std::vector<GarmentPart> want;
-  switch (GetParam().type) {
+  switch (param.type) {
   case GarmentType::TEE:
   case GarmentType::LONG_SLEEVE: want = {GarmentPart::TORSO, GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE}; break;
   case GarmentType::TROUSERS:
@@ -103,6 +103,22 @@ TEST_P(Catalogue, LabelsAndUvsCoverEveryPart) {
     ASSERT_LE(u, 1.0f);
   }
   ASSERT_EQ(g.mesh.face_labels.size(), g.mesh.face_count());
+}
+
+// One test per case: each case builds its mesh once (tests run in separate processes).
+TEST_P(Catalogue, MeetsEveryBar) {
+  {
+    SCOPED_TRACE("IsOneOpenManifoldSurfaceWithItsOpenings");
+    IsOneOpenManifoldSurfaceWithItsOpenings(GetParam());
+  }
+  {
+    SCOPED_TRACE("NormalsPointAwayFromTheBodyAndClothStaysOutside");
+    NormalsPointAwayFromTheBodyAndClothStaysOutside(GetParam());
+  }
+  {
+    SCOPED_TRACE("LabelsAndUvsCoverEveryPart");
+    LabelsAndUvsCoverEveryPart(GetParam());
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(
