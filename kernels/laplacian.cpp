@@ -1,0 +1,80 @@
+#include "laplacian.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace vfit {
+namespace {
+
+// Assembles L from symmetric edge weights: off-diagonal −w, diagonal Σ w.
+SparseMatrix assemble(std::vector<Eigen::Triplet<double>>& edges, std::size_t n) {
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(2 * edges.size() + n);
+  std::vector<double> diag(n, 0.0);
+  for (const auto& e : edges) {
+    t.emplace_back(e.row(), e.col(), -e.value());
+    t.emplace_back(e.col(), e.row(), -e.value());
+    diag[e.row()] += e.value();
+    diag[e.col()] += e.value();
+  }
+  for (std::size_t i = 0; i < n; ++i) t.emplace_back(static_cast<int>(i), static_cast<int>(i), diag[i]);
+  SparseMatrix L(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  L.setFromTriplets(t.begin(), t.end()); // duplicate (i, j) entries are summed
+  return L;
+}
+
+} // namespace
+
+SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::size_t vertex_count) {
+  // Each undirected edge once with weight 1 (an interior edge is seen by two faces).
+  std::vector<std::pair<std::int32_t, std::int32_t>> keys;
+  keys.reserve(triangles.size());
+  for (std::size_t c = 0; c < triangles.size(); ++c) {
+    const std::int32_t a = triangles[c], b = triangles[c % 3 == 2 ? c - 2 : c + 1];
+    if (a != b) keys.emplace_back(std::min(a, b), std::max(a, b));
+  }
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  std::vector<Eigen::Triplet<double>> edges;
+  edges.reserve(keys.size());
+  for (const auto& [a, b] : keys) edges.emplace_back(a, b, 1.0);
+  return assemble(edges, vertex_count);
+}
+
+SparseMatrix cotangent_laplacian(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  const std::size_t n = positions.size() / 3;
+  std::vector<Eigen::Triplet<double>> half; // one per (face, edge): ½ cot of the opposite angle
+  half.reserve(triangles.size());
+  auto p = [&](std::int32_t v) {
+    return Eigen::Vector3d(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
+  };
+  for (std::size_t f = 0; f < triangles.size() / 3; ++f) {
+    const std::int32_t v[3] = {triangles[3 * f], triangles[3 * f + 1], triangles[3 * f + 2]};
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t i = v[(k + 1) % 3], j = v[(k + 2) % 3];
+      const Eigen::Vector3d a = p(i) - p(v[k]), b = p(j) - p(v[k]);
+      const double cross = a.cross(b).norm();
+      if (cross <= 1e-20) continue;
+      const double cot = std::clamp(a.dot(b) / cross, -10.0, 10.0);
+      half.emplace_back(std::min(i, j), std::max(i, j), 0.5 * cot);
+    }
+  }
+  // Sum the halves per edge.
+  std::sort(half.begin(), half.end(), [](const auto& x, const auto& y) {
+    return x.row() < y.row() || (x.row() == y.row() && x.col() < y.col());
+  });
+  std::vector<Eigen::Triplet<double>> edges;
+  for (std::size_t i = 0; i < half.size();) {
+    double w = 0;
+    std::size_t j = i;
+    while (j < half.size() && half[j].row() == half[i].row() && half[j].col() == half[i].col()) w += half[j++].value();
+    if (half[i].row() != half[i].col()) edges.emplace_back(half[i].row(), half[i].col(), w);
+    i = j;
+  }
+  return assemble(edges, n);
+}
+
+} // namespace vfit

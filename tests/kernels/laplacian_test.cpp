@@ -1,0 +1,106 @@
+#include "kernels/laplacian.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "geometry/garment/laplacian_deformation.h"
+#include "geometry/mesh/primitives.h"
+#include "kernels/least_squares.h"
+
+namespace vfit {
+namespace {
+
+TEST(Laplacian, ConstantsAreInTheKernelAndTheOperatorIsSymmetric) {
+  const Mesh m = make_uv_sphere(12, 20, 0.3f);
+  for (const SparseMatrix& L : {uniform_laplacian(m.triangle_view(), m.vertex_count()),
+                                cotangent_laplacian(m.position_view(), m.triangle_view())}) {
+    const Eigen::VectorXd ones = Eigen::VectorXd::Ones(L.cols());
+    EXPECT_LT((L * ones).cwiseAbs().maxCoeff(), 1e-12); // rows sum to zero exactly up to rounding
+    const SparseMatrix diff = SparseMatrix(L.transpose()) - L;
+    EXPECT_LT(diff.cwiseAbs().sum(), 1e-9);
+    for (Eigen::Index i = 0; i < L.rows(); ++i) EXPECT_GT(L.coeff(i, i), 0.0); // a sphere has no obtuse pairs
+  }
+}
+
+TEST(Laplacian, CotangentWeightsReproduceLinearFunctionsOnAFlatGrid) {
+  // On a planar mesh the cotangent Laplacian of a linear function vanishes at interior
+  // vertices (discrete harmonicity); the uniform one does not on an irregular grid.
+  Mesh m = make_grid(9, 9, 1.0f, 1.0f);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> jitter(-0.02f, 0.02f);
+  for (std::size_t v = 0; v < m.vertex_count(); ++v) {
+    const int i = int(v) / 9, j = int(v) % 9;
+    if (i > 0 && i < 8 && j > 0 && j < 8) {
+      m.positions[3 * v] += jitter(rng);
+      m.positions[3 * v + 2] += jitter(rng);
+    }
+  }
+  const SparseMatrix L = cotangent_laplacian(m.position_view(), m.triangle_view());
+  Eigen::VectorXd f(m.vertex_count());
+  for (std::size_t v = 0; v < m.vertex_count(); ++v) f[v] = 2.0 * m.positions[3 * v] - 3.0 * m.positions[3 * v + 2] + 1.0;
+  const Eigen::VectorXd Lf = L * f;
+  for (std::size_t v = 0; v < m.vertex_count(); ++v) {
+    const int i = int(v) / 9, j = int(v) % 9;
+    if (i > 0 && i < 8 && j > 0 && j < 8) EXPECT_NEAR(Lf[v], 0.0, 1e-5) << "vertex " << v; // float positions
+  }
+}
+
+TEST(SparseLeastSquares, MatchesADenseQrOracleAndReportsRankDeficiency) {
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int r = 0; r < 60; ++r)
+    for (int c = 0; c < 20; ++c)
+      if (u(rng) > 0.5) t.emplace_back(r, c, u(rng));
+  for (int c = 0; c < 20; ++c) t.emplace_back(60 + c, c, 1.0); // full column rank
+  SparseMatrix A(80, 20);
+  A.setFromTriplets(t.begin(), t.end());
+  Eigen::MatrixXd b(80, 3);
+  for (int i = 0; i < b.size(); ++i) b.data()[i] = u(rng);
+  const SparseLeastSquares ls(A);
+  ASSERT_TRUE(ls.ok());
+  const Eigen::MatrixXd x = ls.solve(b);
+  const Eigen::MatrixXd oracle = Eigen::MatrixXd(A).colPivHouseholderQr().solve(b);
+  EXPECT_LT((x - oracle).cwiseAbs().maxCoeff(), 1e-9); // well conditioned: LDLᵀ and QR agree
+  SparseMatrix rank_deficient(10, 3);
+  rank_deficient.insert(0, 0) = 1.0;
+  rank_deficient.insert(1, 1) = 1.0; // column 2 is empty
+  EXPECT_FALSE(SparseLeastSquares(rank_deficient).ok());
+}
+
+TEST(LaplacianDeformer, KeepsTheShapeFollowsHandlesAndReusesItsFactorisation) {
+  const Mesh tube = make_tube(20, 16, 0.05f, 0.5f);
+  std::vector<std::int32_t> handles;
+  for (int j = 0; j < 16; ++j) {
+    handles.push_back(j);            // bottom ring
+    handles.push_back(19 * 16 + j);  // top ring
+  }
+  const LaplacianDeformer deformer(tube, handles, 10.0);
+  ASSERT_TRUE(deformer.ok());
+  const Eigen::MatrixXd delta = deformer.laplacian_coordinates(tube.positions);
+  Eigen::MatrixXd targets(handles.size(), 3);
+  for (std::size_t k = 0; k < handles.size(); ++k)
+    for (int c = 0; c < 3; ++c) targets(k, c) = tube.positions[3 * handles[k] + c];
+  // Targets at rest: the rest shape comes back.
+  std::vector<float> out = deformer.deform(delta, targets);
+  for (std::size_t i = 0; i < out.size(); ++i) ASSERT_NEAR(out[i], tube.positions[i], 1e-5);
+  // Every target moved by the same offset: the whole tube translates (δ is translation-free).
+  Eigen::MatrixXd moved = targets;
+  moved.rowwise() += Eigen::RowVector3d(0.1, -0.2, 0.3);
+  out = deformer.deform(delta, moved);
+  for (std::size_t v = 0; v < tube.vertex_count(); ++v) {
+    ASSERT_NEAR(out[3 * v], tube.positions[3 * v] + 0.1, 1e-5);
+    ASSERT_NEAR(out[3 * v + 1], tube.positions[3 * v + 1] - 0.2, 1e-5);
+  }
+  // Only the top ring moves sideways: the middle follows part of the way, smoothly.
+  Eigen::MatrixXd shear = targets;
+  for (std::size_t k = 1; k < handles.size(); k += 2) shear(k, 0) += 0.1;
+  out = deformer.deform(delta, shear);
+  const std::size_t mid = 10 * 16;
+  EXPECT_GT(out[3 * mid] - tube.positions[3 * mid], 0.02);
+  EXPECT_LT(out[3 * mid] - tube.positions[3 * mid], 0.08);
+}
+
+} // namespace
+} // namespace vfit
