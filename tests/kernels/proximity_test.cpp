@@ -1,0 +1,395 @@
+#include "kernels/proximity.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "geometry/body/mannequin.h"
+#include "geometry/mesh/mesh_io.h"
+#include "geometry/mesh/primitives.h"
+#include "geometry/mesh/units.h"
+#include "test_support.h"
+
+namespace vfit {
+namespace {
+
+// The BVH and the brute-force paths evaluate the same float expression per triangle, so they
+// can differ only when Embree's float box test leaves out a triangle tied with the winner to
+// within rounding: a few ulps of the coordinates (ulp(2 m) = 2.4e-7 m). Against a double
+// recomputation, a float distance also carries a few ulps of itself (3 × 1.2e-7 relative):
+// ~2e-6 m for the far queries, 20 m out.
+constexpr float DISTANCE_TOLERANCE = 1e-6f;
+double distance_tolerance(double distance) { return DISTANCE_TOLERANCE + 4e-7 * distance; }
+// Below this distance the side is not compared: at ~2 m coordinates the closest point carries
+// ~1e-7 m of rounding, which at 1e-5 m tilts query − point by under 1°, far inside the margin
+// of the pseudo-normal test; nearer than that the input floats do not decide the side.
+constexpr float SIGN_THRESHOLD = 1e-5f;
+
+using Vec3 = std::array<double, 3>;
+
+Vec3 position(const Mesh& m, std::int32_t v) {
+  return {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]};
+}
+Vec3 row3(std::span<const float> a, std::size_t i) { return {a[3 * i], a[3 * i + 1], a[3 * i + 2]}; }
+Vec3 sub(Vec3 a, Vec3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(Vec3 a, Vec3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 cross(Vec3 a, Vec3 b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
+
+// Generalized winding number (Jacobson, Kavan & Sorkine-Hornung 2013): Σ solid angles / 4π,
+// each by Van Oosterom & Strackee's formula, in double. 1 inside a closed outward mesh, 0 out.
+double winding_number(const Mesh& m, Vec3 q) {
+  double sum = 0.0;
+  for (std::size_t f = 0; f < m.face_count(); ++f) {
+    const Vec3 a = sub(position(m, m.triangles[3 * f]), q), b = sub(position(m, m.triangles[3 * f + 1]), q),
+               c = sub(position(m, m.triangles[3 * f + 2]), q);
+    const double la = norm(a), lb = norm(b), lc = norm(c);
+    sum += 2.0 * std::atan2(dot(a, cross(b, c)), la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb);
+  }
+  return sum / (4.0 * std::numbers::pi);
+}
+
+// Query points of every kind the engine meets, from a fixed seed: anywhere in and around the
+// bounding box, far away, exactly on vertices and edges, near the surface on both sides, and
+// within 1e-4 m of edges and vertices (where a plain face normal gives the wrong side).
+std::vector<float> make_queries(const Mesh& m, std::size_t per_kind, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> gauss;
+  Vec3 lo{1e30, 1e30, 1e30}, hi{-1e30, -1e30, -1e30};
+  for (std::size_t v = 0; v < m.vertex_count(); ++v)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(m.positions[3 * v + k]));
+      hi[k] = std::max(hi[k], double(m.positions[3 * v + k]));
+    }
+  auto in_box = [&](double grow) {
+    Vec3 p;
+    for (int k = 0; k < 3; ++k) {
+      const double mid = 0.5 * (lo[k] + hi[k]), half = 0.5 * (hi[k] - lo[k]) * grow;
+      p[k] = mid + (2.0 * unit(rng) - 1.0) * half;
+    }
+    return p;
+  };
+  auto direction = [&] {
+    Vec3 d{gauss(rng), gauss(rng), gauss(rng)};
+    const double l = norm(d);
+    return Vec3{d[0] / l, d[1] / l, d[2] / l};
+  };
+  auto corner = [&](std::size_t f, int k) { return position(m, m.triangles[3 * f + k % 3]); };
+  auto random_face = [&] { return std::size_t(unit(rng) * double(m.face_count())) % m.face_count(); };
+  auto log_uniform = [&](double a, double b) { return a * std::pow(b / a, unit(rng)); };
+  std::vector<float> q;
+  auto push = [&](Vec3 p, Vec3 d, double r) {
+    for (int k = 0; k < 3; ++k) q.push_back(float(p[k] + r * d[k]));
+  };
+  for (std::size_t i = 0; i < per_kind; ++i) {
+    push(in_box(1.4), {}, 0.0);
+    push(in_box(10.0), {}, 0.0);
+    const std::size_t f = random_face();
+    const int k = int(unit(rng) * 3.0) % 3;
+    push(corner(f, k), {}, 0.0);
+    const double t = unit(rng), s = unit(rng) * (1.0 - t);
+    const Vec3 a = corner(f, k), b = corner(f, k + 1), c = corner(f, k + 2);
+    const Vec3 on_edge{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+    push(on_edge, {}, 0.0);
+    const Vec3 inner{a[0] + t * (b[0] - a[0]) + s * (c[0] - a[0]), a[1] + t * (b[1] - a[1]) + s * (c[1] - a[1]),
+                     a[2] + t * (b[2] - a[2]) + s * (c[2] - a[2])};
+    push(inner, direction(), log_uniform(1e-4, 1e-2));
+    push(on_edge, direction(), log_uniform(2e-5, 1e-4));
+    push(a, direction(), log_uniform(2e-5, 1e-4));
+  }
+  return q;
+}
+
+struct MeshCase {
+  std::string name;
+  std::function<const Mesh&()> mesh;
+};
+
+const Mesh& sphere_mesh() {
+  static const Mesh m = make_uv_sphere(24, 48, 1.0f);
+  return m;
+}
+
+// A regular tetrahedron: its dihedral angle (70.5°) puts adjacent face normals 109.5° apart,
+// so near an edge or a vertex the face normal of the reported triangle often has the wrong sign.
+const Mesh& tetrahedron_mesh() {
+  static const Mesh m = [] {
+    Mesh t;
+    t.positions = {1, 1, 1, 1, -1, -1, -1, 1, -1, -1, -1, 1};
+    t.triangles = {0, 1, 2, 0, 3, 1, 0, 2, 3, 1, 3, 2};
+    return t;
+  }();
+  return m;
+}
+
+const Mesh& mannequin_mesh() {
+  static const Mesh m = make_mannequin(MannequinOptions{}).mesh;
+  return m;
+}
+
+class ProximityMesh : public ::testing::TestWithParam<MeshCase> {};
+
+// Asserts that `got` answers every query as `ref` does (see DISTANCE_TOLERANCE); returns how
+// many queries the two attribute to different (equally close) triangles.
+std::size_t expect_same_hits(std::span<const float> queries, const ClosestHits& got, const ClosestHits& ref) {
+  EXPECT_EQ(got.size(), ref.size());
+  std::size_t ties = 0;
+  for (std::size_t i = 0; i < std::min(got.size(), ref.size()); ++i) {
+    SCOPED_TRACE("query " + std::to_string(i));
+    EXPECT_EQ(got.triangles[i] < 0, ref.triangles[i] < 0);
+    if (got.triangles[i] < 0 || ref.triangles[i] < 0) continue;
+    const float dg = got.signed_distances[i], dr = ref.signed_distances[i];
+    EXPECT_NEAR(std::abs(dg), std::abs(dr), DISTANCE_TOLERANCE);
+    EXPECT_NEAR(norm(sub(row3(got.points, i), row3(queries, i))), std::abs(dg), distance_tolerance(std::abs(dg)));
+    if (std::abs(dr) > SIGN_THRESHOLD) {
+      EXPECT_EQ(dg < 0, dr < 0);
+    }
+    if (got.triangles[i] == ref.triangles[i]) {
+      // Same triangle, same float expression: the same bits.
+      EXPECT_EQ(got.features[i], ref.features[i]);
+      EXPECT_EQ(got.barycentrics[2 * i], ref.barycentrics[2 * i]);
+      EXPECT_EQ(got.barycentrics[2 * i + 1], ref.barycentrics[2 * i + 1]);
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(got.points[3 * i + k], ref.points[3 * i + k]);
+    } else {
+      // Random queries tie between triangles only at a shared edge or vertex: the same point.
+      ++ties;
+      EXPECT_LT(norm(sub(row3(got.points, i), row3(ref.points, i))), 10 * DISTANCE_TOLERANCE);
+    }
+  }
+  return ties;
+}
+
+TEST_P(ProximityMesh, ClosestPointsEqualBruteForce) {
+  const Mesh& m = GetParam().mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 150, 11u);
+  ClosestHits bvh, brute;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), bvh);
+  index.closest_points_brute_force(q, std::numeric_limits<float>::infinity(), brute);
+  const std::size_t ties = expect_same_hits(q, bvh, brute);
+  EXPECT_LT(ties, bvh.size() / 20) << "ties should be rare: only where several triangles share the point";
+  for (std::int32_t t : bvh.triangles) ASSERT_GE(t, 0) << "an unlimited query always hits";
+}
+
+TEST_P(ProximityMesh, TbbEqualsSerialBitForBit) {
+  const Mesh& m = GetParam().mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 400, 12u);
+  ClosestHits par, ser;
+  index.closest_points(q, 0.5f, par);
+  index.closest_points_serial(q, 0.5f, ser);
+  EXPECT_EQ(par.triangles, ser.triangles);
+  EXPECT_EQ(par.points, ser.points);
+  EXPECT_EQ(par.barycentrics, ser.barycentrics);
+  EXPECT_EQ(par.signed_distances, ser.signed_distances);
+  EXPECT_EQ(par.features, ser.features);
+}
+
+TEST_P(ProximityMesh, BarycentricsAndFeatureDescribeThePoint) {
+  const Mesh& m = GetParam().mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 100, 13u);
+  ClosestHits h;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    const std::int32_t* t = &m.triangles[3 * std::size_t(h.triangles[i])];
+    const double u = h.barycentrics[2 * i], v = h.barycentrics[2 * i + 1], w = 1.0 - u - v;
+    Vec3 p;
+    for (int k = 0; k < 3; ++k)
+      p[k] = w * position(m, t[0])[k] + u * position(m, t[1])[k] + v * position(m, t[2])[k];
+    // A few ulps of metre-scale coordinates, as for the distances.
+    EXPECT_LT(norm(sub(p, row3(h.points, i))), DISTANCE_TOLERANCE) << "query " << i;
+    const auto feature = TriangleFeature(h.features[i]);
+    // A query on an edge may be classified FACE with w rounded to 0: the closure is in float.
+    const bool bary_ok = feature == TriangleFeature::FACE       ? u >= 0 && v >= 0 && w >= -1e-6
+                         : feature == TriangleFeature::EDGE_0   ? v == 0 && u > 0 && u < 1
+                         : feature == TriangleFeature::EDGE_1   ? u > 0 && v > 0
+                         : feature == TriangleFeature::EDGE_2   ? u == 0 && v > 0 && v < 1
+                         : feature == TriangleFeature::VERTEX_0 ? u == 0 && v == 0
+                         : feature == TriangleFeature::VERTEX_1 ? u == 1 && v == 0
+                                                                : u == 0 && v == 1;
+    EXPECT_TRUE(bary_ok) << "query " << i << " feature " << int(h.features[i]) << " (u, v) = " << u << ", " << v;
+  }
+}
+
+TEST_P(ProximityMesh, SideAgreesWithWindingNumber) {
+  const Mesh& m = GetParam().mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 60, 14u);
+  ClosestHits h;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  std::size_t compared = 0, naive_wrong = 0;
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    if (std::abs(h.signed_distances[i]) <= SIGN_THRESHOLD) continue;
+    const double w = winding_number(m, row3(q, i));
+    // A closed mesh: w is 0 or 1 up to rounding, so 1e-6 is a loose check of closedness.
+    ASSERT_NEAR(w, std::round(w), 1e-6) << "query " << i << ": mesh not closed?";
+    const bool inside = w > 0.5;
+    ++compared;
+    EXPECT_EQ(h.signed_distances[i] < 0, inside) << "query " << i << " feature " << int(h.features[i]);
+    const std::int32_t* t = &m.triangles[3 * std::size_t(h.triangles[i])];
+    const Vec3 n = cross(sub(position(m, t[1]), position(m, t[0])), sub(position(m, t[2]), position(m, t[0])));
+    naive_wrong += (dot(sub(row3(q, i), row3(h.points, i)), n) < 0) != inside;
+  }
+  EXPECT_GT(compared, q.size() / 3 / 2) << "too few queries off the surface to test the side";
+  if (GetParam().name == "tetrahedron") {
+    EXPECT_GT(naive_wrong, 0u) << "the queries must probe where face normals fail";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Proximity, ProximityMesh,
+                         ::testing::Values(MeshCase{"sphere", sphere_mesh}, MeshCase{"tetrahedron", tetrahedron_mesh},
+                                           MeshCase{"mannequin", mannequin_mesh}),
+                         [](const ::testing::TestParamInfo<MeshCase>& p) { return p.param.name; });
+
+// A smooth, non-uniform deformation of the sphere (still closed and embedded): a different
+// closest triangle for most queries, so a stale BVH or stale pseudo-normals would show.
+std::vector<float> deformed_sphere_positions() {
+  std::vector<float> p = sphere_mesh().positions;
+  for (std::size_t v = 0; v < p.size() / 3; ++v) {
+    float& x = p[3 * v];
+    float& y = p[3 * v + 1];
+    float& z = p[3 * v + 2];
+    const float bump = 1.0f + 0.2f * std::sin(3.0f * x) * std::cos(2.0f * y);
+    x = 1.5f * x * bump + 0.3f;
+    y = 0.7f * y * bump - 0.2f;
+    z = z * bump + 0.1f;
+  }
+  return p;
+}
+
+TEST(ProximityRefit, RefitAnswersAsAFreshIndex) {
+  const Mesh& m = sphere_mesh();
+  ProximityIndex refitted(m.position_view(), m.triangle_view());
+  Mesh moved = m;
+  moved.positions = deformed_sphere_positions();
+  const std::vector<float> q = make_queries(moved, 150, 21u);
+  ClosestHits before;
+  refitted.closest_points(q, std::numeric_limits<float>::infinity(), before);
+  refitted.refit(moved.positions);
+  const ProximityIndex fresh(moved.position_view(), moved.triangle_view());
+  ClosestHits after, expected, brute;
+  refitted.closest_points(q, std::numeric_limits<float>::infinity(), after);
+  fresh.closest_points(q, std::numeric_limits<float>::infinity(), expected);
+  fresh.closest_points_brute_force(q, std::numeric_limits<float>::infinity(), brute);
+  expect_same_hits(q, after, expected);
+  expect_same_hits(q, after, brute);
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < q.size() / 3; ++i) changed += before.signed_distances[i] != after.signed_distances[i];
+  EXPECT_GT(changed, q.size() / 3 / 2) << "the deformation must change the answers for the test to mean anything";
+  // Pseudo-normals follow the vertices: the side still agrees with the winding number.
+  for (std::size_t i = 0; i < after.size(); ++i) {
+    if (std::abs(after.signed_distances[i]) <= SIGN_THRESHOLD) continue;
+    EXPECT_EQ(after.signed_distances[i] < 0, winding_number(moved, row3(q, i)) > 0.5) << "query " << i;
+  }
+}
+
+TEST(ProximityRadius, NoHitBeyondMaxDistance) {
+  const Mesh& m = sphere_mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  // On the unit sphere's inscribed polyhedron, a point at radius r is between r − 1 and
+  // r − cos(7.5°) ≈ r − 0.991 from the mesh: 1.2 hits within 0.25, 1.5 and 3 do not.
+  std::vector<float> q;
+  std::mt19937 rng(5u);
+  std::normal_distribution<float> gauss;
+  for (int i = 0; i < 300; ++i) {
+    float d[3] = {gauss(rng), gauss(rng), gauss(rng)};
+    const float l = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const float r = i % 3 == 0 ? 1.2f : i % 3 == 1 ? 1.5f : 3.0f;
+    for (float c : d) q.push_back(c / l * r);
+  }
+  ClosestHits h, brute;
+  index.closest_points(q, 0.25f, h);
+  index.closest_points_brute_force(q, 0.25f, brute);
+  expect_same_hits(q, h, brute);
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    SCOPED_TRACE("query " + std::to_string(i));
+    if (i % 3 == 0) {
+      EXPECT_GE(h.triangles[i], 0);
+      EXPECT_LE(h.signed_distances[i], 0.25f);
+      EXPECT_GT(h.signed_distances[i], 0.0f);
+      continue;
+    }
+    EXPECT_EQ(h.triangles[i], -1);
+    EXPECT_EQ(h.features[i], std::int8_t(TriangleFeature::NONE));
+    EXPECT_EQ(h.signed_distances[i], std::numeric_limits<float>::infinity());
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(h.points[3 * i + k], q[3 * i + k]);
+  }
+}
+
+TEST(ProximityEdgeCases, EmptyQuerySpanGivesEmptyHits) {
+  const Mesh& m = sphere_mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  ClosestHits h;
+  h.resize(7); // stale contents from an earlier call must go
+  index.closest_points({}, 1.0f, h);
+  EXPECT_EQ(h.size(), 0u);
+  EXPECT_TRUE(h.points.empty() && h.barycentrics.empty() && h.signed_distances.empty() && h.features.empty());
+  index.closest_points_serial({}, 1.0f, h);
+  EXPECT_EQ(h.size(), 0u);
+}
+
+TEST(ProximityEdgeCases, EmptyMeshNeverHits) {
+  const ProximityIndex index(std::span<const float>{}, std::span<const std::int32_t>{});
+  const std::vector<float> q = {0, 0, 0, 1, 2, 3};
+  ClosestHits h;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  ASSERT_EQ(h.size(), 2u);
+  EXPECT_EQ(h.triangles[0], -1);
+  EXPECT_EQ(h.triangles[1], -1);
+}
+
+TEST(ProximityEdgeCases, DegenerateTrianglesDoNotCrash) {
+  Mesh m = test::octahedron();
+  const std::int32_t base = std::int32_t(m.vertex_count());
+  // A collinear triangle (a segment in the air), one with two coincident corners, and a point.
+  m.positions.insert(m.positions.end(), {2, 0, 0, 3, 0, 0, 4, 0, 0, 0, 2, 0, 0, 3, 0, 0, 0, 3});
+  m.triangles.insert(m.triangles.end(), {base, base + 2, base + 1, base + 3, base + 4, base + 4,
+                                         base + 5, base + 5, base + 5, 0, 0, 2});
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 100, 31u);
+  ClosestHits h, brute;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  index.closest_points_brute_force(q, std::numeric_limits<float>::infinity(), brute);
+  expect_same_hits(q, h, brute);
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    EXPECT_TRUE(std::isfinite(h.signed_distances[i])) << "query " << i;
+    EXPECT_TRUE(std::isfinite(h.barycentrics[2 * i]) && std::isfinite(h.barycentrics[2 * i + 1])) << "query " << i;
+  }
+  // The segment's middle is its own closest point, at distance 0, on an edge of its triangle.
+  const std::vector<float> on_segment = {2.5f, 0.0f, 0.0f};
+  index.closest_points(on_segment, 1.0f, h);
+  EXPECT_EQ(h.triangles[0], std::int32_t(test::octahedron().face_count()));
+  EXPECT_EQ(h.signed_distances[0], 0.0f);
+}
+
+TEST(ProximityCorpus, MakeHumanBodyAgreesWithBruteForceAndWindingNumber) {
+  const auto corpus = test::corpus_dir();
+  if (!corpus) GTEST_SKIP() << "corpus folder absent (set VFIT_CORPUS): no MakeHuman body to test";
+  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " absent";
+  Mesh m = read_mesh(path).mesh;
+  scale_positions(m.positions, metres_per_unit(Units::DM)); // the corpus body is in decimetres
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 60, 41u);
+  ClosestHits h, brute;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  index.closest_points_brute_force(q, std::numeric_limits<float>::infinity(), brute);
+  expect_same_hits(q, h, brute);
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    if (std::abs(h.signed_distances[i]) <= SIGN_THRESHOLD) continue;
+    EXPECT_EQ(h.signed_distances[i] < 0, winding_number(m, row3(q, i)) > 0.5) << "query " << i;
+  }
+}
+
+} // namespace
+} // namespace vfit
