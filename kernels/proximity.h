@@ -10,7 +10,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <span>
 #include <vector>
@@ -34,14 +33,14 @@ enum class TriangleFeature : std::int8_t {
 /// within max_distance has triangle −1, feature NONE, point = the query itself,
 /// barycentrics (0, 0) and signed distance +∞.
 struct ClosestHits {
-  std::vector<float> points;                 ///< #Q × 3 closest points on the mesh (m)
-  std::vector<std::int32_t> triangles;       ///< #Q closest triangle, or −1 for no hit
-  std::vector<float> barycentrics;           ///< #Q × 2 (u, v): point = (1−u−v)·a + u·b + v·c
+  std::vector<float> points;           ///< #Q × 3 closest points on the mesh (m)
+  std::vector<std::int32_t> triangles; ///< #Q closest triangle, or −1 for no hit
+  std::vector<float> barycentrics;     ///< #Q × 2 (u, v): point = (1−u−v)·a + u·b + v·c
   /// #Q signed distances (m): |query − point|, negative when the query is inside the closed
   /// mesh, i.e. when (query − point)·n < 0 with n the pseudo-normal of the closest feature
   /// (seed 000 eq. 18). Zero for a query on the surface.
   std::vector<float> signed_distances;
-  std::vector<std::int8_t> features;         ///< #Q TriangleFeature values
+  std::vector<std::int8_t> features; ///< #Q TriangleFeature values
 
   /// Number of queries answered (#Q).
   std::size_t size() const { return triangles.size(); }
@@ -53,7 +52,7 @@ struct ClosestHits {
 inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 
 /// Closest-point index over one triangle mesh: build once, refit when the vertices move,
-/// query many points. Holds an Embree scene (two-level, robust; the mesh BVH is refitted,
+/// query many points. Holds an Embree scene (dynamic two-level, robust; the mesh BVH is refitted,
 /// not rebuilt, on refit()) and the pseudo-normals of every face, edge and vertex.
 ///
 /// The side (sign) is meaningful for a closed, edge-manifold, consistently outward-oriented
@@ -63,7 +62,8 @@ inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 /// pseudo-normals; a query whose feature has a zero pseudo-normal is reported outside.
 ///
 /// Thread safety: the query functions are const and may run concurrently; refit() may not run
-/// concurrently with anything else on the same index. Embree failures (out of memory, invalid
+/// concurrently with anything else on the same index. A moved-from index may only be destroyed
+/// or assigned to. Embree failures (out of memory, invalid
 /// input that slipped past validation) throw std::runtime_error naming the Embree call.
 class ProximityIndex {
 public:
@@ -107,7 +107,6 @@ private:
 /// One-call wrapper: builds a ProximityIndex over (positions, triangles) and answers
 /// `queries` with closest_points(). Shapes, units and signs as there.
 void closest_points(std::span<const float> positions, std::span<const std::int32_t> triangles,
-                    std::span<const float> queries, ClosestHits& hits,
-                    float max_distance = std::numeric_limits<float>::infinity());
+                    std::span<const float> queries, float max_distance, ClosestHits& hits);
 
 } // namespace vfit

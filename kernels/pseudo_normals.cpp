@@ -31,8 +31,8 @@ float angle_between(vfit_vec3 u, vfit_vec3 v) {
 
 vfit_vec3 sub(vfit_vec3 a, vfit_vec3 b) { return vfit_vec3{a.x - b.x, a.y - b.y, a.z - b.z}; }
 
-void faces_range(std::span<const float> positions, std::span<const std::int32_t> tris, float* normals,
-                 float* angles, std::size_t begin, std::size_t end) {
+void faces_range(std::span<const float> positions, std::span<const std::int32_t> tris, float* normals, float* angles,
+                 std::size_t begin, std::size_t end) {
   for (std::size_t f = begin; f < end; ++f) {
     const vfit_vec3 p[3] = {load(positions, tris[3 * f]), load(positions, tris[3 * f + 1]),
                             load(positions, tris[3 * f + 2])};
@@ -42,8 +42,7 @@ void faces_range(std::span<const float> positions, std::span<const std::int32_t>
   }
 }
 
-void edges_range(const MeshEdges& edges, const float* face_normals, float* out, std::size_t begin,
-                 std::size_t end) {
+void edges_range(const MeshEdges& edges, const float* face_normals, float* out, std::size_t begin, std::size_t end) {
   for (std::size_t e = begin; e < end; ++e) {
     vfit_vec3 s{0.0f, 0.0f, 0.0f};
     for (std::int32_t i = edges.offsets[e]; i < edges.offsets[e + 1]; ++i) {
@@ -114,10 +113,12 @@ MeshEdges build_mesh_edges(std::span<const std::int32_t> triangles, std::size_t 
     assert(triangles[h] >= 0 && static_cast<std::size_t>(triangles[h]) < vertex_count && "index out of range");
     ++start[static_cast<std::size_t>(lo(h)) + 1];
   }
-  for (std::size_t v = 0; v < vertex_count; ++v) start[v + 1] += start[v];
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    start[v + 1] += start[v];
   std::vector<std::int32_t> sorted(corners);
   std::vector<std::int32_t> cursor(start.begin(), start.end() - 1);
-  for (std::size_t h = 0; h < corners; ++h) sorted[cursor[lo(h)]++] = static_cast<std::int32_t>(h);
+  for (std::size_t h = 0; h < corners; ++h)
+    sorted[cursor[lo(h)]++] = static_cast<std::int32_t>(h);
   for (std::size_t v = 0; v < vertex_count; ++v)
     std::sort(sorted.begin() + start[v], sorted.begin() + start[v + 1],
               [&](std::int32_t a, std::int32_t b) { return hi(a) != hi(b) ? hi(a) < hi(b) : a < b; });
@@ -139,14 +140,12 @@ MeshEdges build_mesh_edges(std::span<const std::int32_t> triangles, std::size_t 
 
 void pseudo_normals_tbb(std::span<const float> positions, std::span<const std::int32_t> triangles,
                         const MeshEdges& edges, const VertexFaceAdjacency& vertex_faces, PseudoNormals& normals) {
-  compute(positions, triangles, edges, vertex_faces, normals, [](std::size_t count, const auto& kernel) {
-    parallel_for_range(count, PSEUDO_NORMALS_GRAIN, kernel);
-  });
+  compute(positions, triangles, edges, vertex_faces, normals,
+          [](std::size_t count, const auto& kernel) { parallel_for_range(count, PSEUDO_NORMALS_GRAIN, kernel); });
 }
 
 void pseudo_normals_serial(std::span<const float> positions, std::span<const std::int32_t> triangles,
-                           const MeshEdges& edges, const VertexFaceAdjacency& vertex_faces,
-                           PseudoNormals& normals) {
+                           const MeshEdges& edges, const VertexFaceAdjacency& vertex_faces, PseudoNormals& normals) {
   compute(positions, triangles, edges, vertex_faces, normals,
           [](std::size_t count, const auto& kernel) { kernel(std::size_t{0}, count); });
 }

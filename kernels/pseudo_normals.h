@@ -39,9 +39,9 @@ MeshEdges build_mesh_edges(std::span<const std::int32_t> triangles, std::size_t 
 
 /// Unit pseudo-normals of every face, edge and vertex.
 struct PseudoNormals {
-  std::vector<float> faces;    ///< #F × 3 unit face normals (right-hand rule); zero if degenerate
-  std::vector<float> edges;    ///< #E × 3 normalise(Σ incident unit face normals)
-  std::vector<float> vertices; ///< #V × 3 normalise(Σ incident corner angle (rad) · unit face normal)
+  std::vector<float> faces;         ///< #F × 3 unit face normals (right-hand rule); zero if degenerate
+  std::vector<float> edges;         ///< #E × 3 normalise(Σ incident unit face normals)
+  std::vector<float> vertices;      ///< #V × 3 normalise(Σ incident corner angle (rad) · unit face normal)
   std::vector<float> corner_angles; ///< #F × 3 scratch: the angle (rad) at each triangle corner
 };
 
@@ -54,7 +54,6 @@ void pseudo_normals_tbb(std::span<const float> positions, std::span<const std::i
 
 /// Serial reference of pseudo_normals_tbb(): the same range kernels over the whole range.
 void pseudo_normals_serial(std::span<const float> positions, std::span<const std::int32_t> triangles,
-                           const MeshEdges& edges, const VertexFaceAdjacency& vertex_faces,
-                           PseudoNormals& normals);
+                           const MeshEdges& edges, const VertexFaceAdjacency& vertex_faces, PseudoNormals& normals);
 
 } // namespace vfit

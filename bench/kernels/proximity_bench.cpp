@@ -72,7 +72,10 @@ void BM_proximity_serial(benchmark::State& state) {
   }
   name(state);
 }
-BENCHMARK(BM_proximity_serial)->ArgsProduct({{0, 1}, {1000, 10000, 100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_proximity_serial)
+    ->ArgsProduct({{0, 1}, {1000, 10000, 100000, 1000000}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_proximity_tbb(benchmark::State& state) {
   const vfit::Mesh& m = mesh(state.range(0));
@@ -92,19 +95,19 @@ BENCHMARK(BM_proximity_tbb)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// Raw Embree: the same scene set-up as ProximityIndex (robust, two-level, REFIT geometry), a
+// Raw Embree: the same scene set-up as ProximityIndex (robust, dynamic two-level, REFIT geometry), a
 // callback that only measures the triangle and shrinks the radius, and the distance kept.
 struct RawScene {
   RTCDevice device = rtcNewDevice(nullptr);
   RTCScene scene = rtcNewScene(device);
   const vfit::Mesh* mesh;
   explicit RawScene(const vfit::Mesh& m) : mesh(&m) {
-    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_DYNAMIC);
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_LOW);
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_REFIT);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                          3 * sizeof(float), m.vertex_count()));
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.vertex_count()));
     auto* t = static_cast<std::int32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                                  3 * sizeof(std::int32_t), m.face_count()));
     std::copy(m.positions.begin(), m.positions.end(), v);
@@ -202,7 +205,8 @@ void BM_refit(benchmark::State& state) {
   float shift = 0.0f;
   for (auto _ : state) {
     shift += 1e-3f; // a small rigid-plus-stretch motion each frame
-    for (std::size_t i = 0; i < moved.size(); ++i) moved[i] = m.positions[i] * (1.0f + shift) + shift;
+    for (std::size_t i = 0; i < moved.size(); ++i)
+      moved[i] = m.positions[i] * (1.0f + shift) + shift;
     index.refit(moved);
   }
   state.SetLabel(state.range(0) == 0 ? "mannequin" : "sphere100k");

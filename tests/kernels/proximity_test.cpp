@@ -39,9 +39,7 @@ Vec3 position(const Mesh& m, std::int32_t v) {
 Vec3 row3(std::span<const float> a, std::size_t i) { return {a[3 * i], a[3 * i + 1], a[3 * i + 2]}; }
 Vec3 sub(Vec3 a, Vec3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 double dot(Vec3 a, Vec3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec3 cross(Vec3 a, Vec3 b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
+Vec3 cross(Vec3 a, Vec3 b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
 double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
 
 // Generalized winding number (Jacobson, Kavan & Sorkine-Hornung 2013): Σ solid angles / 4π,
@@ -88,7 +86,8 @@ std::vector<float> make_queries(const Mesh& m, std::size_t per_kind, unsigned se
   auto log_uniform = [&](double a, double b) { return a * std::pow(b / a, unit(rng)); };
   std::vector<float> q;
   auto push = [&](Vec3 p, Vec3 d, double r) {
-    for (int k = 0; k < 3; ++k) q.push_back(float(p[k] + r * d[k]));
+    for (int k = 0; k < 3; ++k)
+      q.push_back(float(p[k] + r * d[k]));
   };
   for (std::size_t i = 0; i < per_kind; ++i) {
     push(in_box(1.4), {}, 0.0);
@@ -158,7 +157,8 @@ std::size_t expect_same_hits(std::span<const float> queries, const ClosestHits& 
       EXPECT_EQ(got.features[i], ref.features[i]);
       EXPECT_EQ(got.barycentrics[2 * i], ref.barycentrics[2 * i]);
       EXPECT_EQ(got.barycentrics[2 * i + 1], ref.barycentrics[2 * i + 1]);
-      for (int k = 0; k < 3; ++k) EXPECT_EQ(got.points[3 * i + k], ref.points[3 * i + k]);
+      for (int k = 0; k < 3; ++k)
+        EXPECT_EQ(got.points[3 * i + k], ref.points[3 * i + k]);
     } else {
       // Random queries tie between triangles only at a shared edge or vertex: the same point.
       ++ties;
@@ -177,7 +177,8 @@ TEST_P(ProximityMesh, ClosestPointsEqualBruteForce) {
   index.closest_points_brute_force(q, std::numeric_limits<float>::infinity(), brute);
   const std::size_t ties = expect_same_hits(q, bvh, brute);
   EXPECT_LT(ties, bvh.size() / 20) << "ties should be rare: only where several triangles share the point";
-  for (std::int32_t t : bvh.triangles) ASSERT_GE(t, 0) << "an unlimited query always hits";
+  for (std::int32_t t : bvh.triangles)
+    ASSERT_GE(t, 0) << "an unlimited query always hits";
 }
 
 TEST_P(ProximityMesh, TbbEqualsSerialBitForBit) {
@@ -284,12 +285,13 @@ TEST(ProximityRefit, RefitAnswersAsAFreshIndex) {
   expect_same_hits(q, after, expected);
   expect_same_hits(q, after, brute);
   std::size_t changed = 0;
-  for (std::size_t i = 0; i < q.size() / 3; ++i) changed += before.signed_distances[i] != after.signed_distances[i];
+  for (std::size_t i = 0; i < q.size() / 3; ++i)
+    changed += before.signed_distances[i] != after.signed_distances[i];
   EXPECT_GT(changed, q.size() / 3 / 2) << "the deformation must change the answers for the test to mean anything";
   // Pseudo-normals follow the vertices: the side still agrees with the winding number.
   for (std::size_t i = 0; i < after.size(); ++i) {
     if (std::abs(after.signed_distances[i]) <= SIGN_THRESHOLD) continue;
-    EXPECT_EQ(after.signed_distances[i] < 0, winding_number(moved, row3(q, i)) > 0.5) << "query " << i;
+    EXPECT_EQ(after.signed_distances[i]<0, winding_number(moved, row3(q, i))> 0.5) << "query " << i;
   }
 }
 
@@ -305,7 +307,8 @@ TEST(ProximityRadius, NoHitBeyondMaxDistance) {
     float d[3] = {gauss(rng), gauss(rng), gauss(rng)};
     const float l = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     const float r = i % 3 == 0 ? 1.2f : i % 3 == 1 ? 1.5f : 3.0f;
-    for (float c : d) q.push_back(c / l * r);
+    for (float c : d)
+      q.push_back(c / l * r);
   }
   ClosestHits h, brute;
   index.closest_points(q, 0.25f, h);
@@ -322,7 +325,8 @@ TEST(ProximityRadius, NoHitBeyondMaxDistance) {
     EXPECT_EQ(h.triangles[i], -1);
     EXPECT_EQ(h.features[i], std::int8_t(TriangleFeature::NONE));
     EXPECT_EQ(h.signed_distances[i], std::numeric_limits<float>::infinity());
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(h.points[3 * i + k], q[3 * i + k]);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(h.points[3 * i + k], q[3 * i + k]);
   }
 }
 
@@ -348,13 +352,24 @@ TEST(ProximityEdgeCases, EmptyMeshNeverHits) {
   EXPECT_EQ(h.triangles[1], -1);
 }
 
+TEST(ProximityEdgeCases, OneCallWrapperAnswersAsTheIndex) {
+  const Mesh m = test::octahedron();
+  const std::vector<float> q = make_queries(m, 20, 51u);
+  ClosestHits once, indexed;
+  closest_points(m.position_view(), m.triangle_view(), q, 0.3f, once);
+  ProximityIndex(m.position_view(), m.triangle_view()).closest_points(q, 0.3f, indexed);
+  EXPECT_EQ(once.triangles, indexed.triangles);
+  EXPECT_EQ(once.signed_distances, indexed.signed_distances);
+  EXPECT_NE(std::count(once.triangles.begin(), once.triangles.end(), -1), 0) << "far queries miss at 0.3 m";
+}
+
 TEST(ProximityEdgeCases, DegenerateTrianglesDoNotCrash) {
   Mesh m = test::octahedron();
   const std::int32_t base = std::int32_t(m.vertex_count());
   // A collinear triangle (a segment in the air), one with two coincident corners, and a point.
   m.positions.insert(m.positions.end(), {2, 0, 0, 3, 0, 0, 4, 0, 0, 0, 2, 0, 0, 3, 0, 0, 0, 3});
-  m.triangles.insert(m.triangles.end(), {base, base + 2, base + 1, base + 3, base + 4, base + 4,
-                                         base + 5, base + 5, base + 5, 0, 0, 2});
+  m.triangles.insert(m.triangles.end(),
+                     {base, base + 2, base + 1, base + 3, base + 4, base + 4, base + 5, base + 5, base + 5, 0, 0, 2});
   const ProximityIndex index(m.position_view(), m.triangle_view());
   const std::vector<float> q = make_queries(m, 100, 31u);
   ClosestHits h, brute;
@@ -387,7 +402,7 @@ TEST(ProximityCorpus, MakeHumanBodyAgreesWithBruteForceAndWindingNumber) {
   expect_same_hits(q, h, brute);
   for (std::size_t i = 0; i < h.size(); ++i) {
     if (std::abs(h.signed_distances[i]) <= SIGN_THRESHOLD) continue;
-    EXPECT_EQ(h.signed_distances[i] < 0, winding_number(m, row3(q, i)) > 0.5) << "query " << i;
+    EXPECT_EQ(h.signed_distances[i]<0, winding_number(m, row3(q, i))> 0.5) << "query " << i;
   }
 }
 
