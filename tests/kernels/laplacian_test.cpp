@@ -42,7 +42,9 @@ TEST(Laplacian, CotangentWeightsReproduceLinearFunctionsOnAFlatGrid) {
   const Eigen::VectorXd Lf = L * f;
   for (std::size_t v = 0; v < m.vertex_count(); ++v) {
     const int i = int(v) / 9, j = int(v) % 9;
-    if (i > 0 && i < 8 && j > 0 && j < 8) EXPECT_NEAR(Lf[v], 0.0, 1e-5) << "vertex " << v; // float positions
+    if (i > 0 && i < 8 && j > 0 && j < 8) {
+      EXPECT_NEAR(Lf[v], 0.0, 1e-5) << "vertex " << v; // float positions
+    }
   }
 }
 

@@ -94,8 +94,12 @@ void LabelsAndUvsCoverEveryPart(const Case& param) {
   // Left parts are on the body's left (+X).
   for (std::size_t v = 0; v < g.mesh.vertex_count(); ++v) {
     const GarmentPart p = g.vertex_parts[v];
-    if (p == GarmentPart::LEFT_SLEEVE || p == GarmentPart::LEFT_LEG) ASSERT_GT(g.mesh.positions[3 * v], 0.0f);
-    if (p == GarmentPart::RIGHT_SLEEVE || p == GarmentPart::RIGHT_LEG) ASSERT_LT(g.mesh.positions[3 * v], 0.0f);
+    if (p == GarmentPart::LEFT_SLEEVE || p == GarmentPart::LEFT_LEG) {
+      ASSERT_GT(g.mesh.positions[3 * v], 0.0f);
+    }
+    if (p == GarmentPart::RIGHT_SLEEVE || p == GarmentPart::RIGHT_LEG) {
+      ASSERT_LT(g.mesh.positions[3 * v], 0.0f);
+    }
   }
   ASSERT_TRUE(g.mesh.has_uvs());
   for (float u : g.mesh.uvs) {
