@@ -1,5 +1,7 @@
 #include "off_format.h"
 
+#include "text_words.h"
+
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -12,27 +14,9 @@
 namespace vfit {
 namespace {
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+using text::is_space;
+using text::Words;
 
-/// Whitespace-separated words of one line.
-class Words {
-public:
-  explicit Words(std::string_view line = {}) : m_rest(line) {}
-  bool next(std::string_view& word) {
-    std::size_t i = 0;
-    while (i < m_rest.size() && is_space(m_rest[i]))
-      ++i;
-    std::size_t j = i;
-    while (j < m_rest.size() && !is_space(m_rest[j]))
-      ++j;
-    word = m_rest.substr(i, j - i);
-    m_rest.remove_prefix(j);
-    return !word.empty();
-  }
-
-private:
-  std::string_view m_rest;
-};
 
 /// A word from the file, made printable and short enough for a one-line message.
 std::string quoted(std::string_view word) {

@@ -1,5 +1,7 @@
 #include "ply_format.h"
 
+#include "text_words.h"
+
 #include <array>
 #include <bit>
 #include <charconv>
@@ -16,6 +18,9 @@
 
 namespace vfit {
 namespace {
+
+using text::is_space;
+using text::Words;
 
 enum class Scalar : std::uint8_t { I8, U8, I16, U16, I32, U32, F32, F64 };
 
@@ -66,27 +71,6 @@ struct Header {
   std::int64_t header_lines = 0;
 };
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
-
-/// Whitespace-separated words of one line.
-class Words {
-public:
-  explicit Words(std::string_view line = {}) : m_rest(line) {}
-  bool next(std::string_view& word) {
-    std::size_t i = 0;
-    while (i < m_rest.size() && is_space(m_rest[i]))
-      ++i;
-    std::size_t j = i;
-    while (j < m_rest.size() && !is_space(m_rest[j]))
-      ++j;
-    word = m_rest.substr(i, j - i);
-    m_rest.remove_prefix(j);
-    return !word.empty();
-  }
-
-private:
-  std::string_view m_rest;
-};
 
 std::vector<std::string_view> split(std::string_view line) {
   std::vector<std::string_view> out;

@@ -14,21 +14,6 @@
 namespace vfit {
 namespace {
 
-double mean_edge_change(const Mesh& a, const Mesh& b) {
-  double sum = 0;
-  std::size_t n = 0;
-  for (std::size_t f = 0; f < a.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::size_t u = a.triangles[3 * f + k], v = a.triangles[3 * f + (k + 1) % 3];
-      auto len = [&](const Mesh& m) {
-        return std::sqrt(std::pow(m.positions[3 * u] - m.positions[3 * v], 2) + std::pow(m.positions[3 * u + 1] - m.positions[3 * v + 1], 2) +
-                         std::pow(m.positions[3 * u + 2] - m.positions[3 * v + 2], 2));
-      };
-      sum += std::abs(len(b) / len(a) - 1.0);
-      ++n;
-    }
-  return sum / double(n);
-}
 
 TEST(CorpusPenetration, FemaleOutfitsEndUpOutsideTheBody) {
   const auto corpus = test::corpus_dir();
@@ -46,7 +31,7 @@ TEST(CorpusPenetration, FemaleOutfitsEndUpOutsideTheBody) {
     const PenetrationReport r = remove_penetration(g.mesh, index);
     EXPECT_GT(r.before.inside_count, 0u);
     EXPECT_LE(r.after.max_depth, 0.0005); // the bar: nothing inside by more than 0.5 mm
-    EXPECT_LT(mean_edge_change(before, g.mesh), 0.02);
+    EXPECT_LT(test::mean_edge_length_change(before, g.mesh), 0.02);
     std::printf("%-32s inside %4zu -> %zu, max depth %.2f -> %.2f mm, %d rounds, %.1f ms\n", name, r.before.inside_count,
                 r.after.inside_count, 1e3 * r.before.max_depth, 1e3 * r.after.max_depth, r.iterations, r.milliseconds);
   }

@@ -13,21 +13,6 @@
 namespace vfit {
 namespace {
 
-double mean_edge_change(const Mesh& a, const Mesh& b) {
-  double sum = 0;
-  std::size_t n = 0;
-  for (std::size_t f = 0; f < a.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::size_t u = a.triangles[3 * f + k], v = a.triangles[3 * f + (k + 1) % 3];
-      auto len = [&](const Mesh& m) {
-        return std::sqrt(std::pow(m.positions[3 * u] - m.positions[3 * v], 2) + std::pow(m.positions[3 * u + 1] - m.positions[3 * v + 1], 2) +
-                         std::pow(m.positions[3 * u + 2] - m.positions[3 * v + 2], 2));
-      };
-      sum += std::abs(len(b) / len(a) - 1.0);
-      ++n;
-    }
-  return sum / double(n);
-}
 
 TEST(Penetration, PushesATubeThatCutsIntoASphereOutAndKeepsItsShape) {
   const Mesh body = make_uv_sphere(40, 80, 0.20f);
@@ -50,7 +35,7 @@ TEST(Penetration, PushesATubeThatCutsIntoASphereOutAndKeepsItsShape) {
       EXPECT_NEAR(tube.positions[3 * v], before.positions[3 * v], 0.002f) << v;
     }
   }
-  EXPECT_LT(mean_edge_change(before, tube), 0.05);
+  EXPECT_LT(test::mean_edge_length_change(before, tube), 0.05);
 }
 
 TEST(Penetration, NothingToDoLeavesTheGarmentAlone) {

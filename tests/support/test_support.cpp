@@ -1,6 +1,7 @@
 #include "test_support.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <random>
@@ -102,6 +103,23 @@ Mesh unit_square() {
   m.uvs = {0, 0, 1, 0, 1, 1, 0, 1};
   m.uv_triangles = {0, 1, 2, 0, 2, 3};
   return m;
+}
+
+double mean_edge_length_change(const Mesh& before, const Mesh& after) {
+  double sum = 0;
+  std::size_t n = 0;
+  for (std::size_t f = 0; f < before.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t u = before.triangles[3 * f + k], v = before.triangles[3 * f + (k + 1) % 3];
+      auto len = [&](const Mesh& m) {
+        double s2 = 0;
+        for (int c = 0; c < 3; ++c) s2 += std::pow(double(m.positions[3 * u + c]) - m.positions[3 * v + c], 2);
+        return std::sqrt(s2);
+      };
+      sum += std::abs(len(after) / len(before) - 1.0);
+      ++n;
+    }
+  return n ? sum / double(n) : 0.0;
 }
 
 Mesh octahedron() {

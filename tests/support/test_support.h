@@ -48,6 +48,10 @@ std::vector<std::filesystem::path> files_with_extensions(const std::filesystem::
 /// Two triangles sharing an edge (a unit square in the XY plane, CCW seen from +Z), with UVs.
 Mesh unit_square();
 
+/// Mean over the triangles' edges of |length after / length before − 1| (same topology): how
+/// much a deformation stretched or shrank the cloth.
+double mean_edge_length_change(const Mesh& before, const Mesh& after);
+
 /// A closed, outward-oriented octahedron (6 vertices, 8 triangles).
 Mesh octahedron();
 
