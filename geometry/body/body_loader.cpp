@@ -8,6 +8,7 @@
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/mesh_stats.h"
 #include "gltf_body.h"
+#include "json_input.h"
 #include "joint_estimation.h"
 #include "kernels/error.h"
 #include "rig_mapping.h"
@@ -30,12 +31,7 @@ Body LoadedBody::posed(const Pose& pose) const {
 
 JointPositions read_joints_json(const std::filesystem::path& path) {
   const std::string file = path.string();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_file_bytes(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(file, 0, std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = json_input::read_file(path);
   const nlohmann::json& joints = j.contains("joints") ? j["joints"] : j;
   if (!joints.is_object()) throw Error(file, 0, "expected {\"joints\": {\"pelvis\": [x, y, z], ...}}");
   JointPositions out = JointPositions::Zero();
@@ -43,11 +39,7 @@ JointPositions read_joints_json(const std::filesystem::path& path) {
   for (const auto& [name, value] : joints.items()) {
     const auto jj = joint_from_name(name);
     if (!jj) throw Error(file, 0, "unknown joint '" + name + "' (expected the 24 SMPL joint names)");
-    if (!value.is_array() || value.size() != 3) throw Error(file, 0, "'" + name + "': expected [x, y, z]");
-    for (int k = 0; k < 3; ++k) {
-      if (!value[k].is_number() || !std::isfinite(value[k].get<double>())) throw Error(file, 0, "'" + name + "': not a finite number");
-      out(*jj, k) = value[k].get<double>();
-    }
+    out.row(*jj) = json_input::vec3(value, file, name).transpose();
     seen[*jj] = true;
   }
   for (int k = 0; k < JOINT_COUNT; ++k)

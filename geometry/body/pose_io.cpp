@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/atomic_write.h"
+#include "json_input.h"
 #include "kernels/error.h"
 
 namespace vfit {
@@ -76,22 +76,9 @@ Pose named_pose(std::string_view name, RestPose rest) {
 
 Pose read_pose_json(const std::filesystem::path& path) {
   const std::string file = path.string();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_file_bytes(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(file, 0, std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = json_input::read_file(path);
   if (!j.is_object()) throw Error(file, 0, "expected a JSON object of joint names");
-  auto vec3 = [&](const std::string& key, const nlohmann::json& v) {
-    if (!v.is_array() || v.size() != 3) throw Error(file, 0, "'" + key + "': expected [x, y, z]");
-    Eigen::Vector3d r;
-    for (int k = 0; k < 3; ++k) {
-      if (!v[k].is_number() || !std::isfinite(v[k].get<double>())) throw Error(file, 0, "'" + key + "': not a finite number");
-      r[k] = v[k].get<double>();
-    }
-    return r;
-  };
+  auto vec3 = [&](const std::string& key, const nlohmann::json& v) { return json_input::vec3(v, file, key); };
   Pose p;
   for (const auto& [key, value] : j.items()) {
     if (key == "translation") {
