@@ -144,6 +144,16 @@ std::vector<int> weight_targets(const GltfDocument& doc, const Skin& skin, const
     joint_of_node[node] = j;
     joints.row(j) = skin.bind_world[it->second].topRightCorner<3, 1>().transpose();
   }
+  for (int j = 0; j < JOINT_COUNT; ++j) {
+    const JointAnchor& anchor = mapping.anchors[j];
+    if (anchor.toward.empty()) continue;
+    const auto it = slot_of_bone.find(anchor.toward);
+    if (it == slot_of_bone.end())
+      throw doc.fail("rig mapping " + mapping.name + ": bone \"" + anchor.toward + "\" that anchors joint " +
+                     std::string(joint_name(j)) + " is not a joint of the skin");
+    const Eigen::RowVector3d toward = skin.bind_world[it->second].topRightCorner<3, 1>().transpose();
+    joints.row(j) += anchor.fraction * (toward - joints.row(j));
+  }
   std::vector<int> target(skin.nodes.size(), idx(Joint::PELVIS));
   for (std::size_t k = 0; k < skin.nodes.size(); ++k)
     for (std::int64_t n = static_cast<std::int64_t>(skin.nodes[k]); n >= 0; n = tree.parent[n])

@@ -39,8 +39,13 @@ constexpr double T_POSE_MAX_DROP = 25;         // degrees below horizontal: T-po
 // mannequins 0.054–0.067). hm08 puts them at the sternal end of the clavicle, SMPL-like rigs
 // (our mannequins) further out and deeper; these values lie within 2 cm of both.
 constexpr double COLLAR_BELOW_SHOULDERS = 0.0355, COLLAR_X = 0.021, COLLAR_DEPTH = 0.0636;
-// SMPL's spine joints, as fractions of pelvis → neck (the mannequins: 0.20, 0.42, 0.63).
-constexpr double SPINE_FRACTIONS[3] = {0.20, 0.42, 0.63};
+// SMPL's spine joints, as fractions of pelvis → neck: the SMPL neutral template's joint heights
+// (rig_mapping.h); the mannequins use the same fractions.
+constexpr double SPINE_FRACTIONS[3] = {0.213, 0.478, 0.581};
+// The spine joints' depth as a fraction of the torso's depth from the back (0) to the front (1).
+// The vertebral column runs behind the section's centroid: MakeHuman's rig puts it at 0.19–0.31
+// (hm08), the mannequins at 0.30.
+constexpr double SPINE_DEPTH = 0.33;
 
 void check_shape(const Mesh& mesh, const std::string& source) {
   if (mesh.vertex_count() < MIN_VERTICES || mesh.face_count() < MIN_VERTICES)
@@ -94,6 +99,22 @@ private:
   }
   const std::vector<PlaneSection>& loops(int level) const { return m_s.levels[std::size_t(level)]; }
   Eigen::Vector3d torso_centroid(double y) const { return centroid_at(m_s, m_torso, y); }
+
+  // SPINE_DEPTH of the way from the back to the front of the torso's section nearest height y,
+  // measured near the mid-sagittal plane (within 3 % of the body's height of it, which keeps
+  // arms touching the torso out); the centroid's depth when there is no such section.
+  double spine_depth(double y) const {
+    const PlaneSection* loop = loop_at(m_s, m_torso, m_s.index(y));
+    double back = INFINITY, front = -INFINITY;
+    if (loop)
+      for (const Eigen::Vector3d& p : loop->points)
+        if (std::abs(p.x() - m_mid_x) < 0.03 * m_h) {
+          back = std::min(back, p.z());
+          front = std::max(front, p.z());
+        }
+    if (!(front > back)) return torso_centroid(y).z();
+    return back + SPINE_DEPTH * (front - back);
+  }
   double torso_width(int level) const {
     const PlaneSection& l = *loop_at(m_s, m_torso, level);
     return reach(l, m_mid_x, 1) + reach(l, m_mid_x, -1);
@@ -271,7 +292,7 @@ private:
     const Joint spine[3] = {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3};
     for (int k = 0; k < 3; ++k) {
       const double y = pelvis_y + SPINE_FRACTIONS[k] * (neck_y - pelvis_y);
-      set(spine[k], {m_mid_x, y, torso_centroid(y).z()}, 0.5);
+      set(spine[k], {m_mid_x, y, spine_depth(y)}, 0.5);
     }
     set(Joint::NECK, {m_mid_x, neck_y, torso_centroid(neck_y).z()}, 0.8);
     const double head_y = m_s.top - HEAD_BELOW_TOP * (m_s.top - m_shoulder_top);

@@ -151,7 +151,6 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
   for (int iter = 0; iter < 8; ++iter) {
     const MeasuredBody got = measure_body(mesh, jp);
     const BodyLandmarks& lm = got.landmarks;
-    // The right leg is calibrated on its own sections at the left leg's landmark heights.
     auto leg_point = [&](bool left, double y) -> Eigen::Vector3d {
       const Eigen::Vector3d hip = J(left ? Joint::LEFT_HIP : Joint::RIGHT_HIP), knee = J(left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE),
                             ankle = J(left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE);
@@ -160,15 +159,14 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
       const double t = std::clamp((y - a.y()) / (b.y() - a.y()), 0.0, 1.0);
       return a + t * (b - a);
     };
-    const Eigen::Vector3d rt = leg_point(false, lm.thigh), rc = leg_point(false, lm.calf);
-    const double right_thigh = girth_around(mesh, lm.thigh, rt.x(), rt.z());
-    const double right_calf = girth_around(mesh, lm.calf, rc.x(), rc.z());
     const double s_chest = want.chest / got.values.chest, s_waist = want.waist / got.values.waist,
                  s_hip = want.hip / got.values.hip;
-    const double s_thigh[2] = {want.thigh / right_thigh, want.thigh / got.values.thigh};
-    const double s_calf[2] = {want.calf / right_calf, want.calf / got.values.calf};
+    // One factor for both legs: the shapes are symmetric, and the thigh's section just below the
+    // crotch is where the two sides' tessellations differ most (a right leg calibrated on its
+    // own sections at the left's heights came out 14 % wider there).
+    const double s_thigh = want.thigh / got.values.thigh, s_calf = want.calf / got.values.calf;
     double worst = 0;
-    for (double s : {s_chest, s_waist, s_hip, s_thigh[0], s_thigh[1], s_calf[0], s_calf[1]}) worst = std::max(worst, std::abs(s - 1));
+    for (double s : {s_chest, s_waist, s_hip, s_thigh, s_calf}) worst = std::max(worst, std::abs(s - 1));
     // The crotch is a saddle that coarse meshes cut low: lift (or lower) the region around it
     // with a smooth bump so the measured crotch height meets the request too.
     const double crotch_error = want.crotch_height - (lm.crotch - lm.floor);
@@ -201,8 +199,8 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
         const double leg_w = joint_weight(body.weights, v, {left ? Joint::LEFT_HIP : Joint::RIGHT_HIP, left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE,
                                                             left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE});
         if (leg_w <= 0 || (left ? p[0] < 0 : p[0] > 0)) continue;
-        const double leg_f = (s_thigh[side] - 1) * hat(y, knee_y, lm.thigh, lm.crotch + 0.01) +
-                             (s_calf[side] - 1) * hat(y, ankle_y, lm.calf, knee_y);
+        const double leg_f = (s_thigh - 1) * hat(y, knee_y, lm.thigh, lm.crotch + 0.01) +
+                             (s_calf - 1) * hat(y, ankle_y, lm.calf, knee_y);
         if (leg_f == 0) continue;
         const Eigen::Vector3d c = leg_point(left, y);
         const double k = 1 + leg_f * leg_w;

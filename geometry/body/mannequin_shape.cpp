@@ -92,17 +92,21 @@ void MannequinShape::place_skeleton() {
   set(Joint::PELVIS, 0, hip_y + 0.012 * H, -0.005 * s);
   set(Joint::LEFT_HIP, hip_x, hip_y, 0);
   set(Joint::RIGHT_HIP, -hip_x, hip_y, 0);
-  set(Joint::SPINE1, 0, 0.585 * H, -0.012 * s);
   set(Joint::LEFT_KNEE, 0.80 * hip_x, m.knee_height, 0.008 * s);
   set(Joint::RIGHT_KNEE, -0.80 * hip_x, m.knee_height, 0.008 * s);
-  set(Joint::SPINE2, 0, 0.655 * H, -0.010 * s);
   const double ankle_y = 0.045 * H;
   set(Joint::LEFT_ANKLE, 0.70 * hip_x, ankle_y, -0.012 * s);
   set(Joint::RIGHT_ANKLE, -0.70 * hip_x, ankle_y, -0.012 * s);
-  set(Joint::SPINE3, 0, 0.722 * H, -0.005 * s);
   set(Joint::LEFT_FOOT, 0.72 * hip_x, 0.018 * H, -0.012 * s + 0.075 * H);
   set(Joint::RIGHT_FOOT, -0.72 * hip_x, 0.018 * H, -0.012 * s + 0.075 * H);
   set(Joint::NECK, 0, 0.842 * H, -0.012 * s);
+  // Spine joints at SMPL's heights (21 % and 48 % of pelvis → neck; rig_mapping.h), spine3 at the
+  // chest line (61 %, SMPL 58 %; the chest girth is placed there), a third of the torso's depth
+  // from the back, where the vertebral column runs.
+  const double pelvis_y = m_joints(idx(Joint::PELVIS), 1), neck_y = m_joints(idx(Joint::NECK), 1);
+  set(Joint::SPINE1, 0, pelvis_y + 0.213 * (neck_y - pelvis_y), -0.040 * s);
+  set(Joint::SPINE2, 0, pelvis_y + 0.478 * (neck_y - pelvis_y), -0.040 * s);
+  set(Joint::SPINE3, 0, 0.722 * H, -0.035 * s);
   set(Joint::LEFT_COLLAR, 0.045 * s, shoulder_y - 0.010 * H, 0.0);
   set(Joint::RIGHT_COLLAR, -0.045 * s, shoulder_y - 0.010 * H, 0.0);
   set(Joint::HEAD, 0, 0.905 * H, 0.005 * s);
@@ -225,12 +229,17 @@ void MannequinShape::build_shapes() {
   // Bone segments for skin weights: each joint drives the bone(s) to its child(ren).
   m_bones.clear();
   auto bone = [&](Joint j, const Eigen::Vector3d& a, const Eigen::Vector3d& b) { m_bones.push_back({idx(j), a, b}); };
-  bone(Joint::PELVIS, J(Joint::PELVIS), J(Joint::SPINE1));
+  // The spine's weight bones run up the torso's centre line (the joints themselves sit back at
+  // the vertebral column): weights follow the flesh around them, rotations the column.
+  auto centre_line = [&](Joint j, double z) { return Eigen::Vector3d(0, J(j).y(), z * s); };
+  const Eigen::Vector3d spine1 = centre_line(Joint::SPINE1, -0.012), spine2 = centre_line(Joint::SPINE2, -0.010),
+                        spine3 = centre_line(Joint::SPINE3, -0.005);
+  bone(Joint::PELVIS, J(Joint::PELVIS), spine1);
   bone(Joint::PELVIS, J(Joint::PELVIS), 0.5 * (J(Joint::PELVIS) + J(Joint::LEFT_HIP)));
   bone(Joint::PELVIS, J(Joint::PELVIS), 0.5 * (J(Joint::PELVIS) + J(Joint::RIGHT_HIP)));
-  bone(Joint::SPINE1, J(Joint::SPINE1), J(Joint::SPINE2));
-  bone(Joint::SPINE2, J(Joint::SPINE2), J(Joint::SPINE3));
-  bone(Joint::SPINE3, J(Joint::SPINE3), J(Joint::NECK));
+  bone(Joint::SPINE1, spine1, spine2);
+  bone(Joint::SPINE2, spine2, spine3);
+  bone(Joint::SPINE3, spine3, J(Joint::NECK));
   bone(Joint::NECK, J(Joint::NECK), J(Joint::HEAD));
   bone(Joint::HEAD, J(Joint::HEAD), Eigen::Vector3d(0, H, 0.01 * s));
   for (int side : {0, 1}) {
@@ -309,7 +318,10 @@ double MannequinShape::distance(double x, double y, double z, const ShapeInflati
 }
 
 std::pair<Eigen::Vector3d, Eigen::Vector3d> MannequinShape::bounding_box(double margin) const {
-  Eigen::Vector3d lo = m_joints.colwise().minCoeff().transpose(), hi = m_joints.colwise().maxCoeff().transpose();
+  // The limbs' and head's joints bound the body; the spine's lie inside the torso.
+  JointPositions outer = m_joints;
+  for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3}) outer.row(idx(j)) = m_joints.row(idx(Joint::PELVIS));
+  Eigen::Vector3d lo = outer.colwise().minCoeff().transpose(), hi = outer.colwise().maxCoeff().transpose();
   const double s = m_measurements.height / 1.70;
   lo -= Eigen::Vector3d::Constant(0.25 * s);
   hi += Eigen::Vector3d::Constant(0.25 * s);

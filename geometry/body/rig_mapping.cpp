@@ -18,9 +18,16 @@ namespace {
 
 using BoneNames = std::array<std::string_view, JOINT_COUNT>;
 
+struct BuiltinAnchor {
+  Joint joint;
+  std::string_view toward;
+  double fraction;
+};
+
 struct BuiltinRig {
   std::string_view name;
   BoneNames bones; // canonical (SMPL) order
+  std::array<BuiltinAnchor, 3> anchors{};
 };
 
 // The bone whose head sits at each canonical joint. SMPL's hand joint is the knuckle line, so
@@ -40,7 +47,11 @@ constexpr std::array<BuiltinRig, 4> BUILTIN_RIGS{{
     {"makehuman_game_engine",
      {"pelvis",     "thigh_l",    "thigh_r",    "spine_01",   "calf_l",  "calf_r",     "spine_02",    "foot_l",
       "foot_r",     "spine_03",   "ball_l",     "ball_r",     "neck_01", "clavicle_l", "clavicle_r",  "head",
-      "upperarm_l", "upperarm_r", "lowerarm_l", "lowerarm_r", "hand_l",  "hand_r",     "middle_01_l", "middle_01_r"}},
+      "upperarm_l", "upperarm_r", "lowerarm_l", "lowerarm_r", "hand_l",  "hand_r",     "middle_01_l", "middle_01_r"},
+     // SMPL's spine heights (rig_mapping.h). On hm08 the heads of pelvis, spine_02, spine_03 and
+     // neck_01 are at 0, 22, 40 and 100 % of pelvis → neck: spine1 (21 %) is spine_02's head;
+     // spine2 (48 %) is 33 % of spine_02 → neck_01; spine3 (58 %) is 30 % of spine_03 → neck_01.
+     {{{Joint::SPINE1, "spine_02", 1.0}, {Joint::SPINE2, "neck_01", 0.33}, {Joint::SPINE3, "neck_01", 0.30}}}},
 }};
 
 std::string json_quoted(std::string_view s) {
@@ -52,6 +63,9 @@ RigMapping make_mapping(const BuiltinRig& rig, std::string_view prefix) {
   mapping.name = std::string(rig.name);
   for (int j = 0; j < JOINT_COUNT; ++j)
     mapping.bone_for_joint[j] = std::string(prefix) + std::string(rig.bones[j]);
+  for (const BuiltinAnchor& anchor : rig.anchors)
+    if (!anchor.toward.empty())
+      mapping.anchors[idx(anchor.joint)] = {std::string(prefix) + std::string(anchor.toward), anchor.fraction};
   return mapping;
 }
 
@@ -131,9 +145,31 @@ RigMapping parse_rig_mapping(std::string_view json_text, const std::string& path
     const std::optional<int> joint = joint_from_name(key);
     if (!joint)
       throw Error(path, 0, "key " + json_quoted(key) + " is not a canonical joint name (pelvis, left_hip, ..., right_hand)");
-    if (!value.is_string() || value.get<std::string>().empty())
-      throw Error(path, 0, "key " + json_quoted(key) + ": the bone name must be a non-empty string, got " + value.dump());
-    const std::string bone = value.get<std::string>();
+    std::string bone;
+    if (value.is_object()) {
+      const auto where = [&] { return "key " + json_quoted(key) + ": "; };
+      for (const auto& [member, unused] : value.items())
+        if (member != "bone" && member != "toward" && member != "at")
+          throw Error(path, 0, where() + "unknown member " + json_quoted(member) + " (expected bone, toward, at)");
+      if (!value.contains("bone") || !value["bone"].is_string() || value["bone"].get<std::string>().empty())
+        throw Error(path, 0, where() + "\"bone\" must be a non-empty string");
+      bone = value["bone"].get<std::string>();
+      if (value.contains("toward") || value.contains("at")) {
+        if (!value.contains("toward") || !value["toward"].is_string() || value["toward"].get<std::string>().empty())
+          throw Error(path, 0, where() + "\"toward\" must be a non-empty bone name when \"at\" is given");
+        if (!value.contains("at") || !value["at"].is_number() || !(value["at"].get<double>() >= 0.0) ||
+            !(value["at"].get<double>() <= 1.0))
+          throw Error(path, 0, where() + "\"at\" must be a number in [0, 1], the fraction of the way toward \"" +
+                                   value["toward"].get<std::string>() + "\"");
+        mapping.anchors[*joint] = {value["toward"].get<std::string>(), value["at"].get<double>()};
+      }
+    } else if (value.is_string() && !value.get<std::string>().empty()) {
+      bone = value.get<std::string>();
+    } else {
+      throw Error(path, 0,
+                  "key " + json_quoted(key) + ": the bone name must be a non-empty string or {\"bone\": ..., " +
+                      "\"toward\": ..., \"at\": ...}, got " + value.dump());
+    }
     if (const auto [it, inserted] = joint_of_bone.try_emplace(bone, key); !inserted)
       throw Error(path, 0, "key " + json_quoted(key) + ": bone " + json_quoted(bone) + " is already mapped to " + it->second);
     mapping.bone_for_joint[*joint] = bone;

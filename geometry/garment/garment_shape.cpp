@@ -188,7 +188,19 @@ GarmentPart GarmentShape::part_of(const Eigen::Vector3d& p) const {
     for (bool left : {true, false}) {
       const Eigen::Vector3d sh = joint(left ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER);
       const Eigen::Vector3d d = (joint(left ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW) - sh).normalized();
-      if ((p - sh).dot(d) > 0 && (left ? p.x() > 0 : p.x() < 0)) return left ? GarmentPart::LEFT_SLEEVE : GarmentPart::RIGHT_SLEEVE;
+      if ((p - sh).dot(d) <= 0 || (left ? p.x() <= 0 : p.x() >= 0)) continue;
+      // Past the shoulder's plane but well below the upper arm (more than 1.25 cloth radii under
+      // its axis) is the torso's side seam, not the sleeve: in A-pose the plane through the
+      // shoulder cuts into the torso below the armpit.
+      const int shoulder = idx(left ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER);
+      bool under_arm = false;
+      for (const RoundCone& c : m_body.cones()) {
+        if (c.joint != shoulder) continue;
+        const Eigen::Vector3d axis = (c.q - c.p).normalized();
+        const Eigen::Vector3d up = (Eigen::Vector3d::UnitY() - axis.y() * axis).normalized();
+        under_arm = (p - c.p).dot(up) < -1.25 * (c.rp + m_inflation.arm_offset);
+      }
+      if (!under_arm) return left ? GarmentPart::LEFT_SLEEVE : GarmentPart::RIGHT_SLEEVE;
     }
     return GarmentPart::TORSO;
   case GarmentType::DRESS: return p.y() < m_waist ? GarmentPart::SKIRT : GarmentPart::TORSO;

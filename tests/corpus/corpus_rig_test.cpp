@@ -48,7 +48,7 @@ TEST_F(CorpusRig, MeshIsTheWatertightHm08BodyInMetres) {
     EXPECT_EQ(w.find("scaled to metres"), std::string::npos) << "the .glb is already in metres: " << w;
 }
 
-TEST_F(CorpusRig, JointsAreTheGameEngineBoneHeads) {
+TEST_F(CorpusRig, JointsAreTheGameEngineBoneHeadsWithTheSpineAtSmplHeights) {
   const RigMapping rig = builtin_rig_mapping("makehuman_game_engine");
   std::map<std::string, Eigen::Vector3d> head;
   for (const auto& bone : s_skeleton["bones"])
@@ -57,8 +57,13 @@ TEST_F(CorpusRig, JointsAreTheGameEngineBoneHeads) {
   for (int j = 0; j < JOINT_COUNT; ++j) {
     const Eigen::Vector3d got = s_body->joints.row(j).transpose();
     ASSERT_TRUE(head.contains(rig.bone_for_joint[j])) << rig.bone_for_joint[j];
+    Eigen::Vector3d expected = head[rig.bone_for_joint[j]];
+    if (const JointAnchor& anchor = rig.anchors[std::size_t(j)]; !anchor.toward.empty()) {
+      ASSERT_TRUE(head.contains(anchor.toward)) << anchor.toward;
+      expected += anchor.fraction * (head[anchor.toward] - expected); // SMPL's spine heights
+    }
     // 1 mm: the .glb stores float32 inverse bind matrices of heads rounded to 1e-6 m.
-    EXPECT_LT((got - head[rig.bone_for_joint[j]]).norm(), 1e-3) << joint_name(j);
+    EXPECT_LT((got - expected).norm(), 1e-3) << joint_name(j);
     std::cout << "  " << joint_name(j) << " " << got.transpose() << "\n";
   }
   EXPECT_EQ(s_body->rest_pose, RestPose::APOSE);

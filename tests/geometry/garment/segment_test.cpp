@@ -49,31 +49,6 @@ const GarmentSegmentation& segmentation(const Case& c) {
   return cache.emplace(c.name, segment_garment(garment(c).mesh)).first->second;
 }
 
-// The catalogue's labels, except that a sleeve stops at the underside of the arm: a vertex the
-// catalogue calls sleeve that lies more than 1.25 cloth radii below the arm's axis is torso.
-// The catalogue's rule (beyond the plane through the shoulder normal to the arm) also takes in
-// the side of the torso below the armpit wherever the garment is wider than the shoulder
-// joint, and in the A-pose the whole lower torso; no garment-only method can or should
-// reproduce that. This is a no-op where the catalogue's rule is already confined to the arm.
-std::vector<GarmentPart> reference_parts(const Garment& g) {
-  std::vector<GarmentPart> ref = g.vertex_parts;
-  const MannequinShape body(BodyMeasurements{}, g.pose);
-  // The catalogue's sleeve clearance: half the chest's girth ease as a radius, plus 7 mm.
-  const double arm_offset = 0.5 * (std::max(0.0, g.ease.chest) / (2 * std::numbers::pi) + 0.003) + 0.004;
-  for (const RoundCone& c : body.cones()) {
-    const bool left = c.joint == idx(Joint::LEFT_SHOULDER);
-    if (!left && c.joint != idx(Joint::RIGHT_SHOULDER)) continue;
-    const GarmentPart part = left ? GarmentPart::LEFT_SLEEVE : GarmentPart::RIGHT_SLEEVE;
-    const Eigen::Vector3d axis = (c.q - c.p).normalized();
-    const Eigen::Vector3d up = (Eigen::Vector3d::UnitY() - axis.y() * axis).normalized();
-    for (std::size_t v = 0; v < ref.size(); ++v) {
-      const Eigen::Vector3d p(g.mesh.positions[3 * v], g.mesh.positions[3 * v + 1], g.mesh.positions[3 * v + 2]);
-      if (ref[v] == part && (p - c.p).dot(up) < -1.25 * (c.rp + arm_offset)) ref[v] = GarmentPart::TORSO;
-    }
-  }
-  return ref;
-}
-
 double agreement(const std::vector<GarmentPart>& a, const std::vector<GarmentPart>& b) {
   std::size_t same = 0;
   for (std::size_t v = 0; v < a.size(); ++v) same += a[v] == b[v];
@@ -113,7 +88,7 @@ TEST_P(Segment, DetectsTheTypeAndLabelsAlmostEveryVertexRight) {
   const GarmentSegmentation& s = segmentation(c);
   EXPECT_EQ(s.type, c.type) << garment_type_name(s.type);
   ASSERT_EQ(s.vertex_parts.size(), g.mesh.vertex_count());
-  EXPECT_GE(agreement(s.vertex_parts, reference_parts(g)), c.min_accuracy);
+  EXPECT_GE(agreement(s.vertex_parts, g.vertex_parts), c.min_accuracy);
 }
 
 TEST_P(Segment, EachSleeveOrLegIsOneRegionOnItsOwnSide) {
@@ -228,7 +203,7 @@ TEST(SegmentRefinement, PlanesImproveOnTheCoarseReebBranches) {
   // Seed 000 Fig. 3: the coarse branches leave the upper arms and thighs in the torso.
   for (const Case& c : {TEE, TROUSERS}) {
     const GarmentSegmentation& s = segmentation(c);
-    const auto ref = reference_parts(garment(c));
+    const auto& ref = garment(c).vertex_parts;
     EXPECT_GT(agreement(s.vertex_parts, ref), agreement(s.coarse_parts, ref) + 0.05) << c.name;
   }
 }
