@@ -13,6 +13,7 @@ int run_demo(Args& args);
 int run_body(Args& args);
 int run_garment(Args& args);
 int run_measure(Args& args);
+int run_render(Args& args);
 
 
 

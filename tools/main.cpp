@@ -22,6 +22,7 @@ commands:
   body            builds the parametric mannequin (measurements, preset, pose, rigged glTF)
   garment TYPE    generates a catalogue garment (tee, long-sleeve, trousers, shorts, dress, skirt)
   measure BODY    the 11 body measurements of any body, rigged or bare
+  render MESH...  PNG pictures (front, side, back) of a body and its garments
   demo            the built-in demonstration (README's main job)
 
 mesh formats read: .obj .ply .off .stl .glb .gltf
@@ -118,6 +119,31 @@ mesh (a scan) whose joints come from --joints-in or are estimated from its geome
 detected (m, dm, cm, mm) unless --units states them.
 )";
 
+constexpr const char* RENDER_HELP = R"(usage: vfit render MESH... --out FILE.png [--size N] [--views front,side,back]
+                   [--scalar FILE.json] [--separate] [--perspective] [--supersampling N]
+                   [--no-outlines] [--quiet]
+
+Ray-casts pictures of meshes on vfit's Embree BVH (no GPU or display needed) so that a person
+can judge a fit at a glance. The first MESH is the body (skin-grey), the rest are garments
+(blue, orange, green, purple, yellow), all in the same units; a single .glb/.gltf holding
+several meshes (such as `vfit demo`'s demo.glb) is split into them, the first being the
+body. Each view is N × N pixels (default 512), framed on the bounding box of all meshes at one
+common scale, with smooth shading, outlines at silhouettes and hems, and the inside of open
+garments darker. Views are composited side by side with their names into FILE.png.
+  --views LIST      which views, in order (default front,side,back): front looks from +Z
+                    (the body faces +Z), side from +X (the body's left), back from -Z
+  --scalar FILE     false colour by a per-vertex value, with a legend (min, middle, max):
+                    {"values": [one number per vertex, or null], "mesh": 1, "name": "strain",
+                    "min": ..., "max": ...}; "mesh" is an index into the MESH list (default:
+                    the first garment, or the body when alone); min/max default to the
+                    values' range; a range across 0 uses a blue-grey-red map
+  --separate        one file per view instead: FILE's stem + _front.png, _side.png, _back.png
+  --perspective     a 30-degree pinhole camera instead of the orthographic default
+  --supersampling N N x N rays per pixel for anti-aliasing, 1-4 (default 2)
+  --no-outlines     no dark lines at silhouettes and where one mesh meets another
+Files are written atomically (a temporary file renamed); nothing is written on error.
+)";
+
 bool wants_help(const std::vector<std::string>& args) {
   for (const auto& a : args)
     if (a == "--help" || a == "-h") return true;
@@ -137,6 +163,7 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
                                      {"demo", DEMO_HELP, run_demo},
                                      {"body", BODY_HELP, run_body},
                                      {"garment", GARMENT_HELP, run_garment},
+                                     {"render", RENDER_HELP, run_render},
                                      {"measure", MEASURE_HELP, run_measure}};
   for (const auto& c : commands) {
     if (command != c.name) continue;

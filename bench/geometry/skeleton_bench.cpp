@@ -1,0 +1,153 @@
+// Part skeletons (seed 000 §5.1) speed and centredness: a 6k-vertex tube (proxy or full
+// resolution, uniform or cotangent contraction) and the sleeves and legs of catalogue
+// garments at 5k / 20k / 100k vertices. With CGAL found at configure time, the same tube
+// through CGAL::extract_mean_curvature_flow_skeleton as the reference (issue 4: about 0.6 s).
+// Serial by design. Reports vertices/s; meshes are built once, untimed. Centredness: mean
+// distance of the skeleton's nodes to the true axis divided by the tube's radius.
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <benchmark/benchmark.h>
+
+#include "geometry/garment/catalogue.h"
+#include "geometry/garment/hole_fill.h"
+#include "geometry/garment/skeleton_parts.h"
+#include "geometry/mesh/primitives.h"
+
+#ifdef VFIT_BENCH_CGAL
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/extract_mean_curvature_flow_skeleton.h>
+#endif
+
+namespace {
+
+constexpr float TUBE_RADIUS = 0.05f, TUBE_LENGTH = 0.6f;
+
+// 250 rings × 24 segments = 6,000 vertices, about square faces' aspect 1 : 1.
+const vfit::Mesh& tube() {
+  static const vfit::Mesh mesh = vfit::make_tube(250, 24, TUBE_RADIUS, TUBE_LENGTH);
+  return mesh;
+}
+
+// Distance of p to the tube's axis segment, in radii.
+double axis_offset(double x, double y, double z) {
+  const double along = std::clamp(y, 0.0, double(TUBE_LENGTH));
+  return std::sqrt(x * x + z * z + (y - along) * (y - along)) / TUBE_RADIUS;
+}
+
+// Args: proxy vertices (0: full resolution), laplacian (0 uniform, 1 cotangent).
+void BM_tube_skeleton(benchmark::State& state) {
+  const vfit::Mesh& mesh = tube();
+  const std::vector<vfit::GarmentPart> parts(mesh.vertex_count(), vfit::GarmentPart::LEFT_SLEEVE);
+  vfit::PartSkeletonOptions o;
+  o.skeleton.proxy_vertices = std::size_t(state.range(0));
+  o.skeleton.contraction.laplacian = state.range(1) ? vfit::ContractionLaplacian::COTANGENT : vfit::ContractionLaplacian::UNIFORM;
+  vfit::PartSkeleton s;
+  for (auto _ : state) {
+    s = vfit::extract_part_skeleton(mesh, parts, vfit::GarmentPart::LEFT_SLEEVE, o);
+    benchmark::DoNotOptimize(s.nodes.data());
+  }
+  double offset = 0;
+  for (const auto& p : s.nodes) offset += axis_offset(p.x(), p.y(), p.z());
+  state.SetItemsProcessed(state.iterations() * std::int64_t(mesh.vertex_count()));
+  state.SetLabel(state.range(1) ? "cotangent" : "uniform");
+  state.counters["centredness"] = offset / double(std::max<std::size_t>(1, s.nodes.size()));
+  state.counters["nodes"] = double(s.nodes.size());
+  state.counters["iterations"] = s.contraction.iterations;
+  state.counters["fill_ms"] = s.timings.fill_ms;
+  state.counters["skeleton_ms"] = s.timings.skeleton_ms;
+  state.counters["map_ms"] = s.timings.map_ms;
+}
+BENCHMARK(BM_tube_skeleton)->ArgsProduct({{600, 1500, 0}, {0, 1}})->Unit(benchmark::kMillisecond);
+
+const vfit::Garment& catalogue_garment(vfit::GarmentType type, std::size_t vertices) {
+  static std::map<std::pair<int, std::size_t>, vfit::Garment> cache;
+  const auto key = std::make_pair(int(type), vertices);
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    vfit::GarmentOptions o;
+    o.type = type;
+    o.target_vertices = vertices;
+    it = cache.emplace(key, vfit::make_garment(o)).first;
+  }
+  return it->second;
+}
+
+// Sleeves and legs of a catalogue garment (T-pose, ground-truth labels): all its limbs' skeletons.
+void BM_garment_limb_skeletons(benchmark::State& state) {
+  const auto type = static_cast<vfit::GarmentType>(state.range(0));
+  const vfit::Garment& g = catalogue_garment(type, std::size_t(state.range(1)));
+  std::vector<vfit::PartSkeleton> limbs;
+  for (auto _ : state) {
+    limbs = vfit::extract_limb_skeletons(g.mesh, g.vertex_parts);
+    benchmark::DoNotOptimize(limbs.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(1));
+  state.SetLabel(vfit::garment_type_name(type));
+  // The last run's stages summed over the limbs (ms), to see where the time goes.
+  vfit::PartSkeletonTimings sum;
+  double nodes = 0;
+  for (const auto& s : limbs) {
+    sum.cut_ms += s.timings.cut_ms;
+    sum.fill_ms += s.timings.fill_ms;
+    sum.skeleton_ms += s.timings.skeleton_ms;
+    sum.map_ms += s.timings.map_ms;
+    nodes += double(s.nodes.size());
+  }
+  state.counters["limbs"] = double(limbs.size());
+  state.counters["nodes"] = nodes;
+  state.counters["cut_ms"] = sum.cut_ms;
+  state.counters["fill_ms"] = sum.fill_ms;
+  state.counters["skeleton_ms"] = sum.skeleton_ms;
+  state.counters["map_ms"] = sum.map_ms;
+}
+BENCHMARK(BM_garment_limb_skeletons)
+    ->ArgsProduct({{int(vfit::GarmentType::TEE), int(vfit::GarmentType::LONG_SLEEVE), int(vfit::GarmentType::TROUSERS)},
+                   {5000, 20000}})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_garment_limb_skeletons)
+    ->ArgsProduct({{int(vfit::GarmentType::LONG_SLEEVE), int(vfit::GarmentType::TROUSERS)}, {100000}})
+    ->Unit(benchmark::kMillisecond);
+
+#ifdef VFIT_BENCH_CGAL
+// CGAL's mean curvature flow skeleton of the same tube, closed by our hole filling (CGAL needs
+// a closed mesh too), with its default parameters.
+void BM_tube_skeleton_cgal(benchmark::State& state) {
+  using Kernel = CGAL::Simple_cartesian<double>;
+  using SurfaceMesh = CGAL::Surface_mesh<Kernel::Point_3>;
+  const vfit::FilledMesh closed = vfit::fill_holes(tube());
+  SurfaceMesh sm;
+  std::vector<SurfaceMesh::Vertex_index> handles;
+  for (std::size_t v = 0; v < closed.mesh.vertex_count(); ++v)
+    handles.push_back(sm.add_vertex(Kernel::Point_3(closed.mesh.positions[3 * v], closed.mesh.positions[3 * v + 1],
+                                                    closed.mesh.positions[3 * v + 2])));
+  for (std::size_t f = 0; f < closed.mesh.face_count(); ++f)
+    sm.add_face(handles[std::size_t(closed.mesh.triangles[3 * f])], handles[std::size_t(closed.mesh.triangles[3 * f + 1])],
+                handles[std::size_t(closed.mesh.triangles[3 * f + 2])]);
+  using Skeletonization = CGAL::Mean_curvature_flow_skeletonization<SurfaceMesh>;
+  Skeletonization::Skeleton skeleton;
+  for (auto _ : state) {
+    skeleton.clear();
+    CGAL::extract_mean_curvature_flow_skeleton(sm, skeleton);
+    benchmark::DoNotOptimize(&skeleton);
+  }
+  double offset = 0;
+  std::size_t nodes = 0;
+  for (auto v : CGAL::make_range(vertices(skeleton))) {
+    const auto& p = skeleton[v].point;
+    offset += axis_offset(p.x(), p.y(), p.z());
+    ++nodes;
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(tube().vertex_count()));
+  state.SetLabel("CGAL");
+  state.counters["centredness"] = offset / double(std::max<std::size_t>(1, nodes));
+  state.counters["nodes"] = double(nodes);
+}
+BENCHMARK(BM_tube_skeleton_cgal)->Unit(benchmark::kMillisecond);
+#endif
+
+} // namespace
+
+BENCHMARK_MAIN();

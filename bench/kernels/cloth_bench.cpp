@@ -1,0 +1,163 @@
+// Mass-spring cloth RK4 step throughput (seed 000 §6.3): serial, TBB (1 and 2 threads) and
+// OpenCL (PoCL on the CPU, or a GPU's ICD) on square grids of 10^4–10^6 particles, with a
+// STREAM-like triad measured in the same run to express each step as a fraction of the memory
+// bandwidth bound. Counters: springs/s and particle-updates/s count every stage (4 per step);
+// model_GBps is the traffic the step must move at least (below) per wall second, and
+// bw_fraction = model_GBps / triad_GBps.
+//
+// Traffic model per particle per stage, neighbours' positions assumed cached: the CSR row
+// (offset 4 B + 16 B per spring end: neighbour, rest length, k, c), own stage state (24 B),
+// step start (24 B), inverse mass (4 B), running sums read and written (48 B), next state
+// written (24 B).
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include "geometry/mesh/primitives.h"
+#include "kernels/cloth_rk4.h"
+#include "kernels/cloth_springs.h"
+#include "kernels/opencl_cloth.h"
+#include "kernels/opencl_context.h"
+#include "kernels/parallel.h"
+
+namespace {
+
+struct Cloth {
+  std::vector<float> x, v;
+  vfit::SpringAdjacency adjacency;
+  vfit::ClothParticles particles;
+  std::size_t springs = 0;
+  float h = 0;
+};
+
+// A grid of about `particles` particles (side 1 m), jersey-like constants, two pinned corners.
+const Cloth& cloth(std::int64_t particles) {
+  static std::map<std::int64_t, Cloth> cache;
+  auto it = cache.find(particles);
+  if (it != cache.end()) return it->second;
+  const int n = std::max(2, int(std::lround(std::sqrt(double(particles)))));
+  const vfit::Mesh m = vfit::make_grid(n, n, 1.0f, 1.0f);
+  Cloth c;
+  vfit::ClothSprings s = vfit::build_cloth_springs(m.position_view(), m.triangle_view());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    s.stiffness[i] = s.kinds[i] == vfit::SpringKind::BENDING ? 4.0f : 400.0f;
+    s.damping[i] = 1e-4f;
+  }
+  c.springs = s.size();
+  c.adjacency = vfit::build_spring_adjacency(s, m.vertex_count());
+  c.particles.inverse_masses.assign(m.vertex_count(), float(m.vertex_count()) / 0.15f);
+  c.particles.inverse_masses[0] = c.particles.inverse_masses[std::size_t(n - 1)] = 0.0f;
+  c.particles.global_damping = 0.5f;
+  c.x = m.positions;
+  c.v.assign(c.x.size(), 0.0f);
+  c.h = float(0.8 * vfit::rk4_stable_step(c.adjacency, c.particles).max_step);
+  return cache.emplace(particles, std::move(c)).first->second;
+}
+
+double model_bytes_per_step(const Cloth& c) {
+  const double n = double(c.adjacency.particle_count());
+  return 4.0 * (n * (4 + 24 + 24 + 4 + 48 + 24) + 2.0 * double(c.springs) * 16.0);
+}
+
+// Best-of-5 STREAM triad a = b + s·c over 3 × 128 MiB arrays with all threads (GB/s, counting
+// 3 arrays moved, as STREAM does; write-allocate traffic not counted).
+double triad_gbps() {
+  static const double gbps = [] {
+    const std::size_t n = std::size_t(1) << 25;
+    std::vector<float> a(n, 0.0f), b(n, 1.0f), c(n, 2.0f);
+    double best = 0;
+    for (int rep = 0; rep < 5; ++rep) {
+      const auto t0 = std::chrono::steady_clock::now();
+      vfit::parallel_for_range(n, std::size_t(1) << 16, [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t i = lo; i < hi; ++i)
+          a[i] = b[i] + 3.0f * c[i];
+      });
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      best = std::max(best, 3.0 * double(n) * sizeof(float) / s / 1e9);
+      benchmark::DoNotOptimize(a.data());
+    }
+    return best;
+  }();
+  return gbps;
+}
+
+void report(benchmark::State& state, const Cloth& c) {
+  const double steps = double(state.iterations());
+  state.SetItemsProcessed(state.iterations() * std::int64_t(4 * 2 * c.springs));
+  state.counters["particles"] = double(c.adjacency.particle_count());
+  state.counters["springs/s"] = benchmark::Counter(steps * 4.0 * double(c.springs), benchmark::Counter::kIsRate);
+  state.counters["particle-updates/s"] =
+      benchmark::Counter(steps * 4.0 * double(c.adjacency.particle_count()), benchmark::Counter::kIsRate);
+  state.counters["model_GBps"] = benchmark::Counter(steps * model_bytes_per_step(c) / 1e9, benchmark::Counter::kIsRate);
+  state.counters["triad_GBps"] = triad_gbps();
+}
+
+void sizes(benchmark::internal::Benchmark* b) {
+  for (std::int64_t n : {10000, 100000, 1000000})
+    b->Arg(n);
+  b->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+
+void BM_triad(benchmark::State& state) {
+  for (auto _ : state)
+    benchmark::DoNotOptimize(triad_gbps());
+  state.counters["triad_GBps"] = triad_gbps();
+}
+BENCHMARK(BM_triad)->Iterations(1);
+
+void BM_rk4_serial(benchmark::State& state) {
+  const Cloth& c = cloth(state.range(0));
+  std::vector<float> x = c.x, v = c.v;
+  vfit::Rk4Workspace w;
+  for (auto _ : state)
+    vfit::rk4_step_serial(x, v, c.adjacency, c.particles, c.h, w);
+  report(state, c);
+}
+BENCHMARK(BM_rk4_serial)->Apply(sizes);
+
+void BM_rk4_tbb(benchmark::State& state) {
+  const Cloth& c = cloth(state.range(0));
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
+  std::vector<float> x = c.x, v = c.v;
+  vfit::Rk4Workspace w;
+  for (auto _ : state)
+    vfit::rk4_step_tbb(x, v, c.adjacency, c.particles, c.h, w);
+  report(state, c);
+  state.counters["threads"] = double(state.range(1));
+}
+BENCHMARK(BM_rk4_tbb)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+#ifdef VFIT_WITH_OPENCL
+void BM_rk4_opencl(benchmark::State& state) {
+  if (vfit::list_opencl_devices().empty()) {
+    state.SkipWithError("no OpenCL device");
+    return;
+  }
+  static std::unique_ptr<vfit::OpenClContext> ctx = std::make_unique<vfit::OpenClContext>();
+  const Cloth& c = cloth(state.range(0));
+  vfit::OpenClClothRk4 device(*ctx, c.adjacency, c.particles);
+  device.set_state(c.x, c.v);
+  device.step(c.h, 1); // builds and warms the kernels
+  device.finish();
+  for (auto _ : state) {
+    device.step(c.h, 10);
+    device.finish();
+  }
+  report(state, c);
+  // Ten steps per iteration: scale the per-iteration rates.
+  for (const char* k : {"springs/s", "particle-updates/s", "model_GBps"})
+    state.counters[k].value *= 10.0;
+  state.SetItemsProcessed(state.iterations() * std::int64_t(10 * 4 * 2 * c.springs));
+  state.SetLabel(ctx->device().device_name);
+}
+BENCHMARK(BM_rk4_opencl)->Apply(sizes);
+#endif
+
+} // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,148 @@
+#pragma once
+/// \file
+/// ClothSim: the mass-spring cloth of seed 000 §6.3 (eq. 22–24) and seed 004 §2 — particles
+/// with masses from the fabric's area density, structural and bending springs with damping,
+/// gravity and global damping, RK4 integration in stable substeps, pinning, body collision
+/// through the proximity core with thickness, friction and restitution, a run-to-rest
+/// convergence test (seed 004 §3.2.1) and divergence detection. Steps a frame at a time for
+/// real-time apps (step(dt), move_body() refits a moving body) or runs to rest for fitting.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "engine/fabric.h"
+
+namespace vfit {
+
+/// Where a simulation stands. Anything but OK is sticky: the state stays at the last good
+/// step (a diverged state is never exposed or written out) and step() does nothing more.
+enum class ClothStatus : std::int8_t {
+  OK = 0,
+  DIVERGED_NON_FINITE, ///< a position or velocity became NaN or infinite
+  DIVERGED_ENERGY,     ///< kinetic energy exceeded ½·M·max_speed² (energy blow-up)
+  DIVERGED_STRETCH,    ///< a spring exceeded max_stretch times its rest length
+};
+
+/// "ok", "diverged: non-finite state", "diverged: energy blow-up", "diverged: runaway stretch".
+const char* to_string(ClothStatus status);
+
+/// Which implementation runs the integrator. Both give the same bits for the same input.
+enum class ClothBackend : std::int8_t {
+  SERIAL = 0, ///< one thread (the reference)
+  TBB = 1,    ///< TBB over particles (gather per particle, no atomics)
+};
+
+/// Everything a ClothSim is built with.
+struct ClothOptions {
+  /// Fabrics of the cloth; `vertex_fabric` picks one per vertex (per-vertex overrides, e.g. a
+  /// denim waistband on a jersey body). A spring between two fabrics takes the mean of their
+  /// constants; a vertex's mass uses its own fabric's density.
+  std::vector<Fabric> fabrics = {fabric_preset("cotton_jersey")};
+  std::vector<std::int32_t> vertex_fabric; ///< #V indices into fabrics, or empty: all fabric 0
+  float gravity[3] = {0.0f, -9.81f, 0.0f}; ///< m/s², Y up
+  double global_damping = 0.5;             ///< μ (1/s): the drag force −μ·m·v (eq. 22's f^d)
+  bool bending = true;                     ///< bending springs across adjacent triangles
+  /// Substep = substep_safety × the RK4 stability bound of kernels/cloth_rk4.h (≈ √(m/k)),
+  /// capped by max_substep. Below 1 to cover compressed springs, which the bound ignores.
+  double substep_safety = 0.8;
+  double max_substep = 2e-3; ///< s
+  ClothBackend backend = ClothBackend::TBB;
+
+  float contact_thickness = 0.003f; ///< τ (m): gap kept to the body
+  float contact_friction = 0.3f;    ///< Coulomb μ_f against the body
+  float contact_restitution = 0.0f; ///< e ∈ [0, 1]
+  /// Contacts are resolved at least this often (s). A particle moving at speed s travels
+  /// s·contact_interval between checks; it is caught as long as that stays below the depth at
+  /// which the closest body point flips to the far side (half the thinnest limb): at 2 m/s and
+  /// the default 1/240 s, 8 mm.
+  double contact_interval = 1.0 / 240.0;
+  /// Body triangles farther than this from a particle (m) are not searched: a particle deeper
+  /// inside the body than this is not found. Bounds the query cost.
+  float contact_search_radius = 0.05f;
+
+  double max_speed = 50;   ///< m/s: the energy blow-up threshold (as an RMS speed)
+  double max_stretch = 10; ///< runaway stretch: any spring longer than this × its rest length
+};
+
+/// What one step(dt) did.
+struct ClothStepReport {
+  ClothStatus status = ClothStatus::OK;
+  int substeps = 0;             ///< RK4 substeps taken
+  std::size_t contacts = 0;     ///< particle–body contacts resolved (summed over contact passes)
+  double mean_displacement = 0; ///< mean |x_after − x_before| over the particles (m)
+};
+
+/// Stopping rule of run_to_rest() (seed 004 §3.2.1: mean per-vertex displacement between two
+/// simulation steps below M = 0.008 mm).
+struct ClothRestOptions {
+  double step_dt = 0.01;                    ///< s of simulated time per step compared
+  double displacement_threshold = 0.008e-3; ///< M (m)
+  double max_simulated_seconds = 10;        ///< stop (not converged) after this much simulated time
+  double max_wall_seconds = 0;              ///< also stop after this wall time; 0 = no limit
+};
+
+/// What run_to_rest() did.
+struct ClothRestReport {
+  ClothStatus status = ClothStatus::OK;
+  bool converged = false;       ///< the displacement fell below the threshold
+  int steps = 0;                ///< step(step_dt) calls made
+  double simulated_seconds = 0; ///< s
+  double wall_seconds = 0;      ///< s
+  double mean_displacement = 0; ///< of the last step (m)
+};
+
+/// A mass-spring cloth over a triangle mesh. Particles are the mesh vertices; their masses are
+/// ρ times one third of the area of their triangles (a vertex in no triangle, having no mass,
+/// is pinned). Springs per kernels/cloth_springs.h with rest lengths from the input positions.
+class ClothSim {
+public:
+  /// positions: #V × 3 (m), also the rest shape; triangles: #F × 3 indices. Throws vfit::Error
+  /// naming the element for an index out of range, a fabric index out of range, a vertex_fabric
+  /// of the wrong size, a non-finite position or a fabric constant that is negative.
+  ClothSim(std::span<const float> positions, std::span<const std::int32_t> triangles, const ClothOptions& options = {});
+  ~ClothSim();
+  ClothSim(ClothSim&&) noexcept;
+  ClothSim& operator=(ClothSim&&) noexcept;
+  ClothSim(const ClothSim&) = delete;
+  ClothSim& operator=(const ClothSim&) = delete;
+
+  /// Pins `vertices` (indices in [0, #V); throws vfit::Error otherwise) at their current
+  /// positions, with zero velocity. Recomputes the stable substep.
+  void pin(std::span<const std::int32_t> vertices);
+
+  /// Sets the body to collide with: a closed, outward-oriented mesh (#B × 3 positions in m,
+  /// #T × 3 triangles), indexed by a ProximityIndex. Replaces any previous body.
+  void set_body(std::span<const float> positions, std::span<const std::int32_t> triangles);
+  /// Moves the body (same topology) over the last `dt` seconds: refits the index (no rebuild)
+  /// and takes the body's velocity as (new − old)/dt for friction. Throws vfit::Error when no
+  /// body is set or the vertex count differs.
+  void move_body(std::span<const float> positions, double dt);
+
+  /// Advances by dt (s, ≥ 0) in RK4 substeps of at most stable_substep(), resolving body
+  /// contacts every contact_interval. On divergence restores the state from before the call and
+  /// reports the status.
+  ClothStepReport step(double dt);
+
+  /// Steps by options.step_dt until the mean displacement per step is below the threshold, or
+  /// a limit is reached, or the simulation diverges.
+  ClothRestReport run_to_rest(const ClothRestOptions& options = {});
+
+  std::size_t particle_count() const;
+  std::size_t spring_count() const;
+  std::span<const float> positions() const;  ///< #V × 3 (m)
+  std::span<const float> velocities() const; ///< #V × 3 (m/s)
+  std::span<const float> masses() const;     ///< #V (kg); 0 for an isolated vertex
+  double stable_substep() const;             ///< the substep in use (s)
+  ClothStatus status() const;
+  double kinetic_energy() const; ///< ½ Σ m v² (J)
+  double spring_energy() const;  ///< ½ Σ k (l − L)² (J)
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+} // namespace vfit

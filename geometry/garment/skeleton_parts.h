@@ -1,0 +1,72 @@
+#pragma once
+/// \file
+/// Part skeletons of a segmented garment (seed 000 §5.1): each sleeve and leg is cut out, made
+/// watertight, skeletonised by mesh contraction (curve_skeleton.h) on a simplified proxy, and
+/// every one of its full-resolution vertices is assigned to one node of a chain that runs
+/// from the part's attachment (shoulder, hip) to its open end (cuff, hem).
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "curve_skeleton.h"
+#include "garment.h"
+#include "hole_fill.h"
+#include "geometry/mesh/mesh.h"
+
+namespace vfit {
+
+struct PartSkeletonOptions {
+  /// Proxy size and contraction weights. The default proxy (800 vertices) keeps a part's
+  /// skeleton to a few ms at any resolution.
+  CurveSkeletonOptions skeleton;
+  HoleFillOptions hole_fill;
+};
+
+/// Wall-clock time per stage of one part (ms).
+struct PartSkeletonTimings {
+  double cut_ms = 0;      ///< cut the part out, split non-manifold vertices, keep the largest piece
+  double fill_ms = 0;     ///< hole filling at full resolution
+  double skeleton_ms = 0; ///< proxy, contraction, collapse, chain (extract_curve_skeleton)
+  double map_ms = 0;      ///< garment vertices → nodes, recentring, orientation
+  double total_ms = 0;
+};
+
+/// The skeleton of one garment part: a chain of nodes and the part's vertices per node.
+struct PartSkeleton {
+  GarmentPart part = GarmentPart::LEFT_SLEEVE;
+  /// #N node positions (mesh units), from the attachment end (the seam with the rest of the
+  /// garment: shoulder or hip) to the open end (cuff or hem); each is the centroid of its
+  /// vertices (seed 000 eq. 12).
+  std::vector<Eigen::Vector3d> nodes;
+  std::vector<std::int32_t> vertices;    ///< the part's garment vertex ids, ascending
+  std::vector<std::int32_t> vertex_node; ///< per entry of `vertices`: its node in [0, #N); disjoint sets
+  std::size_t proxy_vertices = 0;        ///< vertices the contraction ran on (proxy, or the closed part itself)
+  ContractionStats contraction;
+  PartSkeletonTimings timings;
+};
+
+/// The skeleton of the vertices labelled `part` in `garment` (#V × 3 positions, #F × 3
+/// triangles, manifold) with labels `vertex_parts` (#V, e.g. segment_garment()'s). The part's
+/// faces (all three vertices labelled) are cut out; vertices where fans of those faces meet
+/// only at a point are split, the largest edge-connected piece is kept, hole-filled
+/// (hole_fill.h) and skeletonised (extract_curve_skeleton(), on a proxy when large), which
+/// gives each of its vertices a node; labelled vertices off the piece take the nearest node.
+/// Nodes are recentred on all their vertices. The chain starts at the end nearest the
+/// centroid of the part's seam vertices (those with a neighbour of another label); a part
+/// with no seam keeps the order extract_curve_skeleton() gave. Throws vfit::Error
+/// ("part skeleton", …) when the labels do not match the mesh, the part has no face, or the
+/// part has an edge shared by more than two faces.
+PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentPart> vertex_parts, GarmentPart part,
+                                   const PartSkeletonOptions& options = {});
+
+/// Skeletons of the sleeves and legs present (LEFT_SLEEVE, RIGHT_SLEEVE, LEFT_LEG, RIGHT_LEG
+/// in that order; a part is present when at least one face has it on all three vertices).
+/// The torso and skirts are not tubes and get none.
+std::vector<PartSkeleton> extract_limb_skeletons(const Mesh& garment, std::span<const GarmentPart> vertex_parts,
+                                                 const PartSkeletonOptions& options = {});
+
+} // namespace vfit

@@ -1,0 +1,33 @@
+#pragma once
+/// \file
+/// A coarse stand-in for a large watertight part, for skeleton extraction (seed 000 §5.1):
+/// shortest-edge collapses that keep the surface a closed manifold and remember which
+/// proxy vertex every input vertex went into, so that the skeleton's vertex → node map
+/// (eq. 12) carries over to full resolution exactly.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "geometry/mesh/mesh.h"
+
+namespace vfit {
+
+/// A simplified mesh and where each input vertex went.
+struct SkeletonProxy {
+  Mesh mesh;                              ///< positions and triangles; each vertex at the mean of its input vertices
+  std::vector<std::int32_t> vertex_proxy; ///< #V input: the proxy vertex it was merged into
+};
+
+/// Collapses the currently shortest edge of a closed (watertight) triangle mesh (#V × 3
+/// positions, #F × 3 triangles) until `target_vertices` remain, skipping collapses that
+/// would break the link condition (two vertices sharing neighbours other than the two across
+/// their edge: a pinched or non-manifold result) or leave a vertex of valence < 3; it may stop
+/// above the target when no legal collapse is left. Geometry is not guarded (a fold is
+/// harmless to the uniform-Laplacian contraction, which sees connectivity only). Far cheaper
+/// than quadric decimation (geometry/mesh/decimate.h: OpenMesh took ~100 ms for 2,400 → 600
+/// vertices and rejected every collapse on a tube of thin triangles). A mesh with at most
+/// `target_vertices` vertices is returned as is. Throws vfit::Error for a bad index.
+SkeletonProxy simplify_for_skeleton(const Mesh& closed_mesh, std::size_t target_vertices);
+
+} // namespace vfit

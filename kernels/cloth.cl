@@ -1,0 +1,82 @@
+// Mass-spring cloth on an OpenCL device (see cloth_springs.h and cloth_rk4.h). The per-spring
+// force and the per-particle RK4 stage update are shared with the C++ reference through
+// cloth_math.h; the gather order (the CSR rows, ascending spring index) is the same too.
+#pragma OPENCL FP_CONTRACT OFF
+#include "cloth_math.h"
+
+static vfit_vec3 vfit_cloth_load3(__global const float* p, int i) {
+  vfit_vec3 r;
+  r.x = p[3 * i];
+  r.y = p[3 * i + 1];
+  r.z = p[3 * i + 2];
+  return r;
+}
+
+static void vfit_cloth_store3(__global float* p, int i, vfit_vec3 v) {
+  p[3 * i] = v.x;
+  p[3 * i + 1] = v.y;
+  p[3 * i + 2] = v.z;
+}
+
+static vfit_vec3 vfit_cloth_gather(__global const float* x, __global const float* v, __global const int* offsets,
+                                   __global const int* neighbors, __global const float* rest,
+                                   __global const float* stiffness, __global const float* damping, int i) {
+  vfit_vec3 xi = vfit_cloth_load3(x, i), vi = vfit_cloth_load3(v, i);
+  vfit_vec3 f;
+  f.x = 0.0f;
+  f.y = 0.0f;
+  f.z = 0.0f;
+  for (int e = offsets[i]; e < offsets[i + 1]; ++e) {
+    int j = neighbors[e];
+    vfit_vec3 fs = vfit_spring_force(xi, vfit_cloth_load3(x, j), vi, vfit_cloth_load3(v, j), rest[e], stiffness[e],
+                                     damping[e]);
+    f.x += fs.x;
+    f.y += fs.y;
+    f.z += fs.z;
+  }
+  return f;
+}
+
+// One work-item per particle: the spring forces of the state (x, v), gathered.
+__kernel void cloth_spring_forces(__global const float* x, __global const float* v, __global const int* offsets,
+                                  __global const int* neighbors, __global const float* rest,
+                                  __global const float* stiffness, __global const float* damping,
+                                  __global float* forces, int count) {
+  int i = get_global_id(0);
+  if (i >= count) return;
+  vfit_cloth_store3(forces, i, vfit_cloth_gather(x, v, offsets, neighbors, rest, stiffness, damping, i));
+}
+
+// One work-item per particle: RK4 stage `stage` evaluated at (xs, vs) from the step start
+// (x0, v0); writes the running sums and the next stage state (the result at stage 3, which
+// may be x0/v0 themselves: each work-item touches only its own row there).
+__kernel void cloth_rk4_stage(__global const float* xs, __global const float* vs, __global const float* x0,
+                              __global const float* v0, __global float* acc_x, __global float* acc_v,
+                              __global float* next_x, __global float* next_v, __global const int* offsets,
+                              __global const int* neighbors, __global const float* rest,
+                              __global const float* stiffness, __global const float* damping,
+                              __global const float* inverse_masses, float gx, float gy, float gz,
+                              float global_damping, float h, int stage, int count) {
+  int i = get_global_id(0);
+  if (i >= count) return;
+  vfit_vec3 g;
+  g.x = gx;
+  g.y = gy;
+  g.z = gz;
+  float inv_mass = inverse_masses[i];
+  vfit_vec3 vsi = vfit_cloth_load3(vs, i);
+  vfit_vec3 a = vfit_particle_acceleration(
+      vfit_cloth_gather(xs, vs, offsets, neighbors, rest, stiffness, damping, i), vsi, inv_mass, g, global_damping);
+  vfit_vec3 slope_x = vsi;
+  if (inv_mass == 0.0f) {
+    slope_x.x = 0.0f;
+    slope_x.y = 0.0f;
+    slope_x.z = 0.0f;
+  }
+  vfit_vec3 ax = vfit_cloth_load3(acc_x, i), av = vfit_cloth_load3(acc_v, i), nx, nv;
+  vfit_rk4_stage_update(vfit_cloth_load3(x0, i), vfit_cloth_load3(v0, i), slope_x, a, h, stage, &ax, &av, &nx, &nv);
+  vfit_cloth_store3(acc_x, i, ax);
+  vfit_cloth_store3(acc_v, i, av);
+  vfit_cloth_store3(next_x, i, nx);
+  vfit_cloth_store3(next_v, i, nv);
+}

@@ -1,0 +1,138 @@
+/* Mass-spring cloth math (seed 000 §6.3, eq. 22–24), written once in the C subset that both
+ * C++ and OpenCL C accept: included by cloth_springs.cpp / cloth_rk4.cpp (the serial and TBB
+ * reference) and by cloth.cl (the OpenCL kernels), so every backend evaluates the same
+ * expressions in the same order.
+ *
+ * Conventions: positions in m, velocities in m/s, forces in N, stiffness k in N/m, spring
+ * damping c in N·s/m, global damping μ in 1/s (a force −μ·m·v, i.e. a per-mass drag rate),
+ * inverse masses in 1/kg. A particle with inverse mass 0 is pinned: it neither accelerates nor
+ * moves, whatever the forces on it. */
+#ifndef VFIT_CLOTH_MATH_H
+#define VFIT_CLOTH_MATH_H
+
+#include "closest_point_math.h" /* vfit_vec3, VFIT_INLINE, vfit_v3_sub, vfit_v3_dot */
+
+/* Springs shorter than this (m) have no direction: they exert no force. Far below any cloth
+ * edge (≥ 0.1 mm) yet far above the float noise of coincident points. */
+#define VFIT_SPRING_MIN_LENGTH 1e-9f
+
+/* Force on particle i (at xi, moving at vi) from the spring joining it to particle j:
+ *   f_i = (k·(l − L) + c·((v_j − v_i)·u))·u,   u = (x_j − x_i)/l,  l = |x_j − x_i|,
+ * Hooke's force plus damping of the stretch rate along the spring (eq. 22's f^s + f^ds, or
+ * f^b + f^db for a bending spring). The formula is exactly antisymmetric in float: swapping
+ * i and j negates d and u bit for bit and leaves l and the dot product unchanged, so
+ * f_j == −f_i exactly and a per-particle gather equals a per-spring scatter. */
+VFIT_INLINE vfit_vec3 vfit_spring_force(vfit_vec3 xi, vfit_vec3 xj, vfit_vec3 vi, vfit_vec3 vj, float rest_length,
+                                        float stiffness, float damping) {
+  vfit_vec3 d = vfit_v3_sub(xj, xi);
+  float l = sqrt(vfit_v3_dot(d, d));
+  vfit_vec3 f;
+  f.x = 0.0f;
+  f.y = 0.0f;
+  f.z = 0.0f;
+  if (!(l > VFIT_SPRING_MIN_LENGTH)) return f;
+  vfit_vec3 u;
+  u.x = d.x / l;
+  u.y = d.y / l;
+  u.z = d.z / l;
+  float s = stiffness * (l - rest_length) + damping * vfit_v3_dot(vfit_v3_sub(vj, vi), u);
+  f.x = s * u.x;
+  f.y = s * u.y;
+  f.z = s * u.z;
+  return f;
+}
+
+/* Acceleration of a particle (eq. 22–23): a = f_springs/m + g − μ·v, or zero when pinned
+ * (inv_mass == 0). gravity in m/s², global_damping μ in 1/s. */
+VFIT_INLINE vfit_vec3 vfit_particle_acceleration(vfit_vec3 spring_force, vfit_vec3 v, float inv_mass,
+                                                 vfit_vec3 gravity, float global_damping) {
+  vfit_vec3 a;
+  a.x = 0.0f;
+  a.y = 0.0f;
+  a.z = 0.0f;
+  if (inv_mass == 0.0f) return a;
+  a.x = spring_force.x * inv_mass + gravity.x - global_damping * v.x;
+  a.y = spring_force.y * inv_mass + gravity.y - global_damping * v.y;
+  a.z = spring_force.z * inv_mass + gravity.z - global_damping * v.z;
+  return a;
+}
+
+/* Classical RK4 (eq. 23–24 integrated with Runge–Kutta 4) of the first-order system
+ * x' = v, v' = a(x, v), split into four stages s = 0..3. Stage s was evaluated at the stage
+ * state (xs, vs) and gave acceleration a; the stage's slopes are (vs, a). Their weighted sum
+ * (weights 1, 2, 2, 1) accumulates into (acc_x, acc_v), which stage 0 starts from zero. */
+VFIT_INLINE float vfit_rk4_weight(int stage) { return (stage == 0 || stage == 3) ? 1.0f : 2.0f; }
+
+/* Fraction of the step h at which stage s + 1 is evaluated: 1/2, 1/2, 1. */
+VFIT_INLINE float vfit_rk4_next_fraction(int stage) { return stage == 2 ? 1.0f : 0.5f; }
+
+/* One particle's RK4 stage update. Inputs: the step start (x0, v0), the stage slopes (vs, a),
+ * the running sums (*acc_x, *acc_v), the step h (s), the stage s. For s < 3 it writes the next
+ * stage state x0 + α·h·vs, v0 + α·h·a (α from vfit_rk4_next_fraction) to (*next_x, *next_v);
+ * for s == 3 it writes the step's result x0 + h/6·Σ, v0 + h/6·Σ there instead. */
+VFIT_INLINE void vfit_rk4_stage_update(vfit_vec3 x0, vfit_vec3 v0, vfit_vec3 vs, vfit_vec3 a, float h, int stage,
+                                       vfit_vec3* acc_x, vfit_vec3* acc_v, vfit_vec3* next_x, vfit_vec3* next_v) {
+  float w = vfit_rk4_weight(stage);
+  vfit_vec3 sx, sv;
+  if (stage == 0) {
+    sx.x = vs.x;
+    sx.y = vs.y;
+    sx.z = vs.z;
+    sv.x = a.x;
+    sv.y = a.y;
+    sv.z = a.z;
+  } else {
+    sx.x = acc_x->x + w * vs.x;
+    sx.y = acc_x->y + w * vs.y;
+    sx.z = acc_x->z + w * vs.z;
+    sv.x = acc_v->x + w * a.x;
+    sv.y = acc_v->y + w * a.y;
+    sv.z = acc_v->z + w * a.z;
+  }
+  *acc_x = sx;
+  *acc_v = sv;
+  float t = stage == 3 ? h / 6.0f : vfit_rk4_next_fraction(stage) * h;
+  vfit_vec3 px = stage == 3 ? sx : vs;
+  vfit_vec3 pv = stage == 3 ? sv : a;
+  next_x->x = x0.x + t * px.x;
+  next_x->y = x0.y + t * px.y;
+  next_x->z = x0.z + t * px.z;
+  next_v->x = v0.x + t * pv.x;
+  next_v->y = v0.y + t * pv.y;
+  next_v->z = v0.z + t * pv.z;
+}
+
+/* Body contact response of one particle (seed 004 §2: position pushed out, velocity changed by
+ * friction and restitution). n: the body's outward unit normal at the closest point; depth:
+ * thickness − signed distance (m), > 0 when the particle is closer than the thickness;
+ * body_v: the body's velocity at the contact (m/s); friction μ_f (Coulomb, ≥ 0); restitution e
+ * in [0, 1]. Moves *x out by depth along n; if the particle approaches the body, its normal
+ * relative velocity becomes −e times itself and its tangential relative velocity shrinks by
+ * μ_f times the normal velocity change (stopping, never reversing). */
+VFIT_INLINE void vfit_contact_response(vfit_vec3* x, vfit_vec3* v, vfit_vec3 n, float depth, vfit_vec3 body_v,
+                                       float friction, float restitution) {
+  if (!(depth > 0.0f)) return;
+  x->x += depth * n.x;
+  x->y += depth * n.y;
+  x->z += depth * n.z;
+  vfit_vec3 rel = vfit_v3_sub(*v, body_v);
+  float vn = vfit_v3_dot(rel, n);
+  if (!(vn < 0.0f)) return;
+  vfit_vec3 vt;
+  vt.x = rel.x - vn * n.x;
+  vt.y = rel.y - vn * n.y;
+  vt.z = rel.z - vn * n.z;
+  float dvn = -(1.0f + restitution) * vn; /* > 0 */
+  float vt_len = sqrt(vfit_v3_dot(vt, vt));
+  float scale = 0.0f;
+  if (vt_len > 0.0f) {
+    scale = 1.0f - friction * dvn / vt_len;
+    if (scale < 0.0f) scale = 0.0f;
+  }
+  float vn_new = -restitution * vn;
+  v->x = body_v.x + vn_new * n.x + scale * vt.x;
+  v->y = body_v.y + vn_new * n.y + scale * vt.y;
+  v->z = body_v.z + vn_new * n.z + scale * vt.z;
+}
+
+#endif

@@ -1,0 +1,75 @@
+#pragma once
+/// \file
+/// Classical fourth-order Runge–Kutta integration of a mass-spring cloth (seed 000 §6.3,
+/// eq. 22–24): x' = v, v' = a(x, v) = f_springs/m + g − μ·v. Each of the four stages is one
+/// fused per-particle pass: gather the spring forces of the stage state over the CSR adjacency,
+/// form the acceleration, add the stage's slopes to the running sums and write the next stage
+/// state (cloth_math.h's vfit_rk4_stage_update). Serial and TBB give the same bits.
+///
+/// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
+/// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled
+/// damping and stiffness matrices M^{-1/2} C M^{-1/2} and M^{-1/2} K M^{-1/2}, so
+/// |λ| ≤ γ_max + ω_max. Gershgorin's theorem on the scaled matrices bounds, per free particle i,
+///   ω_i² = Σ_{s=(i,j)} k_s·(1/m_i + 1/√(m_i m_j)),   γ_i = μ + Σ_{s=(i,j)} c_s·(1/m_i + 1/√(m_i m_j)),
+/// (a pinned neighbour j has 1/m_j = 0). RK4's stability region contains the closed left
+/// half-disc of radius 2.6 (checked numerically: |1 + z + z²/2 + z³/6 + z⁴/24| ≤ 1 there), so
+///   h ≤ RK4_STABILITY_RADIUS / (ω_max + γ_max),   RK4_STABILITY_RADIUS = 2.5,
+/// is stable for springs at or beyond their rest length. A compressed spring adds a negative
+/// geometric stiffness k·(1 − L/l) across it that this bound ignores; callers keep a safety
+/// factor below 1 for it. For a uniform mesh with stiffness k and masses m this is
+/// h ≲ 2.5 / (√(2·deg·k/m)·(1 + 2ζ)), i.e. the familiar h ∝ √(m/k).
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "cloth_springs.h"
+
+namespace vfit {
+
+/// Per-particle parameters of the integrator.
+struct ClothParticles {
+  std::vector<float> inverse_masses;       ///< #V inverse masses (1/kg); 0 pins the particle
+  float gravity[3] = {0.0f, -9.81f, 0.0f}; ///< g (m/s²), Y up
+  float global_damping = 0.0f;             ///< μ (1/s): the force −μ·m·v on every particle
+};
+
+/// Scratch buffers of the RK4 drivers (#V × 3 each), sized by the callee, reusable across
+/// steps so a step allocates nothing.
+struct Rk4Workspace {
+  std::vector<float> acc_x, acc_v;           ///< running weighted sums of the slopes
+  std::vector<float> stage_x[2], stage_v[2]; ///< stage states, double-buffered
+};
+
+/// Accelerations a(x, v) (m/s², #V × 3, out resized) of every particle: spring gather plus
+/// gravity and global damping, zero for pinned particles. Serial reference.
+void cloth_accelerations_serial(std::span<const float> positions, std::span<const float> velocities,
+                                const SpringAdjacency& adjacency, const ClothParticles& particles,
+                                std::vector<float>& accelerations);
+
+/// One RK4 step of length h (s) in place: positions (m) and velocities (m/s), #V × 3.
+/// Pinned particles keep their position; their velocity is left as given (normally zero).
+/// Serial range kernels over all particles.
+void rk4_step_serial(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
+                     const ClothParticles& particles, float h, Rk4Workspace& workspace);
+
+/// TBB driver of rk4_step_serial() (grain CLOTH_PARTICLE_GRAIN per stage pass); the same bits
+/// for any thread count.
+void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
+                  const ClothParticles& particles, float h, Rk4Workspace& workspace);
+
+/// Radius of the left half-disc used as RK4's stability region in the step bound.
+inline constexpr double RK4_STABILITY_RADIUS = 2.5;
+
+/// The bound of the file comment: ω_max (rad/s), γ_max (1/s) and the largest stable step
+/// RK4_STABILITY_RADIUS / (ω_max + γ_max) (s; +∞ when nothing moves or nothing is stiff).
+struct Rk4StepBound {
+  double omega_max = 0;
+  double gamma_max = 0;
+  double max_step = 0;
+};
+
+/// Computes the bound over the free particles of `adjacency` with `particles`' masses and μ.
+Rk4StepBound rk4_stable_step(const SpringAdjacency& adjacency, const ClothParticles& particles);
+
+} // namespace vfit

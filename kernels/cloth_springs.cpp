@@ -1,0 +1,177 @@
+#include "cloth_springs.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "cloth_gather.h"
+#include "parallel.h"
+
+namespace vfit {
+namespace {
+using namespace cloth_detail;
+
+std::uint64_t edge_key(std::int32_t a, std::int32_t b) {
+  const auto lo = static_cast<std::uint32_t>(std::min(a, b)), hi = static_cast<std::uint32_t>(std::max(a, b));
+  return (std::uint64_t{lo} << 32) | hi;
+}
+
+double distance(std::span<const float> p, std::int32_t a, std::int32_t b) {
+  double s = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double d = double(p[3 * std::size_t(b) + k]) - p[3 * std::size_t(a) + k];
+    s += d * d;
+  }
+  return std::sqrt(s);
+}
+
+void add_spring(ClothSprings& s, std::span<const float> positions, std::int32_t a, std::int32_t b, SpringKind kind) {
+  s.ends.push_back(std::min(a, b));
+  s.ends.push_back(std::max(a, b));
+  s.rest_lengths.push_back(static_cast<float>(distance(positions, a, b)));
+  s.kinds.push_back(kind);
+}
+
+// Per-particle gather over [begin, end): the serial range kernel of the force drivers.
+void gather_range(const float* x, const float* v, const SpringAdjacency& adj, float* out, std::size_t begin,
+                  std::size_t end) {
+  for (std::size_t i = begin; i < end; ++i)
+    store3(out, i, gather_spring_force(x, v, adj, i));
+}
+} // namespace
+
+ClothSprings build_cloth_springs(std::span<const float> positions, std::span<const std::int32_t> triangles,
+                                 const SpringTopologyOptions& options) {
+  const std::size_t nf = triangles.size() / 3;
+  ClothSprings s;
+  // Edge → (first triangle's opposite vertex, second one's, count of triangles).
+  struct EdgeUse {
+    std::int32_t opposite[2] = {-1, -1};
+    int count = 0;
+  };
+  std::unordered_map<std::uint64_t, std::size_t> edge_index;
+  std::vector<EdgeUse> uses;
+  edge_index.reserve(3 * nf / 2 + 1);
+  for (std::size_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = triangles[3 * f + k], b = triangles[3 * f + (k + 1) % 3],
+                         c = triangles[3 * f + (k + 2) % 3];
+      assert(a >= 0 && b >= 0 && c >= 0 && "triangle index out of range");
+      if (a == b) continue;
+      auto [it, fresh] = edge_index.try_emplace(edge_key(a, b), uses.size());
+      if (fresh) {
+        uses.emplace_back();
+        add_spring(s, positions, a, b, SpringKind::STRUCTURAL);
+      }
+      EdgeUse& u = uses[it->second];
+      if (u.count < 2) u.opposite[u.count] = c;
+      ++u.count;
+    }
+  if (options.bending) {
+    std::unordered_set<std::uint64_t> bent;
+    for (const EdgeUse& u : uses) {
+      if (u.count != 2) continue; // boundary or non-manifold edge: no well-defined fold
+      const std::int32_t c = u.opposite[0], d = u.opposite[1];
+      if (c == d || edge_index.count(edge_key(c, d)) || !bent.insert(edge_key(c, d)).second) continue;
+      add_spring(s, positions, c, d, SpringKind::BENDING);
+    }
+  }
+  s.stiffness.assign(s.size(), 0.0f);
+  s.damping.assign(s.size(), 0.0f);
+  return s;
+}
+
+SpringAdjacency build_spring_adjacency(const ClothSprings& springs, std::size_t particle_count) {
+  SpringAdjacency adj;
+  const std::size_t ns = springs.size();
+  adj.offsets.assign(particle_count + 1, 0);
+  for (std::int32_t p : springs.ends) {
+    assert(p >= 0 && static_cast<std::size_t>(p) < particle_count && "spring end out of range");
+    ++adj.offsets[static_cast<std::size_t>(p) + 1];
+  }
+  for (std::size_t i = 0; i < particle_count; ++i)
+    adj.offsets[i + 1] += adj.offsets[i];
+  adj.neighbors.resize(2 * ns);
+  adj.springs.resize(2 * ns);
+  adj.rest_lengths.resize(2 * ns);
+  adj.stiffness.resize(2 * ns);
+  adj.damping.resize(2 * ns);
+  std::vector<std::int32_t> cursor(adj.offsets.begin(), adj.offsets.end() - 1);
+  // Counting sort in spring order keeps each particle's rows ascending in spring index.
+  for (std::size_t s = 0; s < ns; ++s)
+    for (int end = 0; end < 2; ++end) {
+      const std::int32_t i = springs.ends[2 * s + end], j = springs.ends[2 * s + 1 - end];
+      const std::int32_t e = cursor[static_cast<std::size_t>(i)]++;
+      adj.neighbors[e] = j;
+      adj.springs[e] = static_cast<std::int32_t>(s);
+      adj.rest_lengths[e] = springs.rest_lengths[s];
+      adj.stiffness[e] = springs.stiffness[s];
+      adj.damping[e] = springs.damping[s];
+    }
+  return adj;
+}
+
+void spring_forces_scatter(std::span<const float> positions, std::span<const float> velocities,
+                           const ClothSprings& springs, std::vector<float>& forces) {
+  forces.assign(positions.size(), 0.0f);
+  const float* x = positions.data();
+  const float* v = velocities.data();
+  float* f = forces.data();
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const auto i = static_cast<std::size_t>(springs.ends[2 * s]), j = static_cast<std::size_t>(springs.ends[2 * s + 1]);
+    const float L = springs.rest_lengths[s], k = springs.stiffness[s], c = springs.damping[s];
+    // Each end evaluates the shared formula from its own side, as the gather does.
+    const vfit_vec3 fi = vfit_spring_force(load3(x, i), load3(x, j), load3(v, i), load3(v, j), L, k, c);
+    const vfit_vec3 fj = vfit_spring_force(load3(x, j), load3(x, i), load3(v, j), load3(v, i), L, k, c);
+    f[3 * i] += fi.x;
+    f[3 * i + 1] += fi.y;
+    f[3 * i + 2] += fi.z;
+    f[3 * j] += fj.x;
+    f[3 * j + 1] += fj.y;
+    f[3 * j + 2] += fj.z;
+  }
+}
+
+void spring_forces_serial(std::span<const float> positions, std::span<const float> velocities,
+                          const SpringAdjacency& adjacency, std::vector<float>& forces) {
+  assert(positions.size() == 3 * adjacency.particle_count() && "adjacency built for another particle count");
+  forces.resize(positions.size());
+  gather_range(positions.data(), velocities.data(), adjacency, forces.data(), 0, adjacency.particle_count());
+}
+
+void spring_forces_tbb(std::span<const float> positions, std::span<const float> velocities,
+                       const SpringAdjacency& adjacency, std::vector<float>& forces) {
+  assert(positions.size() == 3 * adjacency.particle_count() && "adjacency built for another particle count");
+  forces.resize(positions.size());
+  const float* x = positions.data();
+  const float* v = velocities.data();
+  float* out = forces.data();
+  parallel_for_range(adjacency.particle_count(), CLOTH_PARTICLE_GRAIN,
+                     [&](std::size_t b, std::size_t e) { gather_range(x, v, adjacency, out, b, e); });
+}
+
+double spring_energy(std::span<const float> positions, const ClothSprings& springs) {
+  double e = 0;
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const double stretch = distance(positions, springs.ends[2 * s], springs.ends[2 * s + 1]) - springs.rest_lengths[s];
+    e += 0.5 * springs.stiffness[s] * stretch * stretch;
+  }
+  return e;
+}
+
+double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs) {
+  double worst = springs.size() == 0 ? 0.0 : 1.0;
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    if (!(springs.rest_lengths[s] > 0.0f)) continue;
+    const double l = distance(positions, springs.ends[2 * s], springs.ends[2 * s + 1]);
+    // A NaN length must read as runaway, not be skipped by the comparison.
+    if (!(l <= worst * springs.rest_lengths[s]))
+      worst = std::isnan(l) ? std::numeric_limits<double>::infinity() : l / springs.rest_lengths[s];
+  }
+  return worst;
+}
+
+} // namespace vfit

@@ -1,0 +1,161 @@
+#include "../opencl_cloth.h"
+
+#include <algorithm>
+
+#include "../cloth_rk4.h"
+#include "../cloth_springs.h"
+#include "opencl_impl.h"
+#include "vfit_cl_sources.h"
+
+namespace vfit {
+
+struct OpenClClothRk4::Impl {
+  OpenClContext::Impl* cl = nullptr;
+  std::size_t count = 0;
+  cl::Buffer offsets, neighbors, rest, stiffness, damping, inverse_masses;
+  cl::Buffer x, v, acc_x, acc_v, stage_x[2], stage_v[2], forces;
+  cl::Kernel stage_kernel, forces_kernel;
+  ClothParticles particles; // gravity and damping (the masses live on the device)
+};
+
+namespace {
+constexpr std::size_t LOCAL_SIZE = 64;
+std::size_t round_up(std::size_t n) { return (n + LOCAL_SIZE - 1) / LOCAL_SIZE * LOCAL_SIZE; }
+} // namespace
+
+OpenClClothRk4::OpenClClothRk4(OpenClContext& context, const SpringAdjacency& adjacency,
+                               const ClothParticles& particles)
+    : m_impl(std::make_unique<Impl>()) {
+  Impl& m = *m_impl;
+  m.cl = &context.impl();
+  m.count = adjacency.particle_count();
+  m.particles.gravity[0] = particles.gravity[0];
+  m.particles.gravity[1] = particles.gravity[1];
+  m.particles.gravity[2] = particles.gravity[2];
+  m.particles.global_damping = particles.global_damping;
+  try {
+    cl::Context& ctx = m.cl->context;
+    auto upload = [&](const auto& v) {
+      using T = typename std::decay_t<decltype(v)>::value_type;
+      cl::Buffer b(ctx, CL_MEM_READ_ONLY, std::max<std::size_t>(1, v.size()) * sizeof(T));
+      if (!v.empty()) m.cl->queue.enqueueWriteBuffer(b, CL_TRUE, 0, v.size() * sizeof(T), v.data());
+      return b;
+    };
+    m.offsets = upload(adjacency.offsets);
+    m.neighbors = upload(adjacency.neighbors);
+    m.rest = upload(adjacency.rest_lengths);
+    m.stiffness = upload(adjacency.stiffness);
+    m.damping = upload(adjacency.damping);
+    m.inverse_masses = upload(particles.inverse_masses);
+    const std::size_t bytes = std::max<std::size_t>(1, 3 * m.count) * sizeof(float);
+    for (cl::Buffer* b :
+         {&m.x, &m.v, &m.acc_x, &m.acc_v, &m.stage_x[0], &m.stage_x[1], &m.stage_v[0], &m.stage_v[1], &m.forces})
+      *b = cl::Buffer(ctx, CL_MEM_READ_WRITE, bytes);
+    cl::Program& prog = m.cl->program("cloth", vfit_cl_cloth);
+    m.stage_kernel = cl::Kernel(prog, "cloth_rk4_stage");
+    m.forces_kernel = cl::Kernel(prog, "cloth_spring_forces");
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "setting up the cloth RK4");
+  }
+}
+
+OpenClClothRk4::~OpenClClothRk4() = default;
+
+void OpenClClothRk4::set_state(std::span<const float> positions, std::span<const float> velocities) {
+  Impl& m = *m_impl;
+  if (m.count == 0) return;
+  try {
+    m.cl->queue.enqueueWriteBuffer(m.x, CL_FALSE, 0, 3 * m.count * sizeof(float), positions.data());
+    m.cl->queue.enqueueWriteBuffer(m.v, CL_TRUE, 0, 3 * m.count * sizeof(float), velocities.data());
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "uploading the cloth state");
+  }
+}
+
+void OpenClClothRk4::step(float h, int count) {
+  Impl& m = *m_impl;
+  if (m.count == 0) return;
+  try {
+    cl::Kernel& k = m.stage_kernel;
+    k.setArg(4, m.acc_x);
+    k.setArg(5, m.acc_v);
+    k.setArg(8, m.offsets);
+    k.setArg(9, m.neighbors);
+    k.setArg(10, m.rest);
+    k.setArg(11, m.stiffness);
+    k.setArg(12, m.damping);
+    k.setArg(13, m.inverse_masses);
+    k.setArg(14, m.particles.gravity[0]);
+    k.setArg(15, m.particles.gravity[1]);
+    k.setArg(16, m.particles.gravity[2]);
+    k.setArg(17, m.particles.global_damping);
+    k.setArg(18, h);
+    k.setArg(20, static_cast<cl_int>(m.count));
+    for (int s = 0; s < count; ++s) {
+      // The same buffer rotation as the C++ driver: x → A → B → A → x.
+      const cl::Buffer* read_x = &m.x;
+      const cl::Buffer* read_v = &m.v;
+      for (int stage = 0; stage < 4; ++stage) {
+        const cl::Buffer* write_x = stage == 3 ? &m.x : &m.stage_x[stage % 2];
+        const cl::Buffer* write_v = stage == 3 ? &m.v : &m.stage_v[stage % 2];
+        k.setArg(0, *read_x);
+        k.setArg(1, *read_v);
+        k.setArg(2, m.x);
+        k.setArg(3, m.v);
+        k.setArg(6, *write_x);
+        k.setArg(7, *write_v);
+        k.setArg(19, static_cast<cl_int>(stage));
+        m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(m.count)), cl::NDRange(LOCAL_SIZE));
+        read_x = write_x;
+        read_v = write_v;
+      }
+    }
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "running the cloth RK4 stages");
+  }
+}
+
+void OpenClClothRk4::get_state(std::vector<float>& positions, std::vector<float>& velocities) {
+  Impl& m = *m_impl;
+  positions.resize(3 * m.count);
+  velocities.resize(3 * m.count);
+  if (m.count == 0) return;
+  try {
+    m.cl->queue.enqueueReadBuffer(m.x, CL_FALSE, 0, 3 * m.count * sizeof(float), positions.data());
+    m.cl->queue.enqueueReadBuffer(m.v, CL_TRUE, 0, 3 * m.count * sizeof(float), velocities.data());
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "reading the cloth state");
+  }
+}
+
+void OpenClClothRk4::spring_forces(std::vector<float>& forces) {
+  Impl& m = *m_impl;
+  forces.resize(3 * m.count);
+  if (m.count == 0) return;
+  try {
+    cl::Kernel& k = m.forces_kernel;
+    k.setArg(0, m.x);
+    k.setArg(1, m.v);
+    k.setArg(2, m.offsets);
+    k.setArg(3, m.neighbors);
+    k.setArg(4, m.rest);
+    k.setArg(5, m.stiffness);
+    k.setArg(6, m.damping);
+    k.setArg(7, m.forces);
+    k.setArg(8, static_cast<cl_int>(m.count));
+    m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(m.count)), cl::NDRange(LOCAL_SIZE));
+    m.cl->queue.enqueueReadBuffer(m.forces, CL_TRUE, 0, 3 * m.count * sizeof(float), forces.data());
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "computing the cloth spring forces");
+  }
+}
+
+void OpenClClothRk4::finish() {
+  try {
+    m_impl->cl->queue.finish();
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "waiting for the cloth RK4");
+  }
+}
+
+} // namespace vfit

@@ -1,0 +1,265 @@
+#include "kernels/cloth_springs.h"
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "geometry/mesh/primitives.h"
+#include "kernels/cloth_rk4.h"
+
+namespace vfit {
+namespace {
+
+// A grid with every vertex jittered (so no spring sits at its rest length after a second
+// jitter) and random per-spring constants.
+struct Fixture {
+  Mesh mesh;
+  ClothSprings springs;
+  std::vector<float> x, v;
+};
+
+Fixture jittered_cloth(int n, unsigned seed, bool damping) {
+  Fixture f;
+  f.mesh = make_grid(n, n, 1.0f, 1.0f);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.02f, 0.02f), kd(50.0f, 500.0f), cd(0.0f, 0.5f), vel(-1.0f, 1.0f);
+  for (float& p : f.mesh.positions)
+    p += 0.5f * jitter(rng);
+  f.springs = build_cloth_springs(f.mesh.position_view(), f.mesh.triangle_view());
+  for (std::size_t s = 0; s < f.springs.size(); ++s) {
+    f.springs.stiffness[s] = kd(rng);
+    f.springs.damping[s] = damping ? cd(rng) : 0.0f;
+  }
+  f.x = f.mesh.positions;
+  for (float& p : f.x)
+    p += jitter(rng);
+  f.v.resize(f.x.size());
+  for (float& q : f.v)
+    q = vel(rng);
+  return f;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+TEST(ClothSprings, GridHasStructuralOnEveryEdgeAndBendingOnEveryInteriorEdge) {
+  const int n = 6;
+  const Mesh m = make_grid(n, n, 1.0f, 1.0f);
+  const ClothSprings s = build_cloth_springs(m.position_view(), m.triangle_view());
+  const std::size_t edges = 2 * n * (n - 1) + (n - 1) * (n - 1);
+  const std::size_t boundary = 4 * (n - 1);
+  std::size_t structural = 0, bending = 0;
+  for (SpringKind k : s.kinds)
+    (k == SpringKind::STRUCTURAL ? structural : bending)++;
+  EXPECT_EQ(structural, edges);
+  EXPECT_EQ(bending, edges - boundary);
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const int a = s.ends[2 * i], b = s.ends[2 * i + 1];
+    EXPECT_LT(a, b);
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k)
+      d2 += std::pow(double(m.positions[3 * a + k]) - m.positions[3 * b + k], 2);
+    EXPECT_NEAR(s.rest_lengths[i], std::sqrt(d2), 1e-6) << "spring " << i;
+  }
+  const ClothSprings no_bend = build_cloth_springs(m.position_view(), m.triangle_view(), {false});
+  EXPECT_EQ(no_bend.size(), edges);
+}
+
+// Forces are −∂E/∂x of E = Σ ½k(l − L)², checked by central differences in double. Step 2⁻¹²
+// (exact in float for these coordinates): truncation O(ε²·E''') and the float rounding of the
+// analytic force (~1e-6 relative) both stay far below the 1e-3 relative tolerance.
+TEST(ClothSprings, HookeForcesAreMinusTheEnergyGradient) {
+  Fixture f = jittered_cloth(5, 7u, false);
+  std::vector<float> forces;
+  spring_forces_scatter(f.x, f.v, f.springs, forces);
+  const float eps = 1.0f / 4096.0f;
+  double worst = 0, scale = 0;
+  for (float q : forces)
+    scale = std::max(scale, double(std::abs(q)));
+  for (std::size_t c = 0; c < f.x.size(); ++c) {
+    std::vector<float> p = f.x, q = f.x;
+    p[c] += eps;
+    q[c] -= eps;
+    const double fd = -(spring_energy(p, f.springs) - spring_energy(q, f.springs)) / (double(p[c]) - q[c]);
+    worst = std::max(worst, std::abs(fd - forces[c]));
+  }
+  EXPECT_LT(worst, 1e-3 * scale) << "largest force " << scale;
+}
+
+// Damping forces are −∂D/∂v of the Rayleigh function D = Σ ½c((v_j − v_i)·u)²; D is quadratic
+// in v, so central differences are exact up to rounding (tolerance 1e-4 relative).
+TEST(ClothSprings, DampingForcesAreMinusTheRayleighGradient) {
+  Fixture f = jittered_cloth(5, 11u, true);
+  for (float& k : f.springs.stiffness)
+    k = 0.0f;
+  auto rayleigh = [&](const std::vector<float>& v) {
+    double d = 0;
+    for (std::size_t s = 0; s < f.springs.size(); ++s) {
+      const int i = f.springs.ends[2 * s], j = f.springs.ends[2 * s + 1];
+      double u[3], len = 0, dot = 0;
+      for (int k = 0; k < 3; ++k)
+        len += std::pow(u[k] = double(f.x[3 * j + k]) - f.x[3 * i + k], 2);
+      len = std::sqrt(len);
+      for (int k = 0; k < 3; ++k)
+        dot += (double(v[3 * j + k]) - v[3 * i + k]) * u[k] / len;
+      d += 0.5 * f.springs.damping[s] * dot * dot;
+    }
+    return d;
+  };
+  std::vector<float> forces;
+  spring_forces_scatter(f.x, f.v, f.springs, forces);
+  double worst = 0, scale = 0;
+  for (float q : forces)
+    scale = std::max(scale, double(std::abs(q)));
+  for (std::size_t c = 0; c < f.v.size(); ++c) {
+    std::vector<float> p = f.v, q = f.v;
+    p[c] += 1.0f / 1024.0f;
+    q[c] -= 1.0f / 1024.0f;
+    const double fd = -(rayleigh(p) - rayleigh(q)) / (double(p[c]) - q[c]);
+    worst = std::max(worst, std::abs(fd - forces[c]));
+  }
+  EXPECT_LT(worst, 1e-4 * scale);
+}
+
+TEST(ClothSprings, GatherEqualsScatterBitForBit) {
+  const Fixture f = jittered_cloth(17, 3u, true);
+  const SpringAdjacency adj = build_spring_adjacency(f.springs, f.mesh.vertex_count());
+  std::vector<float> scatter, gather;
+  spring_forces_scatter(f.x, f.v, f.springs, scatter);
+  spring_forces_serial(f.x, f.v, adj, gather);
+  EXPECT_TRUE(same_bits(scatter, gather));
+  double net[3] = {0, 0, 0}; // internal forces sum to zero (Newton's third law)
+  for (std::size_t i = 0; i < gather.size(); ++i)
+    net[i % 3] += gather[i];
+  for (double n : net)
+    EXPECT_NEAR(n, 0.0, 1e-3);
+}
+
+TEST(ClothSprings, TbbEqualsSerialBitForBit) {
+  const Fixture f = jittered_cloth(120, 5u, true); // 14,400 particles: several TBB chunks
+  const SpringAdjacency adj = build_spring_adjacency(f.springs, f.mesh.vertex_count());
+  std::vector<float> serial, tbb;
+  spring_forces_serial(f.x, f.v, adj, serial);
+  spring_forces_tbb(f.x, f.v, adj, tbb);
+  EXPECT_TRUE(same_bits(serial, tbb));
+
+  ClothParticles particles;
+  particles.inverse_masses.assign(f.mesh.vertex_count(), 1.0f / 2e-3f);
+  particles.inverse_masses[0] = 0.0f;
+  particles.global_damping = 0.3f;
+  std::vector<float> xs = f.x, vs = f.v, xt = f.x, vt = f.v;
+  Rk4Workspace ws, wt;
+  for (int step = 0; step < 5; ++step) {
+    rk4_step_serial(xs, vs, adj, particles, 1e-4f, ws);
+    rk4_step_tbb(xt, vt, adj, particles, 1e-4f, wt);
+  }
+  EXPECT_TRUE(same_bits(xs, xt));
+  EXPECT_TRUE(same_bits(vs, vt));
+  for (int k = 0; k < 3; ++k)
+    EXPECT_EQ(xs[k], f.x[k]) << "pinned particle moved";
+}
+
+// One particle of mass m on a spring k to a pinned anchor, no gravity or damping: x(t) =
+// L + A·cos(ωt), ω = √(k/m). RK4's global error is O(h⁴): halving h divides it by ~16. The
+// coarsest step is t/12 (error ~1e-2), the finest t/48 (~5e-5), far above float rounding
+// (~1e-6 here), so the measured ratios sit within [12, 20] of the asymptotic 16.
+TEST(ClothRk4, GlobalErrorShrinksSixteenfoldWhenTheStepHalves) {
+  ClothSprings s;
+  s.ends = {0, 1};
+  s.rest_lengths = {1.0f};
+  s.stiffness = {4.0f};
+  s.damping = {0.0f};
+  s.kinds = {SpringKind::STRUCTURAL};
+  const SpringAdjacency adj = build_spring_adjacency(s, 2);
+  ClothParticles particles;
+  particles.inverse_masses = {0.0f, 1.0f}; // m = 1 kg, ω = 2 rad/s
+  particles.gravity[1] = 0.0f;
+  // Phase-space error |(Δx, Δv/ω)| at a time where the phase error is not hidden by sin(ωt) = 0
+  // (there only the O(h⁵)-per-period amplitude error shows, and ratios approach 32).
+  const double amplitude = 0.3, omega = 2.0, t_end = 2.0 * M_PI + 0.75;
+  std::vector<double> errors;
+  for (int steps : {12, 24, 48}) {
+    std::vector<float> x = {0, 0, 0, float(1.0 + amplitude), 0, 0}, v(6, 0.0f);
+    Rk4Workspace w;
+    for (int i = 0; i < steps; ++i)
+      rk4_step_serial(x, v, adj, particles, float(t_end / steps), w);
+    errors.push_back(std::hypot(x[3] - (1.0 + amplitude * std::cos(omega * t_end)),
+                                (v[3] + amplitude * omega * std::sin(omega * t_end)) / omega));
+    EXPECT_EQ(x[4], 0.0f);
+  }
+  EXPECT_GT(errors[0] / errors[1], 12.0) << errors[0] << " " << errors[1];
+  EXPECT_LT(errors[0] / errors[1], 20.0) << errors[0] << " " << errors[1];
+  EXPECT_GT(errors[1] / errors[2], 12.0) << errors[1] << " " << errors[2];
+  EXPECT_LT(errors[1] / errors[2], 20.0) << errors[1] << " " << errors[2];
+}
+
+// Two free masses m on one spring k: the only oscillation has ω² = 2k/m, which Gershgorin gives
+// exactly, so the bound is h = 2.5/ω. RK4 is stable up to 2√2/ω on the imaginary axis: at the
+// bound the amplitude must not grow; at 1.2 × 2√2/ω it must explode.
+TEST(ClothRk4, StableStepBoundIsTightForTwoMassesOnASpring) {
+  ClothSprings s;
+  s.ends = {0, 1};
+  s.rest_lengths = {1.0f};
+  s.stiffness = {200.0f};
+  s.damping = {0.0f};
+  s.kinds = {SpringKind::STRUCTURAL};
+  const SpringAdjacency adj = build_spring_adjacency(s, 2);
+  ClothParticles particles;
+  particles.inverse_masses = {10.0f, 10.0f};
+  particles.gravity[1] = 0.0f;
+  const Rk4StepBound b = rk4_stable_step(adj, particles);
+  EXPECT_NEAR(b.omega_max, std::sqrt(2.0 * 200.0 * 10.0), 1e-9);
+  EXPECT_NEAR(b.max_step, 2.5 / b.omega_max, 1e-12);
+  // 30 unstable steps grow the amplitude by |R(3.39i)|³⁰ ≈ 3.2³⁰: large but still finite.
+  auto amplitude_after = [&](double h, int steps) {
+    std::vector<float> x = {0, 0, 0, 1.1f, 0, 0}, v(6, 0.0f);
+    Rk4Workspace w;
+    for (int i = 0; i < steps; ++i)
+      rk4_step_serial(x, v, adj, particles, float(h), w);
+    return std::abs(x[3] - x[0] - 1.0);
+  };
+  EXPECT_LE(amplitude_after(b.max_step, 400), 0.1 + 1e-4);
+  EXPECT_GT(amplitude_after(1.2 * 2.0 * std::sqrt(2.0) / b.omega_max, 30), 1.0);
+}
+
+// An elastic cable of rest length L pinned at both ends a distance L apart sags under its own
+// weight until the stretch carries it. With w the weight per length and EA = k·l the axial
+// stiffness of springs k of length l, a parabolic cable with small sag d has arc length
+// L + 8d²/(3L) and horizontal tension wL²/(8d); equating the tension with EA·strain gives
+// d = L·(3wL/(64·EA))^{1/3}. The chain's pinned end particles carry their weight directly, so
+// w = (N − 1)·m·g/L. Parameters give d/L ≈ 0.05: the parabola and small-strain approximations
+// are then good to ~0.5 %, and 40 segments add ~0.1 %; tolerance 2 %.
+TEST(ClothRk4, ElasticCableSagsAsTheCableLawPredicts) {
+  const int segments = 40;
+  const double L = 1.0, l = L / segments, m = 1e-3, k = 5850.0, g = 9.81;
+  ClothSprings s;
+  for (int i = 0; i < segments; ++i) {
+    s.ends.insert(s.ends.end(), {i, i + 1});
+    s.rest_lengths.push_back(float(l));
+    s.stiffness.push_back(float(k));
+    s.damping.push_back(0.02f);
+    s.kinds.push_back(SpringKind::STRUCTURAL);
+  }
+  const SpringAdjacency adj = build_spring_adjacency(s, segments + 1);
+  ClothParticles particles;
+  particles.inverse_masses.assign(segments + 1, float(1.0 / m));
+  particles.inverse_masses.front() = particles.inverse_masses.back() = 0.0f;
+  particles.global_damping = 30.0f; // ~ critical for the fundamental mode (ω₁ ≈ 16 rad/s)
+  std::vector<float> x(3 * (segments + 1), 0.0f), v(x.size(), 0.0f);
+  for (int i = 0; i <= segments; ++i)
+    x[3 * i] = float(i * l);
+  const double h = 0.8 * rk4_stable_step(adj, particles).max_step;
+  Rk4Workspace w;
+  for (double t = 0; t < 3.0; t += h)
+    rk4_step_tbb(x, v, adj, particles, float(h), w);
+  const double w_load = (segments - 1) * m * g / L;
+  const double expected = L * std::cbrt(3.0 * w_load * L / (64.0 * k * l));
+  const double sag = -x[3 * (segments / 2) + 1];
+  EXPECT_NEAR(sag, expected, 0.02 * expected) << "expected sag " << expected;
+}
+
+} // namespace
+} // namespace vfit
