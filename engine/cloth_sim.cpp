@@ -7,6 +7,7 @@
 #include <string>
 
 #include "kernels/cloth_collision.h"
+#include "kernels/cloth_implicit.h"
 #include "kernels/cloth_rk4.h"
 #include "kernels/cloth_springs.h"
 #include "kernels/error.h"
@@ -33,8 +34,10 @@ struct ClothSim::Impl {
   std::vector<float> x, v;
   std::vector<float> saved_x, saved_v; // state before the current step, restored on divergence
   Rk4Workspace workspace;
+  ImplicitWorkspace implicit_workspace;
   double substep = 0;
   double total_mass = 0;
+  float stretch_floor = 0; // rest length below which stretch is measured against this (m)
   ClothStatus status = ClothStatus::OK;
 
   std::optional<ProximityIndex> body;
@@ -43,6 +46,10 @@ struct ClothSim::Impl {
   ClosestHits hits;
 
   void update_substep() {
+    if (options.integrator == ClothIntegrator::IMPLICIT_EULER) {
+      substep = options.implicit_step;
+      return;
+    }
     const Rk4StepBound b = rk4_stable_step(adjacency, particles);
     substep = std::min(options.max_substep, options.substep_safety * b.max_step);
   }
@@ -56,6 +63,16 @@ struct ClothSim::Impl {
     }
   }
 
+  // One implicit Euler step of h; returns the CG iterations.
+  int implicit_step(double h) {
+    const ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
+    const ImplicitSolveReport r =
+        options.backend == ClothBackend::SERIAL
+            ? implicit_euler_step_serial(x, v, adjacency, particles, static_cast<float>(h), solve, implicit_workspace)
+            : implicit_euler_step_tbb(x, v, adjacency, particles, static_cast<float>(h), solve, implicit_workspace);
+    return r.iterations;
+  }
+
   std::size_t resolve_contacts() {
     if (!body) return 0;
     if (options.backend == ClothBackend::SERIAL)
@@ -66,6 +83,9 @@ struct ClothSim::Impl {
     return resolve_body_contacts(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
                                  contact);
   }
+
+  // Divergence check and displacement of the step just taken (restores the state on divergence).
+  ClothStepReport finish_step(ClothStepReport r);
 
   ClothStatus check() const {
     double ke = 0;
@@ -78,7 +98,7 @@ struct ClothSim::Impl {
       ke += 0.5 * masses[i] * v2;
     }
     if (ke > 0.5 * total_mass * options.max_speed * options.max_speed) return ClothStatus::DIVERGED_ENERGY;
-    if (max_spring_stretch(x, springs) > options.max_stretch) return ClothStatus::DIVERGED_STRETCH;
+    if (max_spring_stretch(x, springs, stretch_floor) > options.max_stretch) return ClothStatus::DIVERGED_STRETCH;
     return ClothStatus::OK;
   }
 };
@@ -133,6 +153,9 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
                   "face " + std::to_string(i / 3) + " has vertex index " + std::to_string(triangles[i]) +
                       " outside [0, " + std::to_string(nv) + ")");
   if (options.fabrics.empty()) throw Error("cloth", 0, "no fabric given");
+  if (options.integrator == ClothIntegrator::IMPLICIT_EULER &&
+      (!(options.implicit_step > 0) || !std::isfinite(options.implicit_step)))
+    throw Error("cloth", 0, "implicit_step must be finite and > 0, got " + std::to_string(options.implicit_step));
   for (std::size_t f = 0; f < options.fabrics.size(); ++f)
     check_fabric(options.fabrics[f], f);
   if (!options.vertex_fabric.empty() && options.vertex_fabric.size() != nv)
@@ -176,6 +199,16 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     m.springs.damping[s] = static_cast<float>(2.0 * zeta * std::sqrt(k * reduced));
   }
   m.adjacency = build_spring_adjacency(m.springs, nv);
+  // Runaway stretch is judged against at least half the median structural rest length, so a
+  // sliver edge of a generated mesh (microns long) stretched by a fraction of a millimetre is
+  // not read as divergence.
+  std::vector<float> structural;
+  for (std::size_t s = 0; s < m.springs.size(); ++s)
+    if (m.springs.kinds[s] == SpringKind::STRUCTURAL) structural.push_back(m.springs.rest_lengths[s]);
+  if (!structural.empty()) {
+    std::nth_element(structural.begin(), structural.begin() + std::ptrdiff_t(structural.size() / 2), structural.end());
+    m.stretch_floor = 0.5f * structural[structural.size() / 2];
+  }
   m.update_substep();
 }
 
@@ -231,6 +264,15 @@ ClothStepReport ClothSim::step(double dt) {
   if (m.status != ClothStatus::OK || !(dt > 0)) return r;
   m.saved_x = m.x;
   m.saved_v = m.v;
+  if (m.options.integrator == ClothIntegrator::IMPLICIT_EULER) {
+    const int steps = std::max(1, static_cast<int>(std::ceil(dt / m.substep - 1e-9)));
+    for (int s = 0; s < steps; ++s) {
+      r.solver_iterations += m.implicit_step(dt / steps);
+      r.contacts += m.resolve_contacts();
+    }
+    r.substeps = steps;
+    return m.finish_step(r);
+  }
   // Contact windows of at most contact_interval, each integrated in equal stable substeps.
   const int windows = m.body ? std::max(1, static_cast<int>(std::ceil(dt / m.options.contact_interval - 1e-9))) : 1;
   const double window = dt / windows;
@@ -240,6 +282,11 @@ ClothStepReport ClothSim::step(double dt) {
     r.contacts += m.resolve_contacts();
   }
   r.substeps = windows * substeps;
+  return m.finish_step(r);
+}
+
+ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
+  Impl& m = *this;
   m.status = m.check();
   r.status = m.status;
   if (m.status != ClothStatus::OK) {
@@ -271,6 +318,7 @@ ClothRestReport ClothSim::run_to_rest(const ClothRestOptions& options) {
     ++r.steps;
     r.simulated_seconds += options.step_dt;
     r.mean_displacement = s.mean_displacement;
+    r.solver_iterations += s.solver_iterations;
     if (s.mean_displacement < options.displacement_threshold) {
       r.converged = true;
       break;

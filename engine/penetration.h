@@ -3,9 +3,13 @@
 /// Penetration detection and removal between a garment and a body (seed 000 §6.2, eq. 18–21;
 /// seed 004 §3.2.2): garment vertices inside the body, or closer to it than a clearance κ, are
 /// pushed out to κ along the side of their closest body point while a Laplacian term keeps the
-/// garment's shape; detection and solve repeat until nothing is inside.
+/// garment's shape; garment edges that cross the body surface with both ends outside (a sleeve
+/// edge through a thin wrist) are pushed out by the depth of their inside chord; inner garment
+/// layers, when given, are kept out of too (seed 001 eq. 7; engine/layering.h); detection and
+/// solve repeat until nothing is inside and nothing crosses.
 
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -14,6 +18,7 @@
 namespace vfit {
 
 class ProximityIndex;
+class EdgeCrossingIndex;
 
 /// Where a garment stands against a body. Depths are in metres (positive = inside).
 struct PenetrationStats {
@@ -21,6 +26,46 @@ struct PenetrationStats {
   std::size_t near_count = 0;   ///< vertices inside or closer than the clearance κ
   double max_depth = 0;         ///< deepest vertex inside (0 when none)
   double mean_depth = 0;        ///< mean depth over the vertices inside (0 when none)
+  /// Garment edges crossing the body surface (an Embree segment query per edge that has an end
+  /// within half its length of the body; the others cannot cross); 0 when the measure was
+  /// taken without an EdgeCrossingIndex (see crossings_checked).
+  std::size_t crossing_edges = 0;
+  bool crossings_checked = false; ///< whether crossing_edges was measured
+  /// Vertices inside an inner garment layer (LayerObstacle; 0 when measured without layers).
+  std::size_t layer_inside_count = 0;
+  double layer_max_depth = 0; ///< deepest vertex inside an inner layer (m; 0 when none)
+};
+
+/// An inner garment layer that remove_penetration() keeps a garment outside of, besides the
+/// body (seed 001 §6.3, eq. 7); engine/layering.h builds one from a resolved garment. A garment
+/// is an open surface, so "inside" is local: a vertex is inside the layer when it lies behind
+/// the layer's outward-oriented surface at its closest point (the pseudo-normal side test of
+/// ProximityIndex), that point lies within `reach`, and it is not on the layer's boundary (a
+/// closest point on a hem, cuff or waistband edge means the vertex is beyond the opening, not
+/// under the cloth).
+struct LayerObstacle {
+  /// Index over the layer's surface, triangles oriented away from the body. Not owned.
+  const ProximityIndex* surface = nullptr;
+  /// #F of that surface: bit k (k = 0, 1, 2) set when edge k (corner k → corner (k + 1) mod 3)
+  /// is a boundary edge, bit 3 + k when corner k is a boundary vertex.
+  std::span<const std::uint8_t> boundary;
+  double clearance = 0.003; ///< k of seed 001 eq. 7 (m): the gap kept outside the layer
+  double reach = 0.05;      ///< layer points farther than this (m) are ignored
+};
+
+/// Which objective remove_penetration() minimises.
+enum class PenetrationMethod : std::int8_t {
+  /// seed 000 eq. 18–21: targets κ outside the closest body point, λ2/λ1 = smoothness, rounds
+  /// until nothing is inside (at most max_iterations).
+  SEED_000 = 0,
+  /// seed 004 §3.2.2: Σ_{i∈P} ‖y_i − p_i‖² + ω_s Σ_i ‖δ_i(y) − δ_i(y⁰)‖² + ω_d Σ_i ‖y_i − y'_i‖², p_i the
+  /// projection of y_i onto its closest body face, y' the previous iterate, at most
+  /// seed004_iterations rounds. δ_i(y) = y_i − mean_{j∈N_i} y_j; the paper's smoothing keeps
+  /// the wrinkles, so δ is measured against the start y⁰ (a literal ‖δ_i(y)‖² would shrink the
+  /// garment). Vertices outside P keep their previous position as target (weight 1), so the
+  /// system matrix (1 + ω_d) I + ω_s LᵀL does not depend on P and is factored once. Targets
+  /// lie on the surface and the damping slows each round, so a little depth can remain.
+  SEED_004 = 1,
 };
 
 struct PenetrationOptions {
@@ -28,12 +73,18 @@ struct PenetrationOptions {
   double smoothness = 1.0;    ///< λ2/λ1: weight of keeping the garment's Laplacian coordinates
   int max_iterations = 25;    ///< detection → solve rounds at most
   double tolerance = 0.0005;  ///< stop when no vertex is deeper than this (m)
+  PenetrationMethod method = PenetrationMethod::SEED_000;
+  double seed004_smoothing = 6.0; ///< ω_s (seed 004 §3.2.2)
+  double seed004_damping = 0.8;   ///< ω_d (seed 004 §3.2.2)
+  int seed004_iterations = 3;     ///< seed 004 repeats the fix at most 3 times
 };
 
+/// Before/after statistics of one remove_penetration() call.
 struct PenetrationReport {
   PenetrationStats before, after;
-  int iterations = 0;
-  double milliseconds = 0;
+  int iterations = 0;      ///< detection → solve rounds run
+  int factorisations = 0;  ///< sparse factorisations computed (1 whenever anything was solved)
+  double milliseconds = 0; ///< wall time of the whole call
 };
 
 /// Measures a garment (positions #V × 3, m) against a body index (a closed, outward-oriented
@@ -41,10 +92,44 @@ struct PenetrationReport {
 PenetrationStats measure_penetration(std::span<const float> garment_positions, const ProximityIndex& body,
                                      double clearance);
 
+/// As above, and also counts the garment's edges (from its triangles) that cross the body
+/// surface; `crossings` indexes the same body mesh as `body`.
+PenetrationStats measure_penetration(const Mesh& garment, const ProximityIndex& body,
+                                     const EdgeCrossingIndex& crossings, double clearance);
+
 /// Removes penetration in place. garment: positions and triangles (its uniform Laplacian keeps
-/// the shape: argmin_y Σ_i ‖y_i − t_i‖² + λ ‖L (y − y⁰)‖², t_i = closest body point + κ·outward
-/// for vertices inside or within κ, t_i = y⁰_i elsewhere; the matrix I + λ LᵀL is factored once
-/// and reused every round, as seed 004 does). Returns the statistics before and after.
+/// the shape: argmin_y Σ_i ‖y_i − t_i‖² + λ ‖L (y − y⁰)‖², y⁰ the round's start, t_i = closest
+/// body point + κ·outward for vertices inside (or, in the first round only, within κ), t_i = y⁰_i
+/// elsewhere; the matrix I + λ LᵀL is factored once and reused every round, as seed 004 does).
+/// Returns the statistics before and after.
+/// Vertex tests only: edges crossing the body are neither found nor counted.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const PenetrationOptions& options = {});
+
+/// As above, and edges crossing the body are resolved too: for an edge a→b with both ends
+/// outside whose first crossing from a is at t₁ and from b at t₂ (so the chord [t₁, 1 − t₂] lies
+/// inside), the chord's midpoint m = a + s·(b − a) must move by δ = (‖h − m‖ + κ/2)·(h − m)/‖h − m‖
+/// to lie κ/2 outside its closest body point h; the ends move by the smallest pair that does
+/// it, δ·(1 − s)/w and δ·s/w with w = (1 − s)² + s² (the end nearer the chord moves more). A
+/// vertex proposed several displacements keeps the largest. Edges with an end inside are left
+/// to that end's vertex push for the round.
+/// Rounds repeat until no vertex is inside and no edge crosses (at most max_iterations).
+/// `crossings` indexes the same body mesh as `body`.
+PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
+                                     const PenetrationOptions& options = {});
+
+/// As above, and the garment is also kept outside inner garment layers (seed 001 §6.3): a
+/// vertex whose signed distance f to a layer is below 0 (or, in the first round, below the
+/// layer's clearance k) gets the target of seed 001 eq. 7, v' = v + (k − f)·n = v + (k + d)·n
+/// with d = −f its depth and n the layer's outward direction at its closest point, smoothed
+/// by the same Laplacian solve as the body targets. Rounds repeat until nothing is inside the
+/// body or a layer and no edge crosses the body. Edges crossing a layer are not resolved.
+/// The statistics count layer_inside_count / layer_max_depth too.
+PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
+                                     std::span<const LayerObstacle> layers, const PenetrationOptions& options = {});
+
+/// measure_penetration() with crossings, plus the vertices inside each of `layers`.
+PenetrationStats measure_penetration(const Mesh& garment, const ProximityIndex& body,
+                                     const EdgeCrossingIndex& crossings, std::span<const LayerObstacle> layers,
+                                     double clearance);
 
 } // namespace vfit

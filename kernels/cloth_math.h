@@ -135,4 +135,88 @@ VFIT_INLINE void vfit_contact_response(vfit_vec3* x, vfit_vec3* v, vfit_vec3 n, 
   v->z = body_v.z + vn_new * n.z + scale * vt.z;
 }
 
+/* ---- Implicit Euler (Baraff & Witkin 1998, as seed 004 §2) ----
+ * A symmetric 3×3 block, stored as its upper triangle. */
+typedef struct {
+  float xx, xy, xz, yy, yz, zz;
+} vfit_sym3;
+
+/* Jacobian blocks of one spring (the force on i from the spring joining it to j, as
+ * vfit_spring_force):
+ *   ∂f_i/∂x_j = −∂f_i/∂x_i = K = k·(u·uᵀ + max(0, 1 − L/l)·(I − u·uᵀ)),
+ *   ∂f_i/∂v_j = −∂f_i/∂v_i = D = c·u·uᵀ.
+ * K is Hooke's force derivative; its transverse term k·(1 − L/l) is negative for a compressed
+ * spring (l < L) and would make the implicit system indefinite, so it is clamped at zero there
+ * (Choi & Ko 2002's buckling fix, as most cloth codes do); pass clamp_compression = 0 for the
+ * exact derivative. The derivative of the damping force with respect to x is dropped (Baraff &
+ * Witkin §5: it is not symmetric and small). This returns S = h·D + h²·K, the spring's block of
+ * the implicit matrix A = M − h·∂f/∂v − h²·∂f/∂x (added to A_ii and A_jj, subtracted at A_ij);
+ * h = 1, c = 0 gives K itself. Symmetric in i and j bit for bit (u·uᵀ does not change sign).
+ * Springs shorter than VFIT_SPRING_MIN_LENGTH give a zero block. */
+VFIT_INLINE vfit_sym3 vfit_spring_system_block(vfit_vec3 xi, vfit_vec3 xj, float rest_length, float stiffness,
+                                               float damping, float h, int clamp_compression) {
+  vfit_sym3 b;
+  b.xx = 0.0f;
+  b.xy = 0.0f;
+  b.xz = 0.0f;
+  b.yy = 0.0f;
+  b.yz = 0.0f;
+  b.zz = 0.0f;
+  vfit_vec3 d = vfit_v3_sub(xj, xi);
+  float l = sqrt(vfit_v3_dot(d, d));
+  if (!(l > VFIT_SPRING_MIN_LENGTH)) return b;
+  vfit_vec3 u;
+  u.x = d.x / l;
+  u.y = d.y / l;
+  u.z = d.z / l;
+  float transverse = stiffness * (1.0f - rest_length / l);
+  if (clamp_compression && transverse < 0.0f) transverse = 0.0f;
+  /* S = a·u·uᵀ + t·I with a = h·c + h²·(k − transverse), t = h²·transverse. */
+  float t = h * h * transverse;
+  float a = h * damping + h * h * (stiffness - transverse);
+  b.xx = a * u.x * u.x + t;
+  b.xy = a * u.x * u.y;
+  b.xz = a * u.x * u.z;
+  b.yy = a * u.y * u.y + t;
+  b.yz = a * u.y * u.z;
+  b.zz = a * u.z * u.z + t;
+  return b;
+}
+
+/* S·p for a symmetric block S. */
+VFIT_INLINE vfit_vec3 vfit_sym3_apply(vfit_sym3 s, vfit_vec3 p) {
+  vfit_vec3 r;
+  r.x = s.xx * p.x + s.xy * p.y + s.xz * p.z;
+  r.y = s.xy * p.x + s.yy * p.y + s.yz * p.z;
+  r.z = s.xz * p.x + s.yz * p.y + s.zz * p.z;
+  return r;
+}
+
+/* Inverse of a symmetric positive definite block by its adjugate; the zero block when the
+ * determinant is not positive (a singular row: the caller's preconditioner then skips it). */
+VFIT_INLINE vfit_sym3 vfit_sym3_inverse(vfit_sym3 s) {
+  vfit_sym3 r;
+  float cxx = s.yy * s.zz - s.yz * s.yz;
+  float cxy = s.xz * s.yz - s.xy * s.zz;
+  float cxz = s.xy * s.yz - s.xz * s.yy;
+  float det = s.xx * cxx + s.xy * cxy + s.xz * cxz;
+  if (!(det > 0.0f)) {
+    r.xx = 0.0f;
+    r.xy = 0.0f;
+    r.xz = 0.0f;
+    r.yy = 0.0f;
+    r.yz = 0.0f;
+    r.zz = 0.0f;
+    return r;
+  }
+  float inv = 1.0f / det;
+  r.xx = cxx * inv;
+  r.xy = cxy * inv;
+  r.xz = cxz * inv;
+  r.yy = (s.xx * s.zz - s.xz * s.xz) * inv;
+  r.yz = (s.xy * s.xz - s.xx * s.yz) * inv;
+  r.zz = (s.xx * s.yy - s.xy * s.xy) * inv;
+  return r;
+}
+
 #endif

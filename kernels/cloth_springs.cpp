@@ -162,14 +162,14 @@ double spring_energy(std::span<const float> positions, const ClothSprings& sprin
   return e;
 }
 
-double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs) {
+double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs, float min_rest_length) {
   double worst = springs.size() == 0 ? 0.0 : 1.0;
   for (std::size_t s = 0; s < springs.size(); ++s) {
-    if (!(springs.rest_lengths[s] > 0.0f)) continue;
+    const double L = std::max(springs.rest_lengths[s], min_rest_length);
+    if (!(L > 0.0)) continue;
     const double l = distance(positions, springs.ends[2 * s], springs.ends[2 * s + 1]);
     // A NaN length must read as runaway, not be skipped by the comparison.
-    if (!(l <= worst * springs.rest_lengths[s]))
-      worst = std::isnan(l) ? std::numeric_limits<double>::infinity() : l / springs.rest_lengths[s];
+    if (!(l <= worst * L)) worst = std::isnan(l) ? std::numeric_limits<double>::infinity() : l / L;
   }
   return worst;
 }

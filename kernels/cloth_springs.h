@@ -91,8 +91,10 @@ void spring_forces_tbb(std::span<const float> positions, std::span<const float> 
 /// m), in double: −∂E/∂x_i is the Hooke part of the spring force on particle i.
 double spring_energy(std::span<const float> positions, const ClothSprings& springs);
 
-/// Largest ratio l_s / L_s over the springs with L_s > 0 (1 at rest; 0 with no springs): the
-/// runaway-stretch measure of divergence detection.
-double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs);
+/// Largest ratio l_s / max(L_s, min_rest_length) over the springs where that denominator is
+/// > 0, and at least 1 (1 at rest; 0 with no springs): the runaway-stretch measure of divergence detection.
+/// min_rest_length (m) keeps a sliver edge of a generated mesh (rest length of microns, whose
+/// tenfold stretch is a fraction of a millimetre) from reading as runaway; 0 uses L_s as is.
+double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs, float min_rest_length = 0.0f);
 
 } // namespace vfit

@@ -1,15 +1,14 @@
 #include "proximity.h"
 
-#include <embree3/rtcore.h>
-
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <limits>
-#include <mutex>
-#include <stdexcept>
 #include <string>
 
+#include "embree_device.h"
+#include "error.h"
+#include "hole_caps.h"
 #include "parallel.h"
 #include "pseudo_normals.h"
 #include "vertex_normals.h"
@@ -24,45 +23,6 @@ static_assert(static_cast<int>(TriangleFeature::FACE) == VFIT_FEATURE_FACE);
 static_assert(static_cast<int>(TriangleFeature::EDGE_0) == VFIT_FEATURE_EDGE_0);
 static_assert(static_cast<int>(TriangleFeature::VERTEX_0) == VFIT_FEATURE_VERTEX_0);
 static_assert(static_cast<int>(TriangleFeature::VERTEX_2) == VFIT_FEATURE_VERTEX_2);
-
-// Embree reports errors through a callback, possibly from its build threads: it only records
-// the first one; the wrapper throws after the call that caused it.
-struct EmbreeErrorLog {
-  std::mutex mutex;
-  RTCError code = RTC_ERROR_NONE;
-  std::string message;
-};
-
-void record_embree_error(void* user, RTCError code, const char* message) {
-  auto* log = static_cast<EmbreeErrorLog*>(user);
-  std::lock_guard<std::mutex> lock(log->mutex);
-  if (log->code != RTC_ERROR_NONE) return;
-  log->code = code;
-  log->message = message ? message : "";
-}
-
-void throw_if_failed(EmbreeErrorLog& log, const char* call) {
-  std::lock_guard<std::mutex> lock(log.mutex);
-  if (log.code == RTC_ERROR_NONE) return;
-  const std::string what =
-      std::string("Embree ") + call + " failed (error " + std::to_string(int(log.code)) + "): " + log.message;
-  log.code = RTC_ERROR_NONE;
-  log.message.clear();
-  throw std::runtime_error(what);
-}
-
-struct DeviceRelease {
-  void operator()(RTCDevice d) const { rtcReleaseDevice(d); }
-};
-struct SceneRelease {
-  void operator()(RTCScene s) const { rtcReleaseScene(s); }
-};
-struct GeometryRelease {
-  void operator()(RTCGeometry g) const { rtcReleaseGeometry(g); }
-};
-using EmbreeDevice = std::unique_ptr<RTCDeviceTy, DeviceRelease>;
-using EmbreeScene = std::unique_ptr<RTCSceneTy, SceneRelease>;
-using EmbreeGeometry = std::unique_ptr<RTCGeometryTy, GeometryRelease>;
 
 vfit_vec3 load(const float* p, std::int32_t v) {
   const float* q = p + 3 * static_cast<std::size_t>(v);
@@ -79,15 +39,22 @@ constexpr std::uint32_t NO_TRIANGLE = std::numeric_limits<std::uint32_t>::max();
 
 // Everything the index owns; ProximityIndex::Impl is this under the name the header declares.
 struct IndexData {
-  EmbreeErrorLog errors; // declared first, so it outlives the device whose callback points at it
-  EmbreeDevice device;
-  EmbreeScene scene;
-  EmbreeGeometry geometry; // null for an empty mesh
-  // Shared with Embree; one float of padding after #V × 3 because Embree reads vertices with
-  // 16-byte loads.
+  embree::ErrorLog errors; // declared first, so it outlives the device whose callback points at it
+  embree::DevicePtr device;
+  embree::ScenePtr scene;
+  embree::GeometryPtr geometry; // null for an empty mesh
+  // The hole caps of an open mesh (geometry id 1 of the scene); null for a closed mesh. They
+  // take part in the side decision only, never in the closest-point answer.
+  embree::GeometryPtr cap_geometry;
+  HoleCaps caps;
+  // The capped mesh: #V mesh vertices then #L loop centroids, #F mesh triangles then #C cap
+  // triangles. Shared with Embree; one float of padding after the coordinates because Embree
+  // reads vertices with 16-byte loads. Edges and pseudo-normals are those of the capped mesh,
+  // which is closed where the original had holes (so the side test stays exact there).
   std::vector<float> positions;
-  std::vector<std::int32_t> triangles; // #F × 3, shared with Embree as UINT3
+  std::vector<std::int32_t> triangles; // (#F + #C) × 3, shared with Embree as UINT3
   std::size_t vertex_count = 0, face_count = 0;
+  std::size_t capped_vertex_count = 0, capped_face_count = 0;
   MeshEdges edges;
   VertexFaceAdjacency vertex_faces;
   PseudoNormals normals;
@@ -110,30 +77,54 @@ struct IndexData {
     return normals.vertices.data() + 3 * v;
   }
 
+  // Recomputes the loop centroids from the first #V × 3 of `positions`, then the pseudo-normals.
   void update_normals() {
-    pseudo_normals_tbb(std::span<const float>(positions.data(), 3 * vertex_count), triangles, edges, vertex_faces,
-                       normals);
+    if (caps.loop_count() > 0) {
+      std::vector<float> capped;
+      capped_positions(std::span<const float>(positions.data(), 3 * vertex_count), caps, capped);
+      std::copy(capped.begin(), capped.end(), positions.begin());
+    }
+    pseudo_normals_tbb(std::span<const float>(positions.data(), 3 * capped_vertex_count), triangles, edges,
+                       vertex_faces, normals);
   }
 };
 
-// Per-query state handed to Embree's callback through userPtr.
+// Per-query state handed to Embree's callback through userPtr. best is the closest mesh
+// triangle; best_cap the closest cap triangle (capped-mesh face index), tracked only on an open
+// mesh and only while it is at least as close as best.
 struct QueryState {
   const IndexData* index;
   vfit_vec3 query;
   vfit_closest_point best;
   std::uint32_t best_triangle;
+  vfit_closest_point best_cap;
+  std::uint32_t best_cap_triangle;
 };
 
 QueryState start_query(const IndexData& index, const float* q, float max_distance) {
-  QueryState s{&index, vfit_vec3{q[0], q[1], q[2]}, {}, NO_TRIANGLE};
+  QueryState s{&index, vfit_vec3{q[0], q[1], q[2]}, {}, NO_TRIANGLE, {}, NO_TRIANGLE};
   s.best.distance2 = max_distance * max_distance;
+  s.best_cap.distance2 = s.best.distance2;
   return s;
+}
+
+// A cap triangle strictly closer than the mesh hit so far decides the side; it never shrinks
+// the search radius, which the mesh triangles alone set.
+void consider_cap(QueryState& s, std::uint32_t capped_face) {
+  const vfit_closest_point c = s.index->closest_on(s.query, capped_face);
+  if (c.distance2 >= s.best_cap.distance2 || c.distance2 >= s.best.distance2) return;
+  s.best_cap = c;
+  s.best_cap_triangle = capped_face;
 }
 
 // Called by rtcPointQuery for every triangle whose bounds meet the query sphere; shrinking the
 // radius to the best distance so far prunes the rest of the traversal.
 bool closest_triangle_callback(RTCPointQueryFunctionArguments* args) {
   auto* s = static_cast<QueryState*>(args->userPtr);
+  if (args->geomID != 0) {
+    consider_cap(*s, static_cast<std::uint32_t>(s->index->face_count) + args->primID);
+    return false;
+  }
   const vfit_closest_point c = s->index->closest_on(s->query, args->primID);
   if (!improves(c.distance2, args->primID, s->best.distance2, s->best_triangle)) return false;
   s->best = c;
@@ -162,9 +153,12 @@ void write_hit(const IndexData& index, const QueryState& s, std::size_t i, Close
   hits.barycentrics[2 * i] = c.u;
   hits.barycentrics[2 * i + 1] = c.v;
   hits.features[i] = static_cast<std::int8_t>(c.feature);
-  // seed 000 eq. 18: f = (g − h)·n_h < 0 ⇒ inside, with n_h the closest feature's pseudo-normal.
-  const float* n = index.feature_normal(s.best_triangle, c.feature);
-  const vfit_vec3 d = vfit_v3_sub(s.query, c.point);
+  // seed 000 eq. 18: f = (g − h)·n_h < 0 ⇒ inside, with n_h the closest feature's pseudo-normal
+  // on the capped mesh: a cap closer than the mesh (a query near an open hole) decides instead.
+  const bool cap_decides = s.best_cap_triangle != NO_TRIANGLE && s.best_cap.distance2 < c.distance2;
+  const vfit_closest_point& side_point = cap_decides ? s.best_cap : c;
+  const float* n = index.feature_normal(cap_decides ? s.best_cap_triangle : s.best_triangle, side_point.feature);
+  const vfit_vec3 d = vfit_v3_sub(s.query, side_point.point);
   const float side = d.x * n[0] + d.y * n[1] + d.z * n[2];
   const float distance = std::sqrt(c.distance2);
   hits.signed_distances[i] = side < 0.0f ? -distance : distance;
@@ -199,17 +193,68 @@ void brute_force_range(const IndexData& index, std::span<const float> queries, f
       s.best = c;
       s.best_triangle = f;
     }
+    for (std::size_t f = index.face_count; f < index.capped_face_count; ++f)
+      consider_cap(s, static_cast<std::uint32_t>(f));
     write_hit(index, s, i, hits);
   }
 }
 
 void check_queries(std::span<const float> queries, float max_distance) {
-  assert(queries.size() % 3 == 0 && "queries must be #Q × 3");
-  assert(max_distance >= 0.0f && "max_distance must be ≥ 0");
+  if (queries.size() % 3 != 0)
+    throw Error("proximity queries", 0, "expected #Q × 3 coordinates, got " + std::to_string(queries.size()));
+  if (!(max_distance >= 0.0f))
+    throw Error("proximity queries", 0, "max_distance must be ≥ 0 (or +inf), got " + std::to_string(max_distance));
+  bool finite = true;
+  for (const float x : queries) finite &= std::isfinite(x);
+  if (finite) return;
+  for (std::size_t i = 0; i < queries.size(); ++i)
+    if (!std::isfinite(queries[i]))
+      throw Error("proximity queries", 0,
+                  "query " + std::to_string(i / 3) + " has a non-finite coordinate (NaN or infinity)");
+}
+
+// The mesh a ProximityIndex is built over: finite coordinates, indices in range.
+void check_mesh(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  if (positions.size() % 3 != 0 || triangles.size() % 3 != 0)
+    throw Error("proximity mesh", 0, "positions and triangles must be rows of 3");
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    if (!std::isfinite(positions[i]))
+      throw Error("proximity mesh", 0, "vertex " + std::to_string(i / 3) + " has a non-finite coordinate");
+  const std::size_t vertex_count = positions.size() / 3;
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= vertex_count)
+      throw Error("proximity mesh", 0,
+                  "triangle " + std::to_string(i / 3) + " has vertex index " + std::to_string(triangles[i]) +
+                      " outside [0, " + std::to_string(vertex_count) + ")");
+}
+
+// Shares the capped vertex buffer and `count` rows of the index buffer from row `first` with
+// a new triangle geometry of REFIT quality, commits and attaches it (geometry ids 0, 1 in order).
+embree::GeometryPtr attach_triangles(IndexData& m, std::size_t first, std::size_t count) {
+  embree::GeometryPtr geometry(rtcNewGeometry(m.device.get(), RTC_GEOMETRY_TYPE_TRIANGLE));
+  embree::throw_if_failed(m.errors, "rtcNewGeometry");
+  RTCGeometry g = geometry.get();
+  rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_REFIT);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m.positions.data(), 0,
+                             3 * sizeof(float), m.capped_vertex_count);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m.triangles.data(),
+                             3 * sizeof(std::int32_t) * first, 3 * sizeof(std::int32_t), count);
+  embree::throw_if_failed(m.errors, "rtcSetSharedGeometryBuffer");
+  rtcCommitGeometry(g);
+  embree::throw_if_failed(m.errors, "rtcCommitGeometry");
+  rtcAttachGeometry(m.scene.get(), g);
+  embree::throw_if_failed(m.errors, "rtcAttachGeometry");
+  return geometry;
 }
 } // namespace
 
 struct ProximityIndex::Impl : IndexData {};
+
+// One pass over the queries: a NaN or infinite coordinate would make Embree's traversal and our
+// distances meaningless (NaN compares false everywhere), so it is refused up front.
+void check_proximity_queries(std::span<const float> queries, float max_distance) {
+  check_queries(queries, max_distance);
+}
 
 void ClosestHits::resize(std::size_t query_count) {
   points.resize(3 * query_count);
@@ -221,49 +266,39 @@ void ClosestHits::resize(std::size_t query_count) {
 
 ProximityIndex::ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles)
     : m_impl(std::make_unique<Impl>()) {
-  assert(positions.size() % 3 == 0 && triangles.size() % 3 == 0 && "positions and triangles must be rows of 3");
+  check_mesh(positions, triangles);
   Impl& m = *m_impl;
   m.vertex_count = positions.size() / 3;
   m.face_count = triangles.size() / 3;
-  assert(m.vertex_count < NO_TRIANGLE && m.face_count < NO_TRIANGLE && "mesh too large for 32-bit indices");
+  assert(m.vertex_count < NO_TRIANGLE / 2 && m.face_count < NO_TRIANGLE / 2 && "mesh too large for 32-bit indices");
+  m.caps = build_hole_caps(triangles, m.vertex_count);
+  m.capped_vertex_count = m.vertex_count + m.caps.loop_count();
+  m.capped_face_count = m.face_count + m.caps.triangles.size() / 3;
   m.positions.assign(positions.begin(), positions.end());
-  m.positions.push_back(0.0f);
+  m.positions.resize(3 * m.capped_vertex_count + 1, 0.0f); // centroids filled by update_normals()
   m.triangles.assign(triangles.begin(), triangles.end());
-  m.edges = build_mesh_edges(triangles, m.vertex_count);
-  m.vertex_faces = build_vertex_face_adjacency(triangles, m.vertex_count);
+  m.triangles.insert(m.triangles.end(), m.caps.triangles.begin(), m.caps.triangles.end());
+  m.edges = build_mesh_edges(m.triangles, m.capped_vertex_count);
+  m.vertex_faces = build_vertex_face_adjacency(m.triangles, m.capped_vertex_count);
   m.update_normals();
 
-  m.device.reset(rtcNewDevice(nullptr));
-  if (!m.device)
-    throw std::runtime_error("Embree rtcNewDevice failed (error " + std::to_string(int(rtcGetDeviceError(nullptr))) +
-                             ")");
-  rtcSetDeviceErrorFunction(m.device.get(), record_embree_error, &m.errors);
+  m.device = embree::make_device(m.errors);
   m.scene.reset(rtcNewScene(m.device.get()));
-  throw_if_failed(m.errors, "rtcNewScene");
+  embree::throw_if_failed(m.errors, "rtcNewScene");
   // A dynamic scene of low quality selects Embree's two-level structure, the one that honours
   // the per-geometry REFIT quality below: refit() then updates the bounds of the SAH-built
   // tree instead of rebuilding it (2 ms instead of 25–50 ms for 100k triangles; without the
   // DYNAMIC flag Embree 3.13 rebuilds).
   rtcSetSceneFlags(m.scene.get(), RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_DYNAMIC);
   rtcSetSceneBuildQuality(m.scene.get(), RTC_BUILD_QUALITY_LOW);
-  throw_if_failed(m.errors, "rtcSetSceneBuildQuality");
+  embree::throw_if_failed(m.errors, "rtcSetSceneBuildQuality");
   if (m.face_count > 0) {
-    m.geometry.reset(rtcNewGeometry(m.device.get(), RTC_GEOMETRY_TYPE_TRIANGLE));
-    throw_if_failed(m.errors, "rtcNewGeometry");
-    RTCGeometry g = m.geometry.get();
-    rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_REFIT);
-    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m.positions.data(), 0,
-                               3 * sizeof(float), m.vertex_count);
-    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m.triangles.data(), 0,
-                               3 * sizeof(std::int32_t), m.face_count);
-    throw_if_failed(m.errors, "rtcSetSharedGeometryBuffer");
-    rtcCommitGeometry(g);
-    throw_if_failed(m.errors, "rtcCommitGeometry");
-    rtcAttachGeometry(m.scene.get(), g);
-    throw_if_failed(m.errors, "rtcAttachGeometry");
+    m.geometry = attach_triangles(m, 0, m.face_count);
+    if (m.capped_face_count > m.face_count)
+      m.cap_geometry = attach_triangles(m, m.face_count, m.capped_face_count - m.face_count);
   }
   rtcCommitScene(m.scene.get());
-  throw_if_failed(m.errors, "rtcCommitScene");
+  embree::throw_if_failed(m.errors, "rtcCommitScene");
 }
 
 ProximityIndex::~ProximityIndex() = default;
@@ -272,16 +307,21 @@ ProximityIndex& ProximityIndex::operator=(ProximityIndex&&) noexcept = default;
 
 void ProximityIndex::refit(std::span<const float> positions) {
   Impl& m = *m_impl;
-  assert(positions.size() == 3 * m.vertex_count && "refit needs the vertex count of construction");
+  if (positions.size() != 3 * m.vertex_count)
+    throw Error("proximity refit", 0,
+                "expected " + std::to_string(m.vertex_count) + " × 3 coordinates, got " + std::to_string(positions.size()));
   std::copy(positions.begin(), positions.end(), m.positions.begin());
   m.update_normals();
   if (!m.geometry) return;
-  rtcUpdateGeometryBuffer(m.geometry.get(), RTC_BUFFER_TYPE_VERTEX, 0);
-  throw_if_failed(m.errors, "rtcUpdateGeometryBuffer");
-  rtcCommitGeometry(m.geometry.get());
-  throw_if_failed(m.errors, "rtcCommitGeometry");
+  for (RTCGeometry g : {m.geometry.get(), m.cap_geometry.get()}) {
+    if (!g) continue;
+    rtcUpdateGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0);
+    embree::throw_if_failed(m.errors, "rtcUpdateGeometryBuffer");
+    rtcCommitGeometry(g);
+    embree::throw_if_failed(m.errors, "rtcCommitGeometry");
+  }
   rtcCommitScene(m.scene.get());
-  throw_if_failed(m.errors, "rtcCommitScene");
+  embree::throw_if_failed(m.errors, "rtcCommitScene");
 }
 
 void ProximityIndex::closest_points(std::span<const float> queries, float max_distance, ClosestHits& hits) const {
@@ -291,7 +331,7 @@ void ProximityIndex::closest_points(std::span<const float> queries, float max_di
   const Impl& m = *m_impl;
   parallel_for_range(count, PROXIMITY_QUERY_GRAIN,
                      [&](std::size_t b, std::size_t e) { closest_points_range(m, queries, max_distance, hits, b, e); });
-  throw_if_failed(m_impl->errors, "rtcPointQuery");
+  embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
 }
 
 void ProximityIndex::closest_points_serial(std::span<const float> queries, float max_distance,
@@ -299,7 +339,7 @@ void ProximityIndex::closest_points_serial(std::span<const float> queries, float
   check_queries(queries, max_distance);
   hits.resize(queries.size() / 3);
   closest_points_range(*m_impl, queries, max_distance, hits, 0, queries.size() / 3);
-  throw_if_failed(m_impl->errors, "rtcPointQuery");
+  embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
 }
 
 void ProximityIndex::closest_points_brute_force(std::span<const float> queries, float max_distance,
@@ -311,6 +351,25 @@ void ProximityIndex::closest_points_brute_force(std::span<const float> queries, 
 
 std::size_t ProximityIndex::vertex_count() const { return m_impl->vertex_count; }
 std::size_t ProximityIndex::face_count() const { return m_impl->face_count; }
+std::size_t ProximityIndex::hole_count() const { return m_impl->caps.loop_count(); }
+
+std::string ProximityIndex::warning() const {
+  const std::size_t holes = hole_count();
+  if (holes == 0) return {};
+  return "the body has " + std::to_string(holes) + (holes == 1 ? " hole" : " holes") +
+         "; the side is decided as if " + (holes == 1 ? "it were" : "they were") + " closed";
+}
+
+ProximitySideMesh ProximityIndex::side_mesh() const {
+  const Impl& m = *m_impl;
+  return ProximitySideMesh{std::span<const float>(m.positions.data(), 3 * m.capped_vertex_count),
+                           m.triangles,
+                           m.edges.triangle_edges,
+                           m.normals.faces,
+                           m.normals.edges,
+                           m.normals.vertices,
+                           m.face_count};
+}
 
 void closest_points(std::span<const float> positions, std::span<const std::int32_t> triangles,
                     std::span<const float> queries, float max_distance, ClosestHits& hits) {

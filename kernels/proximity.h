@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace vfit {
@@ -51,13 +52,33 @@ struct ClosestHits {
 /// Queries per TBB task in ProximityIndex::closest_points (each query is ~1 µs of traversal).
 inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 
+/// The mesh on which ProximityIndex decides the side, for other backends that must decide it
+/// the same way (OpenClProximity). Views into the index, valid until it is refitted, moved or
+/// destroyed. The capped mesh is the indexed mesh plus one fan cap per hole (hole_caps.h):
+/// vertices [0, #V) and triangles [0, #F) are the mesh's, the rest belong to caps.
+struct ProximitySideMesh {
+  std::span<const float> positions;           ///< (#V + #L) × 3 (m), #L loop centroids last
+  std::span<const std::int32_t> triangles;    ///< (#F + #C) × 3, cap triangles last
+  std::span<const std::int32_t> triangle_edges; ///< (#F + #C) × 3 edge ids (MeshEdges)
+  std::span<const float> face_normals;        ///< (#F + #C) × 3 unit pseudo-normals
+  std::span<const float> edge_normals;        ///< #E × 3
+  std::span<const float> vertex_normals;      ///< (#V + #L) × 3
+  std::size_t mesh_face_count = 0;            ///< #F: triangles at or past it are caps
+};
+
 /// Closest-point index over one triangle mesh: build once, refit when the vertices move,
 /// query many points. Holds an Embree scene (dynamic two-level, robust; the mesh BVH is refitted,
 /// not rebuilt, on refit()) and the pseudo-normals of every face, edge and vertex.
 ///
-/// The side (sign) is meaningful for a closed, edge-manifold, consistently outward-oriented
-/// mesh whose shared vertices share indices (edges are found by vertex index). On an open
-/// mesh a boundary edge's pseudo-normal is its one face's normal. A degenerate triangle
+/// The side (sign) is exact for a closed, edge-manifold, consistently outward-oriented mesh
+/// whose shared vertices share indices (edges are found by vertex index). An open mesh (a scan
+/// with holes at the neck, soles or eyes) is capped internally at build time: each boundary
+/// loop gets a fan of triangles around its centroid (hole_caps.h). The caps never appear in
+/// the answers (closest point, triangle, distance are the mesh's) but the side is decided on
+/// the capped, closed mesh: by the pseudo-normals of the capped mesh, and by the nearest cap
+/// instead when a cap is strictly closer than the mesh (a query seen through a hole). This is
+/// exact for holes whose fan cap does not cut through the mesh (roughly planar, star-shaped
+/// rims, as scan holes are); warning() says when it is in use. A degenerate triangle
 /// (zero area) has a zero face normal and adds nothing to its edges' and vertices'
 /// pseudo-normals; a query whose feature has a zero pseudo-normal is reported outside.
 ///
@@ -68,8 +89,10 @@ inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 class ProximityIndex {
 public:
   /// Builds the index. positions: #V × 3 (m); triangles: #F × 3 vertex indices in [0, #V),
-  /// counter-clockwise seen from outside. Inputs are validated by the caller (assert only).
-  /// An empty mesh (#F = 0) is allowed: every query then reports no hit.
+  /// counter-clockwise seen from outside. Throws vfit::Error ("proximity mesh: …") for a
+  /// non-finite coordinate or an index out of range, naming the vertex or triangle.
+  /// An empty mesh (#F = 0) is allowed: every query then reports no hit. Boundary edges are
+  /// found here; a mesh with holes is capped for the side test (see the class comment).
   ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles);
   ~ProximityIndex();
   ProximityIndex(ProximityIndex&&) noexcept;
@@ -78,14 +101,18 @@ public:
   ProximityIndex& operator=(const ProximityIndex&) = delete;
 
   /// Moves the vertices (same topology, e.g. an animated body): positions is #V × 3 (m) with
-  /// the #V of construction. Refits the BVH bounds and recomputes the pseudo-normals; answers
-  /// afterwards equal those of a fresh index over the same positions.
+  /// the #V of construction (otherwise vfit::Error). Refits the BVH bounds and recomputes the
+  /// pseudo-normals and hole caps; answers afterwards equal those of a fresh index over the same
+  /// positions.
   void refit(std::span<const float> positions);
 
   /// Closest points of `queries` (#Q × 3, m), TBB-parallel over the queries (grain
   /// PROXIMITY_QUERY_GRAIN). Only triangles within `max_distance` (m, ≥ 0; +∞ for no limit)
   /// count: a query farther than that from the mesh reports no hit. `hits` is resized to #Q.
   /// Ties between equally close triangles go to the lower triangle index when both are seen.
+  /// An empty span gives empty hits. Throws vfit::Error ("proximity queries: …") naming the
+  /// first query with a NaN or infinite coordinate, for a size not a multiple of 3, and for a
+  /// negative or NaN max_distance; the check is one pass over the queries.
   void closest_points(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
 
   /// Serial reference of closest_points(): the same Embree query, one point after another.
@@ -99,10 +126,24 @@ public:
   std::size_t vertex_count() const;
   std::size_t face_count() const;
 
+  /// Number of holes (boundary loops) found at construction; 0 for a closed mesh.
+  std::size_t hole_count() const;
+  /// Empty for a closed mesh; otherwise "the body has N holes; the side is decided as if they
+  /// were closed", for callers to pass on to the user.
+  std::string warning() const;
+
+  /// The capped mesh and pseudo-normals the side is decided with (see ProximitySideMesh).
+  ProximitySideMesh side_mesh() const;
+
 private:
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
+
+/// The validation every closest-point entry runs first, in one pass over the queries: throws
+/// vfit::Error ("proximity queries: …") when queries.size() is not a multiple of 3, when
+/// max_distance is negative or NaN, or naming the first query with a NaN or infinite coordinate.
+void check_proximity_queries(std::span<const float> queries, float max_distance);
 
 /// One-call wrapper: builds a ProximityIndex over (positions, triangles) and answers
 /// `queries` with closest_points(). Shapes, units and signs as there.

@@ -14,6 +14,8 @@ int run_body(Args& args);
 int run_garment(Args& args);
 int run_measure(Args& args);
 int run_render(Args& args);
+int run_fit(Args& args);
+int run_bench(Args& args);
 
 
 

@@ -9,6 +9,14 @@
 // (offset 4 B + 16 B per spring end: neighbour, rest length, k, c), own stage state (24 B),
 // step start (24 B), inverse mass (4 B), running sums read and written (48 B), next state
 // written (24 B).
+//
+// Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
+// time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
+// catalogue tee (6,000 vertices) draped to rest on the posed mannequin (7,000 vertices) by
+// ClothSim::run_to_rest() with its defaults (implicit Euler, cotton jersey, contacts after every
+// step): wall seconds to rest, simulated seconds per wall second, and that rate against
+// Blender 3.4's 1.6 s of wall time per frame on this garment size, taking Blender's default
+// 24 frames per second of animation (0.026 simulated s per wall s): blender_x ≥ 50 is the bar.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
@@ -18,8 +26,15 @@
 #include <map>
 #include <memory>
 
+#include "engine/cloth_sim.h"
+#include "engine/penetration.h"
+#include "geometry/body/mannequin.h"
+#include "geometry/body/pose_io.h"
+#include "geometry/garment/catalogue.h"
 #include "geometry/mesh/primitives.h"
+#include "kernels/cloth_implicit.h"
 #include "kernels/cloth_rk4.h"
+#include "kernels/proximity.h"
 #include "kernels/cloth_springs.h"
 #include "kernels/opencl_cloth.h"
 #include "kernels/opencl_context.h"
@@ -131,6 +146,107 @@ void BM_rk4_tbb(benchmark::State& state) {
   state.counters["threads"] = double(state.range(1));
 }
 BENCHMARK(BM_rk4_tbb)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One implicit Euler step at h = 1/120 s from the flat grid (the first steps of a fall: the
+// gravity load makes CG work), timed over a fresh copy every iteration.
+void implicit_step_bench(benchmark::State& state, bool parallel) {
+  const Cloth& c = cloth(state.range(0));
+  std::vector<float> x = c.x, v = c.v;
+  vfit::ImplicitWorkspace w;
+  const vfit::ImplicitSolveOptions solve;
+  int iterations = 0;
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    const vfit::ImplicitSolveReport r =
+        parallel ? vfit::implicit_euler_step_tbb(x, v, c.adjacency, c.particles, 1.0f / 120.0f, solve, w)
+                 : vfit::implicit_euler_step_serial(x, v, c.adjacency, c.particles, 1.0f / 120.0f, solve, w);
+    iterations += r.iterations;
+    ++steps;
+  }
+  state.SetItemsProcessed(steps * std::int64_t(c.adjacency.particle_count()));
+  state.counters["particles"] = double(c.adjacency.particle_count());
+  state.counters["cg_iterations"] = double(iterations) / double(std::max<std::int64_t>(1, steps));
+  state.counters["rk4_substeps_replaced"] = (1.0 / 120.0) / c.h;
+}
+
+void BM_implicit_serial(benchmark::State& state) { implicit_step_bench(state, false); }
+BENCHMARK(BM_implicit_serial)->Apply(sizes);
+
+void BM_implicit_tbb(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
+  implicit_step_bench(state, true);
+  state.counters["threads"] = double(state.range(1));
+}
+BENCHMARK(BM_implicit_tbb)
+    ->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The posed mannequin (7,000 vertices, A-pose rest, posed "apose") and a size-M tee of 6,000
+// vertices made for it, pushed out of the body by remove_penetration() as the fit pipeline
+// does before simulating.
+struct Drape {
+  vfit::Body body;
+  vfit::Mesh tee;
+};
+
+const Drape& drape() {
+  static const Drape d = [] {
+    Drape out;
+    vfit::MannequinOptions mo;
+    mo.pose = vfit::RestPose::APOSE;
+    const vfit::Body rest = vfit::make_mannequin(mo);
+    out.body = vfit::pose_body(rest, vfit::named_pose("apose", vfit::RestPose::APOSE));
+    vfit::GarmentOptions go;
+    go.type = vfit::GarmentType::TEE;
+    go.pose = vfit::RestPose::APOSE;
+    go.target_vertices = 6000;
+    out.tee = vfit::make_garment(go).mesh;
+    const vfit::ProximityIndex index(out.body.mesh.position_view(), out.body.mesh.triangle_view());
+    vfit::remove_penetration(out.tee, index);
+    return out;
+  }();
+  return d;
+}
+
+void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, double max_simulated_seconds) {
+  const Drape& d = drape();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+  vfit::ClothRestReport last;
+  double wall = 0, simulated = 0;
+  for (auto _ : state) {
+    vfit::ClothOptions o;
+    o.integrator = integrator;
+    const auto t0 = std::chrono::steady_clock::now();
+    vfit::ClothSim sim(d.tee.position_view(), d.tee.triangle_view(), o);
+    sim.set_body(d.body.mesh.position_view(), d.body.mesh.triangle_view());
+    vfit::ClothRestOptions ro;
+    ro.max_simulated_seconds = max_simulated_seconds;
+    last = sim.run_to_rest(ro);
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    simulated += last.simulated_seconds;
+  }
+  const double rate = simulated / wall;
+  state.counters["vertices"] = double(d.tee.vertex_count());
+  state.counters["body_vertices"] = double(d.body.mesh.vertex_count());
+  state.counters["threads"] = double(state.range(0));
+  state.counters["simulated_s"] = last.simulated_seconds;
+  state.counters["converged"] = last.converged ? 1.0 : 0.0;
+  state.counters["ok"] = last.status == vfit::ClothStatus::OK ? 1.0 : 0.0;
+  state.counters["sim_s_per_wall_s"] = rate;
+  state.counters["wall_s_to_rest"] = wall / double(state.iterations());
+  state.counters["cg_iterations"] = double(last.solver_iterations);
+  state.counters["blender_x"] = rate / ((1.0 / 24.0) / 1.6);
+}
+
+void BM_drape_tee_to_rest(benchmark::State& state) {
+  drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0);
+}
+BENCHMARK(BM_drape_tee_to_rest)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+// RK4 on the same drape, cut at 0.05 simulated s: its rate only (it would take minutes to rest).
+void BM_drape_tee_rk4_rate(benchmark::State& state) { drape_bench(state, vfit::ClothIntegrator::RK4, 0.05); }
+BENCHMARK(BM_drape_tee_rk4_rate)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 #ifdef VFIT_WITH_OPENCL
 void BM_rk4_opencl(benchmark::State& state) {

@@ -1,7 +1,13 @@
 // Closest-point queries: queries/s for ProximityIndex (serial entry, TBB at 1 and 2 threads),
 // for raw Embree rtcPointQuery with a minimal callback over the same scene set-up and queries
-// (the floor our wrapper adds to), and for brute force (10^3 queries only), 10^3–10^6 queries
-// against the 7k-vertex mannequin and a 100k-triangle sphere. Also build vs refit times.
+// (the floor our wrapper adds to), for brute force (10^3 queries only), for CGAL's AABB_tree
+// (when CGAL was found at configure time) and for OpenClProximity (the flat-BVH OpenCL path;
+// PoCL on the CPU here), 10^3–10^6 queries against the 7k-vertex mannequin and a 100k-triangle
+// sphere. Also build vs refit times.
+// Ratios (counters): each peer's row carries `ours_ratio` = ProximityIndex's queries/s over the
+// peer's on the same queries, mesh and thread count (the serial entry for the serial peers:
+// brute force, CGAL at 1 thread), measured earlier in the same run; so on the raw-Embree row
+// ours_ratio ≥ 0.8 is issue 5's bar, and on the OpenCL row it is ours ÷ OpenCL.
 // Throughput is per wall-clock second (UseRealTime): the parallel runs work off the main thread.
 // Queries: points of the surface moved by N(0, 2 cm) in each axis, like garment vertices near
 // a body; fixed seed.
@@ -15,12 +21,25 @@
 #include <map>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <tuple>
 #include <vector>
+
+#include <chrono>
 
 #include "geometry/body/mannequin.h"
 #include "geometry/mesh/primitives.h"
+#include "kernels/opencl_context.h"
+#include "kernels/opencl_proximity.h"
 #include "kernels/parallel.h"
 #include "kernels/proximity.h"
+
+#ifdef VFIT_BENCH_CGAL
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Simple_cartesian.h>
+#endif
 
 namespace {
 using std::sqrt;
@@ -61,15 +80,44 @@ void name(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(1));
 }
 
+// Queries/s of ProximityIndex per (mesh, count, threads; 0 = the serial entry), recorded by its
+// benchmarks for the peers' ratio counters.
+std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, double>& our_rates() {
+  static std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, double> rates;
+  return rates;
+}
+
+// Wall-clock seconds of a benchmark loop, for the rates (the State's own timer is not exposed).
+struct LoopClock {
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  double rate(benchmark::State& state) const {
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return s > 0 ? double(state.iterations()) * double(state.range(1)) / s : 0.0;
+  }
+};
+
+void record_ours(benchmark::State& state, const LoopClock& clock, std::int64_t threads) {
+  our_rates()[{state.range(0), state.range(1), threads}] = clock.rate(state);
+}
+
+// ours_ratio on a peer's row: ProximityIndex's queries/s over the peer's.
+void ratio_to_ours(benchmark::State& state, const LoopClock& clock, std::int64_t threads) {
+  const auto it = our_rates().find({state.range(0), state.range(1), threads});
+  const double peer = clock.rate(state);
+  if (it != our_rates().end() && peer > 0) state.counters["ours_ratio"] = it->second / peer;
+}
+
 void BM_proximity_serial(benchmark::State& state) {
   const vfit::Mesh& m = mesh(state.range(0));
   const vfit::ProximityIndex index(m.position_view(), m.triangle_view());
   const auto& q = queries(state.range(0), state.range(1));
   vfit::ClosestHits hits;
+  const LoopClock clock;
   for (auto _ : state) {
     index.closest_points_serial(q, NO_LIMIT, hits);
     benchmark::DoNotOptimize(hits.signed_distances.data());
   }
+  record_ours(state, clock, 0);
   name(state);
 }
 BENCHMARK(BM_proximity_serial)
@@ -83,10 +131,12 @@ void BM_proximity_tbb(benchmark::State& state) {
   const vfit::ProximityIndex index(m.position_view(), m.triangle_view());
   const auto& q = queries(state.range(0), state.range(1));
   vfit::ClosestHits hits;
+  const LoopClock clock;
   for (auto _ : state) {
     index.closest_points(q, NO_LIMIT, hits);
     benchmark::DoNotOptimize(hits.signed_distances.data());
   }
+  record_ours(state, clock, state.range(2));
   name(state);
   state.counters["threads"] = double(state.range(2));
 }
@@ -152,6 +202,7 @@ void BM_raw_embree(benchmark::State& state) {
   const RawScene raw(m);
   const auto& q = queries(state.range(0), state.range(1));
   std::vector<float> distances(q.size() / 3);
+  const LoopClock clock;
   for (auto _ : state) {
     vfit::parallel_for_range(distances.size(), vfit::PROXIMITY_QUERY_GRAIN, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
@@ -165,6 +216,7 @@ void BM_raw_embree(benchmark::State& state) {
     });
     benchmark::DoNotOptimize(distances.data());
   }
+  ratio_to_ours(state, clock, state.range(2));
   name(state);
   state.counters["threads"] = double(state.range(2));
 }
@@ -178,13 +230,88 @@ void BM_brute_force(benchmark::State& state) {
   const vfit::ProximityIndex index(m.position_view(), m.triangle_view());
   const auto& q = queries(state.range(0), state.range(1));
   vfit::ClosestHits hits;
+  const LoopClock clock;
   for (auto _ : state) {
     index.closest_points_brute_force(q, NO_LIMIT, hits);
     benchmark::DoNotOptimize(hits.signed_distances.data());
   }
+  ratio_to_ours(state, clock, 0);
   name(state);
 }
 BENCHMARK(BM_brute_force)->ArgsProduct({{0, 1}, {1000}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+#ifdef VFIT_BENCH_CGAL
+// CGAL's AABB_tree (double precision, its kd-tree hint for distance queries built before the
+// loop) on the same triangles and queries: closest point and primitive per query. Serial at
+// 1 thread; at 2 through the same TBB driver (queries on a built tree are const).
+void BM_cgal_aabb_tree(benchmark::State& state) {
+  using Kernel = CGAL::Simple_cartesian<double>;
+  using Triangles = std::vector<Kernel::Triangle_3>;
+  using Primitive = CGAL::AABB_triangle_primitive<Kernel, Triangles::const_iterator>;
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
+  const vfit::Mesh& m = mesh(state.range(0));
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(2)));
+  Triangles triangles;
+  auto point = [&](std::int32_t v) {
+    return Kernel::Point_3(m.positions[3 * std::size_t(v)], m.positions[3 * std::size_t(v) + 1],
+                           m.positions[3 * std::size_t(v) + 2]);
+  };
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    triangles.emplace_back(point(m.triangles[3 * f]), point(m.triangles[3 * f + 1]), point(m.triangles[3 * f + 2]));
+  Tree tree(triangles.begin(), triangles.end());
+  tree.build();
+  tree.accelerate_distance_queries();
+  const auto& q = queries(state.range(0), state.range(1));
+  std::vector<float> distances(q.size() / 3);
+  // One query first, so the lazily built search structure exists before threads share the tree.
+  benchmark::DoNotOptimize(tree.closest_point(Kernel::Point_3(q[0], q[1], q[2])));
+  const LoopClock clock;
+  for (auto _ : state) {
+    vfit::parallel_for_range(distances.size(), vfit::PROXIMITY_QUERY_GRAIN, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        const Kernel::Point_3 p(q[3 * i], q[3 * i + 1], q[3 * i + 2]);
+        const auto hit = tree.closest_point_and_primitive(p);
+        distances[i] = float(std::sqrt(CGAL::squared_distance(p, hit.first)));
+      }
+    });
+    benchmark::DoNotOptimize(distances.data());
+  }
+  ratio_to_ours(state, clock, state.range(2));
+  name(state);
+  state.counters["threads"] = double(state.range(2));
+}
+BENCHMARK(BM_cgal_aabb_tree)
+    ->ArgsProduct({{0, 1}, {1000, 10000, 100000}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+#endif
+
+// OpenClProximity on the first OpenCL device (VFIT_OPENCL_DEVICE selects another); skipped
+// when none is installed. Includes the query upload and the answers' read-back. ours_ratio is
+// against ProximityIndex at 2 threads.
+void BM_opencl(benchmark::State& state) {
+  if (vfit::list_opencl_devices().empty()) {
+    state.SkipWithError("no OpenCL device");
+    return;
+  }
+  const vfit::Mesh& m = mesh(state.range(0));
+  const vfit::ProximityIndex index(m.position_view(), m.triangle_view());
+  vfit::OpenClContext context;
+  vfit::OpenClProximity gpu(context, index);
+  const auto& q = queries(state.range(0), state.range(1));
+  vfit::ClosestHits hits;
+  gpu.closest_points(q, NO_LIMIT, hits); // warm-up: the program build on first use
+  const LoopClock clock;
+  for (auto _ : state) {
+    gpu.closest_points(q, NO_LIMIT, hits);
+    benchmark::DoNotOptimize(hits.signed_distances.data());
+  }
+  ratio_to_ours(state, clock, 2);
+  name(state);
+  state.SetLabel(std::string(state.range(0) == 0 ? "mannequin" : "sphere100k") + " " + context.device().device_name);
+  state.counters["nodes"] = double(gpu.node_count());
+}
+BENCHMARK(BM_opencl)->ArgsProduct({{0, 1}, {1000, 10000, 100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Index construction vs refit after the vertices move (items: vertices).
 void BM_build(benchmark::State& state) {

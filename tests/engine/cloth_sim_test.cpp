@@ -29,8 +29,9 @@ struct Square {
   std::vector<std::int32_t> corners = {0, 10};
 };
 
-ClothOptions square_options(double stiffness) {
+ClothOptions square_options(double stiffness, ClothIntegrator integrator = ClothIntegrator::RK4) {
   ClothOptions o;
+  o.integrator = integrator;
   o.fabrics[0].stretch_stiffness = stiffness;
   o.fabrics[0].bend_stiffness = 0.01 * stiffness;
   o.global_damping = 4.0; // settles the swing (ω ≈ √(g/0.5 m) ≈ 4.4 rad/s) in a few seconds
@@ -105,18 +106,21 @@ TEST(ClothSim, SquarePinnedAtTwoCornersSettlesToTheSagItsStiffnessGives) {
 
 TEST(ClothSim, SameInputGivesTheSameBitsAndSerialEqualsTbb) {
   const Mesh m = make_grid(60, 60, 1.0f, 1.0f); // 3,600 particles: several TBB chunks
-  ClothOptions o;
-  std::vector<float> out[3];
-  for (int run = 0; run < 3; ++run) {
-    o.backend = run == 2 ? ClothBackend::SERIAL : ClothBackend::TBB;
-    ClothSim sim(m.position_view(), m.triangle_view(), o);
-    sim.pin(std::vector<std::int32_t>{0, 59});
-    for (int f = 0; f < 3; ++f)
-      ASSERT_EQ(sim.step(1.0 / 60.0).status, ClothStatus::OK);
-    out[run].assign(sim.positions().begin(), sim.positions().end());
+  for (ClothIntegrator integrator : {ClothIntegrator::RK4, ClothIntegrator::IMPLICIT_EULER}) {
+    ClothOptions o;
+    o.integrator = integrator;
+    std::vector<float> out[3];
+    for (int run = 0; run < 3; ++run) {
+      o.backend = run == 2 ? ClothBackend::SERIAL : ClothBackend::TBB;
+      ClothSim sim(m.position_view(), m.triangle_view(), o);
+      sim.pin(std::vector<std::int32_t>{0, 59});
+      for (int f = 0; f < 3; ++f)
+        ASSERT_EQ(sim.step(1.0 / 60.0).status, ClothStatus::OK);
+      out[run].assign(sim.positions().begin(), sim.positions().end());
+    }
+    EXPECT_TRUE(same_bits(out[0], out[1])) << "integrator " << int(integrator);
+    EXPECT_TRUE(same_bits(out[0], out[2])) << "integrator " << int(integrator);
   }
-  EXPECT_TRUE(same_bits(out[0], out[1]));
-  EXPECT_TRUE(same_bits(out[0], out[2]));
 }
 
 // Substeps 20× beyond the stability bound make RK4 explode; the status says so and the state
@@ -144,12 +148,14 @@ TEST(ClothSim, AbsurdStepIsReportedAsDivergenceAndNotWrittenOut) {
 // A square of cloth dropped from 5 cm above a sphere drapes over it: after 1.5 s no particle
 // is inside the sphere's mesh (signed distance ≥ 0; the contact keeps 3 mm, so a particle may
 // only sink by what it travels in one contact interval) and nothing is NaN.
-TEST(ClothSim, ClothDroppedOnASphereEndsWithNoVertexInside) {
+class ClothDrop : public ::testing::TestWithParam<ClothIntegrator> {};
+
+TEST_P(ClothDrop, ClothDroppedOnASphereEndsWithNoVertexInside) {
   const Mesh sphere = make_uv_sphere(24, 48, 0.25f);
   Mesh cloth = make_grid(25, 25, 0.8f, 0.8f);
   for (std::size_t i = 0; i < cloth.vertex_count(); ++i)
     cloth.positions[3 * i + 1] = 0.30f;
-  ClothOptions o = square_options(200.0);
+  ClothOptions o = square_options(200.0, GetParam());
   o.global_damping = 1.0;
   ClothSim sim(cloth.position_view(), cloth.triangle_view(), o);
   sim.set_body(sphere.position_view(), sphere.triangle_view());
@@ -170,6 +176,72 @@ TEST(ClothSim, ClothDroppedOnASphereEndsWithNoVertexInside) {
   EXPECT_GE(deepest, 0.0f);
   // The cloth rests on the sphere: its centre stays on top instead of falling through.
   EXPECT_NEAR(sim.positions()[3 * (12 * 25 + 12) + 1], 0.25f + 0.003f, 0.01f);
+}
+
+INSTANTIATE_TEST_SUITE_P(Integrators, ClothDrop,
+                         ::testing::Values(ClothIntegrator::RK4, ClothIntegrator::IMPLICIT_EULER),
+                         [](const auto& p) { return p.param == ClothIntegrator::RK4 ? "rk4" : "implicit"; });
+
+// Implicit Euler at its default 1/120 s step (here ~40× RK4's stable substep) settles the
+// hanging square to the same rest shape as RK4: equilibrium is f(x) = 0 whatever the
+// integrator, so only the stopping rule (0.008 mm per 10 ms step, i.e. a residual speed of
+// 0.8 mm/s) and the CG tolerance separate them. The tolerance, 3 % of the sag and 5 mm on the
+// lowest point, covers the slow creep a residual speed of that order still allows.
+TEST(ClothSim, ImplicitEulerSettlesToTheSameSagAsRk4) {
+  const Square sq;
+  double sag[2], lowest[2];
+  int steps[2];
+  for (int run = 0; run < 2; ++run) {
+    const ClothIntegrator integrator = run == 0 ? ClothIntegrator::RK4 : ClothIntegrator::IMPLICIT_EULER;
+    ClothSim sim(sq.mesh.position_view(), sq.mesh.triangle_view(), square_options(400.0, integrator));
+    sim.pin(sq.corners);
+    const ClothRestReport r = sim.run_to_rest();
+    ASSERT_EQ(r.status, ClothStatus::OK);
+    EXPECT_TRUE(r.converged) << "integrator " << run;
+    steps[run] = r.steps;
+    const std::span<const float> x = sim.positions();
+    sag[run] = -x[3 * 5 + 1];
+    lowest[run] = 0;
+    for (std::size_t i = 0; i < sim.particle_count(); ++i)
+      lowest[run] = std::min(lowest[run], double(x[3 * i + 1]));
+  }
+  RecordProperty("sag_rk4_mm", std::to_string(1e3 * sag[0]));
+  RecordProperty("sag_implicit_mm", std::to_string(1e3 * sag[1]));
+  RecordProperty("steps_rk4", steps[0]);
+  RecordProperty("steps_implicit", steps[1]);
+  EXPECT_NEAR(sag[1], sag[0], 0.03 * sag[0]);
+  EXPECT_NEAR(lowest[1], lowest[0], 0.005);
+}
+
+// At 100× RK4's stable substep (where RK4 diverges, see AbsurdStepIsReportedAsDivergence…)
+// implicit Euler stays finite and reaches rest hanging below the pins.
+TEST(ClothSim, ImplicitEulerIsStableAtAHundredTimesTheRk4Substep) {
+  const Square sq;
+  ClothSim rk4(sq.mesh.position_view(), sq.mesh.triangle_view(), square_options(3200.0));
+  rk4.pin(sq.corners);
+  ClothOptions o = square_options(3200.0, ClothIntegrator::IMPLICIT_EULER);
+  // stable_substep() is substep_safety × the bound here (the bound, ~0.2 ms, is under max_substep).
+  o.implicit_step = 100.0 * rk4.stable_substep() / o.substep_safety;
+  ASSERT_LT(rk4.stable_substep(), o.max_substep);
+  ClothSim sim(sq.mesh.position_view(), sq.mesh.triangle_view(), o);
+  sim.pin(sq.corners);
+  ClothRestOptions ro;
+  ro.step_dt = o.implicit_step;
+  const ClothRestReport r = sim.run_to_rest(ro);
+  EXPECT_EQ(r.status, ClothStatus::OK);
+  EXPECT_TRUE(r.converged);
+  EXPECT_TRUE(all_finite(sim.positions()));
+  float lowest = 0;
+  for (std::size_t i = 0; i < sim.particle_count(); ++i)
+    lowest = std::min(lowest, sim.positions()[3 * i + 1]);
+  EXPECT_LT(lowest, -0.45f);
+}
+
+TEST(ClothSim, ImplicitStepMustBePositive) {
+  const Square sq;
+  ClothOptions o = square_options(400.0, ClothIntegrator::IMPLICIT_EULER);
+  o.implicit_step = 0.0;
+  EXPECT_THROW(ClothSim(sq.mesh.position_view(), sq.mesh.triangle_view(), o), Error);
 }
 
 } // namespace

@@ -14,6 +14,8 @@
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/primitives.h"
 #include "geometry/mesh/units.h"
+#include "kernels/error.h"
+#include "kernels/pseudo_normals.h"
 #include "test_support.h"
 
 namespace vfit {
@@ -404,6 +406,188 @@ TEST(ProximityCorpus, MakeHumanBodyAgreesWithBruteForceAndWindingNumber) {
     if (std::abs(h.signed_distances[i]) <= SIGN_THRESHOLD) continue;
     EXPECT_EQ(h.signed_distances[i]<0, winding_number(m, row3(q, i))> 0.5) << "query " << i;
   }
+}
+
+// A unit sphere with holes cut out, like a scan open at the neck, soles and eyes: three holes
+// of angular radius 30° around ±axes 90° apart, and one of 10° (an "eye"). A triangle is
+// removed when its centroid lies within a hole's cone.
+struct Hole {
+  Vec3 axis; // unit
+  double angle; // rad
+};
+const std::vector<Hole>& sphere_holes() {
+  static const std::vector<Hole> holes = [] {
+    const double s = 1.0 / std::sqrt(3.0), deg = std::numbers::pi / 180.0;
+    return std::vector<Hole>{{{1, 0, 0}, 30 * deg}, {{0, 1, 0}, 30 * deg}, {{0, 0, -1}, 30 * deg}, {{-s, -s, s}, 10 * deg}};
+  }();
+  return holes;
+}
+const Mesh& holed_sphere_mesh() {
+  static const Mesh holed = [] {
+    Mesh m = sphere_mesh();
+    std::vector<std::int32_t> kept;
+    for (std::size_t f = 0; f < m.face_count(); ++f) {
+      Vec3 c{0, 0, 0};
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 3; ++j) c[j] += position(m, m.triangles[3 * f + k])[j] / 3.0;
+      bool cut = false;
+      for (const Hole& h : sphere_holes()) cut |= dot(c, h.axis) / norm(c) > std::cos(h.angle);
+      if (!cut) kept.insert(kept.end(), m.triangles.begin() + 3 * f, m.triangles.begin() + 3 * f + 3);
+    }
+    m.triangles = kept;
+    m.uv_triangles.clear();
+    m.uvs.clear();
+    return m;
+  }();
+  return holed;
+}
+
+// Distance from q to the rim circle of a hole on the unit sphere.
+double distance_to_rim(Vec3 q, const Hole& h) {
+  const double height = dot(q, h.axis) - std::cos(h.angle);
+  Vec3 radial = sub(q, {h.axis[0] * dot(q, h.axis), h.axis[1] * dot(q, h.axis), h.axis[2] * dot(q, h.axis)});
+  return std::hypot(height, norm(radial) - std::sin(h.angle));
+}
+
+TEST(ProximityOpenMesh, ClosedMeshHasNoHolesAndNoWarning) {
+  const ProximityIndex index(sphere_mesh().position_view(), sphere_mesh().triangle_view());
+  EXPECT_EQ(index.hole_count(), 0u);
+  EXPECT_TRUE(index.warning().empty());
+}
+
+TEST(ProximityOpenMesh, HolesAreFoundAndWarnedAbout) {
+  const Mesh& m = holed_sphere_mesh();
+  ASSERT_LT(m.face_count(), sphere_mesh().face_count());
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  EXPECT_EQ(index.hole_count(), sphere_holes().size());
+  EXPECT_EQ(index.warning(), "the body has 4 holes; the side is decided as if they were closed");
+  EXPECT_EQ(index.vertex_count(), m.vertex_count()) << "the cap centroids are internal";
+  EXPECT_EQ(index.face_count(), m.face_count()) << "the cap triangles are internal";
+  // The capped mesh is closed: every edge has two triangles.
+  const ProximitySideMesh side = index.side_mesh();
+  const MeshEdges edges = build_mesh_edges(side.triangles, side.positions.size() / 3);
+  for (std::size_t e = 0; e < edges.edge_count(); ++e) EXPECT_EQ(edges.offsets[e + 1] - edges.offsets[e], 2) << e;
+}
+
+// Away from the rims (farther than the hole's radius), an open sphere answers inside/outside as
+// the closed one does; the closest points never lie on a cap.
+TEST(ProximityOpenMesh, SideAgreesWithClosedSphereAwayFromRims) {
+  const Mesh& m = holed_sphere_mesh();
+  const ProximityIndex open(m.position_view(), m.triangle_view());
+  const ProximityIndex closed(sphere_mesh().position_view(), sphere_mesh().triangle_view());
+  std::vector<float> q;
+  std::mt19937 rng(71u);
+  std::uniform_real_distribution<double> unit(-1.6, 1.6);
+  while (q.size() < 3 * 3000) {
+    const Vec3 p{unit(rng), unit(rng), unit(rng)};
+    bool far = true;
+    for (const Hole& h : sphere_holes()) far &= distance_to_rim(p, h) > std::sin(h.angle);
+    if (far) q.insert(q.end(), {float(p[0]), float(p[1]), float(p[2])});
+  }
+  ClosestHits h, expected, brute;
+  open.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  open.closest_points_brute_force(q, std::numeric_limits<float>::infinity(), brute);
+  closed.closest_points(q, std::numeric_limits<float>::infinity(), expected);
+  expect_same_hits(q, h, brute);
+  std::size_t inside = 0, through_hole = 0;
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    ASSERT_GE(h.triangles[i], 0);
+    ASSERT_LT(std::size_t(h.triangles[i]), m.face_count());
+    if (std::abs(expected.signed_distances[i]) <= SIGN_THRESHOLD) continue;
+    EXPECT_EQ(h.signed_distances[i] < 0, expected.signed_distances[i] < 0) << "query " << i;
+    inside += expected.signed_distances[i] < 0;
+    through_hole += std::abs(h.signed_distances[i]) > std::abs(expected.signed_distances[i]) + 1e-4f;
+  }
+  EXPECT_GT(inside, 300u) << "both sides must be sampled";
+  EXPECT_GT(through_hole, 30u) << "some queries must see the mesh only past a hole for the test to mean anything";
+}
+
+// Near a hole (inside its cone), points clearly inside (below the cap plane) and clearly
+// outside (beyond the sphere) are still answered right, although the mesh nearest to them is
+// the rim, whose one-sided pseudo-normal alone says "inside" for a point 1.1 out on the axis
+// of a 30° hole (1.1·cos 30° < 1).
+TEST(ProximityOpenMesh, SideIsRightNearTheHoles) {
+  const Mesh& m = holed_sphere_mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  std::mt19937 rng(72u);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<float> q;
+  std::vector<char> truly_inside;
+  for (const Hole& h : sphere_holes()) {
+    // An orthonormal frame around the axis, to sample directions within 0.9 of the cone.
+    Vec3 t = std::abs(h.axis[0]) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    t = cross(h.axis, t);
+    t = {t[0] / norm(t), t[1] / norm(t), t[2] / norm(t)};
+    const Vec3 b = cross(h.axis, t);
+    for (int i = 0; i < 200; ++i) {
+      const double a = 0.9 * h.angle * std::sqrt(unit(rng)), phi = 2 * std::numbers::pi * unit(rng);
+      Vec3 d;
+      for (int k = 0; k < 3; ++k)
+        d[k] = std::cos(a) * h.axis[k] + std::sin(a) * (std::cos(phi) * t[k] + std::sin(phi) * b[k]);
+      // Inside: below the cap plane: the rim is jagged by up to a triangle (7.5°), so 0.85 of cos(hole angle).
+      const bool in = i % 2 == 0;
+      const double r = in ? (0.2 + 0.75 * unit(rng)) * 0.85 * std::cos(h.angle) / std::cos(a) : 1.05 + unit(rng);
+      for (int k = 0; k < 3; ++k) q.push_back(float(r * d[k]));
+      truly_inside.push_back(in);
+    }
+  }
+  ClosestHits h;
+  index.closest_points(q, std::numeric_limits<float>::infinity(), h);
+  for (std::size_t i = 0; i < h.size(); ++i)
+    EXPECT_EQ(h.signed_distances[i] < 0, bool(truly_inside[i])) << "query " << i << " at " << q[3 * i] << ", "
+                                                                   << q[3 * i + 1] << ", " << q[3 * i + 2];
+}
+
+TEST(ProximityOpenMesh, RefitMovesTheCaps) {
+  Mesh moved = holed_sphere_mesh();
+  ProximityIndex refitted(moved.position_view(), moved.triangle_view());
+  for (std::size_t i = 0; i < moved.positions.size(); ++i) moved.positions[i] = 1.3f * moved.positions[i] + 0.2f;
+  refitted.refit(moved.positions);
+  const ProximityIndex fresh(moved.position_view(), moved.triangle_view());
+  const std::vector<float> q = make_queries(moved, 150, 73u);
+  ClosestHits after, expected;
+  refitted.closest_points(q, std::numeric_limits<float>::infinity(), after);
+  fresh.closest_points(q, std::numeric_limits<float>::infinity(), expected);
+  EXPECT_EQ(after.triangles, expected.triangles);
+  EXPECT_EQ(after.signed_distances, expected.signed_distances);
+}
+
+TEST(ProximityBadInput, NonFiniteQueryIsAnError) {
+  const ProximityIndex index(sphere_mesh().position_view(), sphere_mesh().triangle_view());
+  ClosestHits h;
+  for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    const std::vector<float> q = {0, 0, 0, 1, 2, 3, 0.5f, bad, 0};
+    try {
+      index.closest_points(q, 1.0f, h);
+      ADD_FAILURE() << "no error for a non-finite query";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("query 2 has a non-finite coordinate"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(index.closest_points_serial(q, 1.0f, h), Error);
+    EXPECT_THROW(index.closest_points_brute_force(q, 1.0f, h), Error);
+  }
+  const std::vector<float> ragged = {0, 0, 0, 1};
+  EXPECT_THROW(index.closest_points(ragged, 1.0f, h), Error);
+  const std::vector<float> fine = {0, 0, 0};
+  EXPECT_THROW(index.closest_points(fine, std::numeric_limits<float>::quiet_NaN(), h), Error);
+  EXPECT_THROW(index.closest_points(fine, -1.0f, h), Error);
+}
+
+TEST(ProximityBadInput, BadMeshIsAnError) {
+  Mesh m = test::octahedron();
+  m.positions[4] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(ProximityIndex(m.position_view(), m.triangle_view()), Error);
+  m = test::octahedron();
+  m.triangles[5] = std::int32_t(m.vertex_count());
+  try {
+    ProximityIndex index(m.position_view(), m.triangle_view());
+    ADD_FAILURE() << "no error for an index out of range";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("triangle 1"), std::string::npos) << e.what();
+  }
+  ProximityIndex index(test::octahedron().position_view(), test::octahedron().triangle_view());
+  const std::vector<float> short_positions = {0, 0, 0};
+  EXPECT_THROW(index.refit(short_positions), Error);
 }
 
 } // namespace

@@ -1,0 +1,269 @@
+#include "engine/fit_pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <span>
+#include <utility>
+
+#include "engine/fabric.h"
+#include "engine/layering.h"
+#include "kernels/edge_crossings.h"
+#include "kernels/error.h"
+#include "kernels/parallel.h"
+#include "kernels/proximity.h"
+
+namespace vfit {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+bool is_bottom(GarmentType type) {
+  return type == GarmentType::TROUSERS || type == GarmentType::SHORTS || type == GarmentType::SKIRT;
+}
+
+// Deeper than this (m) after simulation triggers one more penetration removal: the contact
+// handler keeps particles at the contact thickness, so anything deeper is a missed contact.
+// So does any edge crossing the body, or any vertex inside an inner garment (the simulation
+// collides with the body only).
+constexpr double POST_SIMULATION_TOLERANCE = 0.0005;
+
+// Layer points farther than this (m) from a vertex are not its inner layer (LayerObstacle::reach).
+constexpr double LAYER_REACH = 0.05;
+
+// The body, indexed once per fit, and the garments fitted so far as inner layers.
+struct Obstacles {
+  const Body& body;
+  const ProximityIndex& index;
+  const EdgeCrossingIndex& crossings;
+  std::span<const LayerObstacle> layers;
+};
+
+Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions& options) {
+  if (options.garment_units) return *options.garment_units;
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  double max_abs = 0;
+  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+    const float p = mesh.positions[i];
+    lo[i % 3] = std::min(lo[i % 3], p);
+    hi[i % 3] = std::max(hi[i % 3], p);
+    max_abs = std::max(max_abs, static_cast<double>(std::fabs(p)));
+  }
+  double extent = 0;
+  for (int c = 0; c < 3; ++c)
+    extent = std::max(extent, static_cast<double>(hi[c] - lo[c]));
+  const auto units = detect_mesh_units(extent, max_abs);
+  if (!units) throw Error(name, 0, "cannot detect the garment's length unit (largest extent " + std::to_string(extent) + ")");
+  return *units;
+}
+
+// Units and segmentation: what decides the processing order.
+void read_garment(const FitGarmentInput& input, const FitOptions& options, FittedGarment& out, GarmentFitReport& report) {
+  report.name = input.name;
+  out.name = input.name;
+  out.mesh = input.mesh;
+  Mesh& mesh = out.mesh;
+  report.vertices = mesh.vertex_count();
+  report.faces = mesh.face_count();
+
+  auto t0 = Clock::now();
+  report.units = garment_units(mesh, input.name, options);
+  if (report.units != Units::M) {
+    scale_positions(mesh.positions, metres_per_unit(report.units));
+    report.warnings.push_back("garment in " + units_name(report.units) + ", converted to metres");
+  }
+  report.timings.units_ms = ms_since(t0);
+
+  t0 = Clock::now();
+  try {
+    out.segmentation = segment_garment(mesh, options.segmentation);
+  } catch (const Error& e) {
+    throw Error(input.name, 0, std::string("not a recognisable garment: ") + e.what());
+  }
+  report.timings.segmentation_ms = ms_since(t0);
+  report.type = out.segmentation.type;
+  for (const auto& w : out.segmentation.warnings)
+    report.warnings.push_back("segmentation: " + w);
+}
+
+// The stages after segmentation, on out.mesh (already in metres).
+void dress_garment(const Obstacles& obstacles, const FitOptions& options, FittedGarment& out, GarmentFitReport& report) {
+  const Body& body = obstacles.body;
+  const ProximityIndex& body_index = obstacles.index;
+  const EdgeCrossingIndex& crossings = obstacles.crossings;
+  const std::span<const LayerObstacle> layers = obstacles.layers;
+  const auto t_dress = Clock::now();
+  Mesh& mesh = out.mesh;
+  auto t0 = Clock::now();
+  std::vector<PartSkeleton> skeletons;
+  try {
+    skeletons = extract_limb_skeletons(mesh, out.segmentation.vertex_parts, options.skeletons);
+  } catch (const Error& e) {
+    // The coarse move has a fallback without skeletons; a part that cannot be skeletonised
+    // costs the garment its driving, not its fit.
+    report.warnings.push_back(std::string("part skeletons failed: ") + e.what());
+  }
+  report.timings.skeletons_ms = ms_since(t0);
+  report.skeleton_parts = skeletons.size();
+
+  // Skeleton driving (seed 000 §5.3–5.4) lands here once geometry/garment/skeleton_driving is
+  // available; until then the garment keeps its own pose and the stage is reported as skipped.
+  report.driving = "skipped (not yet available)";
+  report.timings.driving_ms = 0;
+
+  t0 = Clock::now();
+  report.coarse_move = compute_coarse_move(report.type, out.segmentation.key_points, skeletons, body.joints);
+  translate_positions(mesh.positions, report.coarse_move.translation);
+  report.timings.coarse_move_ms = ms_since(t0);
+
+  t0 = Clock::now();
+  PenetrationOptions po;
+  po.clearance = options.clearance;
+  po.smoothness = options.smoothness;
+  po.max_iterations = options.penetration_iterations;
+  report.inner_layers = layers.size();
+  const PenetrationReport removal = remove_penetration(mesh, body_index, crossings, layers, po);
+  report.timings.penetration_ms = ms_since(t0);
+  report.before = removal.before;
+  report.after_removal = removal.after;
+  report.penetration_iterations = removal.iterations;
+
+  if (!options.simulate) {
+    report.simulation = SimulationOutcome::SKIPPED;
+    report.simulation_status = "skipped (--no-simulation)";
+  } else {
+    t0 = Clock::now();
+    ClothOptions co;
+    co.fabrics = {fabric_preset(options.fabric)};
+    co.backend = options.backend;
+    co.contact_thickness = static_cast<float>(options.clearance);
+    ClothSim sim(mesh.positions, mesh.triangles, co);
+    sim.set_body(body.mesh.positions, body.mesh.triangles);
+    ClothRestOptions ro;
+    ro.max_simulated_seconds = options.max_simulated_seconds;
+    ro.max_wall_seconds = options.max_wall_seconds;
+    const ClothRestReport rest = sim.run_to_rest(ro);
+    report.simulation_status = to_string(rest.status);
+    report.simulated_seconds = rest.simulated_seconds;
+    report.simulation_steps = rest.steps;
+    if (rest.status != ClothStatus::OK) {
+      report.simulation = SimulationOutcome::DIVERGED;
+      report.warnings.push_back(std::string("simulation ") + to_string(rest.status) +
+                                ": its result is discarded, the mesh after penetration removal is kept");
+    } else {
+      report.simulation = rest.converged ? SimulationOutcome::CONVERGED : SimulationOutcome::TIME_LIMIT;
+      const auto p = sim.positions();
+      std::copy(p.begin(), p.end(), mesh.positions.begin());
+    }
+    report.timings.simulation_ms = ms_since(t0);
+
+    if (report.simulation != SimulationOutcome::DIVERGED) {
+      t0 = Clock::now();
+      const PenetrationStats s = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+      if (s.max_depth > POST_SIMULATION_TOLERANCE || s.crossing_edges > 0 || s.layer_inside_count > 0) {
+        remove_penetration(mesh, body_index, crossings, layers, po);
+        report.post_simulation_cleanup = true;
+      }
+      report.timings.penetration_ms += ms_since(t0);
+    }
+  }
+  report.after = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+  report.timings.total_ms = report.timings.units_ms + report.timings.segmentation_ms + ms_since(t_dress);
+}
+
+} // namespace
+
+std::string to_string(SimulationOutcome outcome) {
+  switch (outcome) {
+  case SimulationOutcome::SKIPPED: return "skipped";
+  case SimulationOutcome::CONVERGED: return "converged";
+  case SimulationOutcome::TIME_LIMIT: return "time limit";
+  case SimulationOutcome::DIVERGED: return "diverged";
+  }
+  return "unknown";
+}
+
+std::vector<std::pair<std::string, double>> FitStageTimes::named() const {
+  return {{"units", units_ms},           {"segmentation", segmentation_ms}, {"skeletons", skeletons_ms},
+          {"driving", driving_ms},       {"coarse_move", coarse_move_ms},   {"penetration", penetration_ms},
+          {"simulation", simulation_ms}, {"total", total_ms}};
+}
+
+std::string cpu_model_name() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) != 0) continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::string name = line.substr(colon + 1);
+    const auto first = name.find_first_not_of(" \t");
+    return first == std::string::npos ? "unknown" : name.substr(first);
+  }
+  return "unknown";
+}
+
+FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options) {
+  const auto t_total = Clock::now();
+  if (options.simulate) (void)fabric_preset(options.fabric); // unknown fabric: fail before any work
+  FitResult result;
+  FitReport& report = result.report;
+  report.backend = options.backend == ClothBackend::SERIAL ? "serial" : "tbb";
+  report.threads = parallel_thread_count();
+  report.cpu_model = cpu_model_name();
+  report.body_vertices = body.mesh.vertex_count();
+  report.body_faces = body.mesh.face_count();
+
+  auto t0 = Clock::now();
+  const ProximityIndex body_index(body.mesh.positions, body.mesh.triangles);
+  const EdgeCrossingIndex body_crossings(body.mesh.positions, body.mesh.triangles);
+  report.body_index_ms = ms_since(t0);
+
+  // Bottoms before tops (seed 000 §6: the top is dressed over the trousers). The type is known
+  // after segmentation, so every garment is segmented first, then dressed in that order.
+  result.garments.resize(garments.size());
+  report.garments.resize(garments.size());
+  for (std::size_t i = 0; i < garments.size(); ++i)
+    read_garment(garments[i], options, result.garments[i], report.garments[i]);
+  std::vector<std::size_t> order(garments.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_partition(order.begin(), order.end(), [&](std::size_t i) { return is_bottom(report.garments[i].type); });
+  // Layering (seed 001 §6.3): each garment is kept outside those fitted before it.
+  std::vector<InnerLayer> inner;
+  std::vector<LayerObstacle> layers;
+  inner.reserve(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    FittedGarment& g = result.garments[order[k]];
+    GarmentFitReport& gr = report.garments[order[k]];
+    gr.order = k;
+    dress_garment({body, body_index, body_crossings, layers}, options, g, gr);
+    if (k + 1 < order.size()) {
+      t0 = Clock::now();
+      inner.emplace_back(g.mesh, body_index, options.layer_clearance, LAYER_REACH);
+      layers.push_back(inner.back().obstacle());
+      const double layer_ms = ms_since(t0);
+      gr.timings.penetration_ms += layer_ms;
+      gr.timings.total_ms += layer_ms;
+    }
+  }
+
+  for (const GarmentFitReport& g : report.garments) {
+    report.timings.units_ms += g.timings.units_ms;
+    report.timings.segmentation_ms += g.timings.segmentation_ms;
+    report.timings.skeletons_ms += g.timings.skeletons_ms;
+    report.timings.driving_ms += g.timings.driving_ms;
+    report.timings.coarse_move_ms += g.timings.coarse_move_ms;
+    report.timings.penetration_ms += g.timings.penetration_ms;
+    report.timings.simulation_ms += g.timings.simulation_ms;
+  }
+  report.timings.total_ms = ms_since(t_total);
+  return result;
+}
+
+} // namespace vfit

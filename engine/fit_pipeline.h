@@ -1,0 +1,144 @@
+#pragma once
+/// \file
+/// The fitting pipeline (seed 000 §4–6, DESIGN.md "Data flow of `vfit fit`"): body + garments →
+/// fitted garments and a FitReport. Per garment: units → segmentation with type detection (§4)
+/// → part skeletons (§5.1) → skeleton driving (§5.3–5.4; a slot, reported as skipped until the
+/// stage lands) → coarse move (§6.1, eq. 16–17) → penetration removal against the body, its
+/// vertices and its edges crossing the body (§6.2, eq. 18–21) → cloth simulation to rest with
+/// body collision (§6.3; optional). Several garments are layered (seed 001 §6.3, eq. 7;
+/// engine/layering.h): bottoms first, then tops, each resolved against the body and the
+/// garments fitted before it (a tee's hem ends outside the trousers' waistband).
+
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/cloth_sim.h"
+#include "engine/penetration.h"
+#include "geometry/body/body.h"
+#include "geometry/garment/coarse_move.h"
+#include "geometry/garment/garment.h"
+#include "geometry/garment/segment.h"
+#include "geometry/garment/skeleton_parts.h"
+#include "geometry/mesh/mesh.h"
+#include "geometry/mesh/units.h"
+
+namespace vfit {
+
+/// Every option of the pipeline.
+struct FitOptions {
+  ClothBackend backend = ClothBackend::TBB; ///< runs the cloth simulation
+  bool simulate = true;                     ///< false: stop after penetration removal
+  std::string fabric = "cotton_jersey";     ///< fabric_preset() name for the simulation
+  double clearance = 0.003;                 ///< κ (m): gap left to the body by removal and simulation
+  double max_simulated_seconds = 2.0;       ///< simulated time after which run_to_rest stops (s)
+  double max_wall_seconds = 0;              ///< also stop the simulation after this wall time (s); 0 = none
+  /// The garments' length unit; detected per garment from its size and position when absent.
+  std::optional<Units> garment_units;
+  SegmentOptions segmentation;
+  PartSkeletonOptions skeletons;
+  int penetration_iterations = 25; ///< PenetrationOptions::max_iterations
+  double smoothness = 1.0;         ///< PenetrationOptions::smoothness (λ2/λ1)
+  /// k of seed 001 eq. 7 (m): the gap a garment keeps outside the garments fitted before it.
+  double layer_clearance = 0.003;
+};
+
+/// One garment handed to the pipeline.
+struct FitGarmentInput {
+  std::string name; ///< names it in the report and in output files (e.g. the file name)
+  Mesh mesh;        ///< any length unit, upright (Y up), facing +Z
+};
+
+/// How the cloth simulation of one garment ended.
+enum class SimulationOutcome {
+  SKIPPED,    ///< FitOptions::simulate was false
+  CONVERGED,  ///< mean displacement per step fell below the rest threshold
+  TIME_LIMIT, ///< stopped at max_simulated_seconds / max_wall_seconds, not at rest
+  DIVERGED,   ///< the simulation blew up: its result is discarded, the pre-simulation mesh is kept
+};
+
+/// "skipped" | "converged" | "time limit" | "diverged".
+std::string to_string(SimulationOutcome outcome);
+
+/// Wall-clock milliseconds of each stage. For one garment, or summed over all of them.
+struct FitStageTimes {
+  double units_ms = 0;        ///< unit detection and conversion to metres
+  double segmentation_ms = 0; ///< segment_garment(): type detection and part labels
+  double skeletons_ms = 0;    ///< extract_limb_skeletons()
+  double driving_ms = 0;      ///< skeleton driving (0 while the stage is not available)
+  double coarse_move_ms = 0;  ///< compute_coarse_move() and the translation
+  double penetration_ms = 0;  ///< remove_penetration() (and any clean-up after simulation)
+  double simulation_ms = 0;   ///< ClothSim construction and run_to_rest()
+  double total_ms = 0;        ///< the garment's whole pass
+
+  /// (stage name, ms) in pipeline order: "units", "segmentation", "skeletons", "driving",
+  /// "coarse_move", "penetration", "simulation", "total".
+  std::vector<std::pair<std::string, double>> named() const;
+};
+
+/// What happened to one garment.
+struct GarmentFitReport {
+  std::string name;
+  GarmentType type = GarmentType::TEE;
+  std::size_t vertices = 0, faces = 0;
+  Units units = Units::M;          ///< the input's unit (converted to metres)
+  std::size_t order = 0;           ///< position in the processing order (0 = first)
+  FitStageTimes timings;
+  std::size_t skeleton_parts = 0;  ///< limb skeletons extracted
+  std::string driving = "skipped (not yet available)"; ///< state of the driving stage
+  CoarseMove coarse_move;
+  /// Garments fitted before this one that it was kept outside of (its inner layers).
+  std::size_t inner_layers = 0;
+  /// After the coarse move, before removal (depths m). Crossing edges are always measured;
+  /// layer_inside_count counts vertices inside the inner layers.
+  PenetrationStats before;
+  PenetrationStats after_removal;  ///< after remove_penetration()
+  PenetrationStats after;          ///< of the returned mesh
+  int penetration_iterations = 0;
+  SimulationOutcome simulation = SimulationOutcome::SKIPPED;
+  std::string simulation_status;   ///< ClothStatus text, or why it was skipped
+  double simulated_seconds = 0;    ///< s
+  int simulation_steps = 0;
+  bool post_simulation_cleanup = false; ///< remove_penetration() ran again on the simulated mesh
+  std::vector<std::string> warnings;
+};
+
+/// The report of fit_garments().
+struct FitReport {
+  std::vector<GarmentFitReport> garments; ///< in input order
+  FitStageTimes timings;                  ///< summed over garments; total_ms = whole call
+  double body_index_ms = 0;               ///< building the body's proximity and edge-crossing indices once
+  std::size_t body_vertices = 0, body_faces = 0;
+  std::string backend;                    ///< "serial" | "tbb"
+  int threads = 0;                        ///< TBB worker threads
+  std::string cpu_model;                  ///< /proc/cpuinfo's "model name", or "unknown"
+  /// Size verdict (tight / good / loose / falls): "unknown" until fit feedback (strain and
+  /// ease per region) exists.
+  std::string verdict = "unknown";
+};
+
+/// A fitted garment, in metres, in the body's frame.
+struct FittedGarment {
+  std::string name;
+  Mesh mesh;
+  GarmentSegmentation segmentation; ///< of the input (positions in metres before the move)
+};
+
+struct FitResult {
+  std::vector<FittedGarment> garments; ///< in input order
+  FitReport report;
+};
+
+/// Fits `garments` onto `body` (a closed, outward-oriented mesh in metres with its joints).
+/// Throws vfit::Error naming the garment when one is not a garment (segment_garment()'s
+/// errors), when its units cannot be detected, or for an unknown fabric; the body is assumed
+/// valid (load_body() checked it). A diverged simulation is not an error: it is reported and
+/// the garment keeps its pre-simulation shape.
+FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options = {});
+
+/// The CPU's model name from /proc/cpuinfo, or "unknown".
+std::string cpu_model_name();
+
+} // namespace vfit

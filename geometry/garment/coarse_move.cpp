@@ -1,0 +1,71 @@
+#include "coarse_move.h"
+
+#include <optional>
+
+namespace vfit {
+namespace {
+
+bool is_bottom(GarmentType type) {
+  return type == GarmentType::TROUSERS || type == GarmentType::SHORTS || type == GarmentType::SKIRT;
+}
+
+std::optional<Eigen::Vector3d> root_node(std::span<const PartSkeleton> skeletons, GarmentPart part) {
+  for (const PartSkeleton& s : skeletons)
+    if (s.part == part && !s.nodes.empty()) return s.nodes.front();
+  return std::nullopt;
+}
+
+Eigen::Vector3d joint(const JointPositions& joints, Joint j) { return joints.row(idx(j)).transpose(); }
+
+} // namespace
+
+std::string to_string(CoarseMoveRule rule) {
+  switch (rule) {
+  case CoarseMoveRule::SLEEVE_ROOTS_TO_SHOULDERS: return "sleeve roots -> shoulders (eq. 16)";
+  case CoarseMoveRule::LEG_ROOTS_TO_HIPS: return "leg roots -> hips (eq. 17)";
+  case CoarseMoveRule::COLLAR_TO_NECK: return "collar centre -> neck";
+  case CoarseMoveRule::WAISTBAND_TO_PELVIS: return "waistband centre -> pelvis/spine1";
+  }
+  return "unknown";
+}
+
+CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& key_points,
+                               std::span<const PartSkeleton> skeletons, const JointPositions& joints) {
+  CoarseMove move;
+  if (is_bottom(type)) {
+    const auto left = root_node(skeletons, GarmentPart::LEFT_LEG);
+    const auto right = root_node(skeletons, GarmentPart::RIGHT_LEG);
+    if (left && right) {
+      move.rule = CoarseMoveRule::LEG_ROOTS_TO_HIPS;
+      move.garment_anchor = 0.5 * (*left + *right);
+      move.body_anchor = 0.5 * (joint(joints, Joint::LEFT_HIP) + joint(joints, Joint::RIGHT_HIP));
+    } else {
+      move.rule = CoarseMoveRule::WAISTBAND_TO_PELVIS;
+      move.garment_anchor = key_points.source;
+      move.body_anchor = 0.5 * (joint(joints, Joint::PELVIS) + joint(joints, Joint::SPINE1));
+    }
+  } else {
+    const auto left = root_node(skeletons, GarmentPart::LEFT_SLEEVE);
+    const auto right = root_node(skeletons, GarmentPart::RIGHT_SLEEVE);
+    if (left && right) {
+      move.rule = CoarseMoveRule::SLEEVE_ROOTS_TO_SHOULDERS;
+      move.garment_anchor = 0.5 * (*left + *right);
+      move.body_anchor = 0.5 * (joint(joints, Joint::LEFT_SHOULDER) + joint(joints, Joint::RIGHT_SHOULDER));
+    } else {
+      move.rule = CoarseMoveRule::COLLAR_TO_NECK;
+      move.garment_anchor = key_points.source;
+      move.body_anchor = joint(joints, Joint::NECK);
+    }
+  }
+  move.translation = move.body_anchor - move.garment_anchor;
+  return move;
+}
+
+void translate_positions(std::span<float> positions, const Eigen::Vector3d& translation) {
+  const Eigen::Vector3f t = translation.cast<float>();
+  for (std::size_t i = 0; i + 2 < positions.size(); i += 3)
+    for (int c = 0; c < 3; ++c)
+      positions[i + static_cast<std::size_t>(c)] += t[c];
+}
+
+} // namespace vfit

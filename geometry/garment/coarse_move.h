@@ -1,0 +1,58 @@
+#pragma once
+/// \file
+/// Coarse move (seed 000 §6.1, eq. 16–17): the garment is translated — not rotated, not
+/// scaled; the paper's move is a pure translation — so that the midpoint of two of its key
+/// joints lands on the midpoint of the two matching joints of the body.
+///
+/// Key joints (seed 000 Fig. 5): for tops (eq. 16) the attachment ends of the two sleeve
+/// skeletons (the first node of each chain of skeleton_parts.h, at the shoulder seam) against
+/// the body's LEFT_SHOULDER / RIGHT_SHOULDER joints; for trousers and shorts (eq. 17) the
+/// attachment ends of the two leg skeletons (at the hip) against LEFT_HIP / RIGHT_HIP.
+/// Garments without those parts (a sleeveless top or a dress, a skirt) or whose skeletons are
+/// missing use the centre of their source opening (segmentation key point: collar or
+/// waistband) against the body's NECK (tops) or the midpoint of PELVIS and SPINE1 (skirts);
+/// the report names which rule was used.
+
+#include <span>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "garment.h"
+#include "segment.h"
+#include "skeleton_parts.h"
+#include "geometry/body/skeleton.h"
+
+namespace vfit {
+
+/// Which key joints decided a coarse move.
+enum class CoarseMoveRule {
+  SLEEVE_ROOTS_TO_SHOULDERS, ///< eq. 16: sleeve skeletons' first nodes → shoulder joints
+  LEG_ROOTS_TO_HIPS,         ///< eq. 17: leg skeletons' first nodes → hip joints
+  COLLAR_TO_NECK,            ///< fallback for tops without sleeve skeletons
+  WAISTBAND_TO_PELVIS,       ///< fallback for bottoms without leg skeletons (skirts)
+};
+
+/// "sleeve roots → shoulders (eq. 16)" and so on.
+std::string to_string(CoarseMoveRule rule);
+
+/// The translation of a coarse move and what it was computed from (metres, body frame).
+struct CoarseMove {
+  CoarseMoveRule rule = CoarseMoveRule::SLEEVE_ROOTS_TO_SHOULDERS;
+  Eigen::Vector3d garment_anchor = Eigen::Vector3d::Zero(); ///< midpoint of the garment's key joints
+  Eigen::Vector3d body_anchor = Eigen::Vector3d::Zero();    ///< midpoint of the body's key joints
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();    ///< v_c or v_t = body_anchor − garment_anchor
+};
+
+/// Computes the coarse move of a garment of `type` with segmentation key points `key_points`
+/// and limb skeletons `skeletons` (extract_limb_skeletons(); may be empty) onto a body with
+/// `joints` (24 × 3, m). Garment quantities must already be in metres in the body's frame
+/// (Y up, facing +Z). A skeleton with no node is ignored. Never fails: a garment with neither
+/// skeletons nor a usable key point falls back to its source opening, which always exists.
+CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& key_points,
+                               std::span<const PartSkeleton> skeletons, const JointPositions& joints);
+
+/// Adds `translation` (m) to every vertex of `positions` (#V × 3, flat).
+void translate_positions(std::span<float> positions, const Eigen::Vector3d& translation);
+
+} // namespace vfit

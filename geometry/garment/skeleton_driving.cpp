@@ -1,0 +1,408 @@
+#include "skeleton_driving.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <queue>
+#include <string>
+
+#include "kernels/error.h"
+
+namespace vfit {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// The hip joint's height between the cloth's crotch key point (0) and the waistband's centre
+// (1), measured on the catalogue's mannequin: (0.865 − 0.773) / (1.020 − 0.773).
+constexpr double HIP_HEIGHT_FRACTION = 0.37;
+
+Eigen::Vector3d point(std::span<const float> p, std::size_t v) { return {p[3 * v], p[3 * v + 1], p[3 * v + 2]}; }
+
+bool is_limb(GarmentPart p) {
+  return p == GarmentPart::LEFT_SLEEVE || p == GarmentPart::RIGHT_SLEEVE || p == GarmentPart::LEFT_LEG ||
+         p == GarmentPart::RIGHT_LEG;
+}
+
+std::array<Joint, 3> limb_bones(GarmentPart p) {
+  switch (p) {
+  case GarmentPart::LEFT_SLEEVE: return {Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW, Joint::LEFT_WRIST};
+  case GarmentPart::RIGHT_SLEEVE: return {Joint::RIGHT_SHOULDER, Joint::RIGHT_ELBOW, Joint::RIGHT_WRIST};
+  case GarmentPart::LEFT_LEG: return {Joint::LEFT_HIP, Joint::LEFT_KNEE, Joint::LEFT_ANKLE};
+  default: return {Joint::RIGHT_HIP, Joint::RIGHT_KNEE, Joint::RIGHT_ANKLE};
+  }
+}
+
+// Arc length along the chain from node 0 (eq. 8).
+std::vector<double> arc_lengths(std::span<const Eigen::Vector3d> l) {
+  std::vector<double> s(l.size(), 0.0);
+  for (std::size_t k = 1; k < l.size(); ++k)
+    s[k] = s[k - 1] + (l[k] - l[k - 1]).norm();
+  return s;
+}
+
+const PartSkeleton* find_skeleton(std::span<const PartSkeleton> skeletons, GarmentPart part) {
+  for (const PartSkeleton& s : skeletons)
+    if (s.part == part && !s.nodes.empty()) return &s;
+  return nullptr;
+}
+
+// A leg's axis: the principal direction of its nodes through their centroid, from the first
+// node towards the last; `joint` is the axis's point at `height`.
+void leg_axis(const PartSkeleton& leg, double height, Eigen::Vector3d& joint, Eigen::Vector3d& direction) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : leg.nodes)
+    c += p;
+  c /= double(leg.nodes.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : leg.nodes)
+    cov += (p - c) * (p - c).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  direction = eig.eigenvectors().col(2);
+  if (direction.dot(leg.nodes.back() - leg.nodes.front()) < 0) direction = -direction;
+  if (leg.nodes.size() < 2 || std::abs(direction.y()) < 1e-6) {
+    direction = -Eigen::Vector3d::UnitY();
+    joint = {c.x(), height, c.z()};
+    return;
+  }
+  joint = c + (height - c.y()) / direction.y() * direction;
+}
+
+// The point at arc length `s` along the polyline `bones` (eq. 11), continued along the last
+// bone of non-zero length past its end; `segment` receives that bone's index.
+Eigen::Vector3d point_at_arc_length(std::span<const Eigen::Vector3d> bones, double s, int& segment) {
+  int last = -1;
+  for (std::size_t b = 0; b + 1 < bones.size(); ++b) {
+    const double len = (bones[b + 1] - bones[b]).norm();
+    if (len <= 1e-12) continue;
+    last = static_cast<int>(b);
+    if (s <= len) break;
+    // Past the last joint the node continues along the last bone, so the part keeps its length.
+    bool more = false;
+    for (std::size_t c = b + 1; c + 1 < bones.size(); ++c)
+      more = more || (bones[c + 1] - bones[c]).norm() > 1e-12;
+    if (!more) break;
+    s -= len;
+  }
+  segment = std::max(0, last);
+  if (last < 0) return bones[0];
+  const Eigen::Vector3d& a = bones[static_cast<std::size_t>(last)];
+  const Eigen::Vector3d& b = bones[static_cast<std::size_t>(last) + 1];
+  return a + s / (b - a).norm() * (b - a);
+}
+
+// Per-vertex adjacency (CSR) of the mesh's edges.
+void edge_adjacency(const Mesh& mesh, std::vector<std::int32_t>& offsets, std::vector<std::int32_t>& neighbours) {
+  const std::size_t nv = mesh.vertex_count();
+  std::vector<std::pair<std::int32_t, std::int32_t>> edges;
+  edges.reserve(mesh.triangles.size() * 2);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
+      edges.emplace_back(a, b);
+      edges.emplace_back(b, a);
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  offsets.assign(nv + 1, 0);
+  for (const auto& e : edges)
+    ++offsets[static_cast<std::size_t>(e.first) + 1];
+  for (std::size_t v = 0; v < nv; ++v)
+    offsets[v + 1] += offsets[v];
+  neighbours.resize(edges.size());
+  for (std::size_t i = 0; i < edges.size(); ++i)
+    neighbours[i] = edges[i].second;
+}
+
+Eigen::Matrix3d slerp(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b, double w) {
+  return Eigen::Quaterniond(a).slerp(w, Eigen::Quaterniond(b)).toRotationMatrix();
+}
+
+} // namespace
+
+Eigen::Matrix3d rotation_between(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  const double nf = from.norm(), nt = to.norm();
+  if (nf == 0 || nt == 0) return Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d a = from / nf, b = to / nt;
+  const Eigen::Vector3d axis = a.cross(b);
+  const double s = axis.norm(), c = std::clamp(a.dot(b), -1.0, 1.0);
+  if (s < 1e-12) {
+    if (c > 0) return Eigen::Matrix3d::Identity();
+    // Opposite: a half turn about any axis normal to `from`.
+    Eigen::Vector3d n = a.cross(Eigen::Vector3d::UnitX());
+    if (n.norm() < 1e-6) n = a.cross(Eigen::Vector3d::UnitY());
+    return Eigen::AngleAxisd(std::numbers::pi, n.normalized()).toRotationMatrix();
+  }
+  return Eigen::AngleAxisd(std::atan2(s, c), axis / s).toRotationMatrix();
+}
+
+std::vector<Eigen::Vector3d> arc_length_targets(std::span<const Eigen::Vector3d> nodes,
+                                                std::span<const Eigen::Vector3d> bones, double offset,
+                                                std::vector<int>& segment) {
+  if (bones.size() < 2) throw Error("skeleton driving", 0, "a bone polyline needs at least 2 joints");
+  const std::vector<double> s = arc_lengths(nodes);
+  std::vector<Eigen::Vector3d> out(nodes.size());
+  segment.assign(nodes.size(), 0);
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    out[k] = point_at_arc_length(bones, offset + s[k], segment[k]);
+  return out;
+}
+
+GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons) {
+  const SegmentationKeyPoints& kp = segmentation.key_points;
+  GarmentKeyJoints out;
+  if (kp.s1 && kp.s2) {
+    out.j1 = kp.s1->point;
+    out.j2 = kp.s2->point;
+    out.right_axis = kp.s1->normal.normalized();
+    out.left_axis = kp.s2->normal.normalized();
+    return out;
+  }
+  const PartSkeleton* left = find_skeleton(skeletons, GarmentPart::LEFT_LEG);
+  const PartSkeleton* right = find_skeleton(skeletons, GarmentPart::RIGHT_LEG);
+  if (kp.crotch && left && right) {
+    const double height = kp.crotch->y() + HIP_HEIGHT_FRACTION * (kp.source.y() - kp.crotch->y());
+    leg_axis(*right, height, out.j1, out.right_axis);
+    leg_axis(*left, height, out.j2, out.left_axis);
+    // The thigh axes wobble with their skeletons by about a centimetre front to back, which
+    // would turn the garment by degrees about Y; an input garment is left/right symmetric
+    // (segment.h), so its hips are too.
+    const double z = 0.5 * (out.j1.z() + out.j2.z());
+    out.j1.z() = z;
+    out.j2.z() = z;
+    out.legs = true;
+    return out;
+  }
+  throw Error("skeleton driving", 0,
+              "the garment has neither sleeve boundary planes (a top) nor a crotch and two leg skeletons (trousers)");
+}
+
+SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& segmentation,
+                               std::span<const PartSkeleton> skeletons, const SkeletonDrivingOptions& options)
+    : m_garment(garment), m_parts(segmentation.vertex_parts), m_options(options) {
+  const auto t0 = Clock::now();
+  const std::size_t nv = garment.vertex_count();
+  if (m_parts.size() != nv)
+    throw Error("skeleton driving", 0,
+                std::to_string(m_parts.size()) + " part labels for a garment of " + std::to_string(nv) + " vertices");
+  for (std::int32_t v : garment.triangles)
+    if (v < 0 || static_cast<std::size_t>(v) >= nv)
+      throw Error("skeleton driving", 0, "triangle vertex " + std::to_string(v) + " out of range");
+  for (const PartSkeleton& s : skeletons)
+    if (is_limb(s.part) && !s.nodes.empty()) m_skeletons.push_back(s);
+  m_key_joints = garment_key_joints(segmentation, m_skeletons);
+
+  m_vertex_limb.assign(nv, -1);
+  m_vertex_node.assign(nv, -1);
+  for (std::size_t i = 0; i < m_skeletons.size(); ++i) {
+    const PartSkeleton& s = m_skeletons[i];
+    if (s.vertices.size() != s.vertex_node.size())
+      throw Error("skeleton driving", 0, garment_part_name(s.part) + " skeleton: vertex and node lists differ in size");
+    for (std::size_t k = 0; k < s.vertices.size(); ++k) {
+      const std::int32_t v = s.vertices[k], node = s.vertex_node[k];
+      if (v < 0 || static_cast<std::size_t>(v) >= nv || node < 0 || static_cast<std::size_t>(node) >= s.nodes.size())
+        throw Error("skeleton driving", 0,
+                    garment_part_name(s.part) + " skeleton: vertex " + std::to_string(v) + " or node " +
+                        std::to_string(node) + " out of range");
+      m_vertex_limb[static_cast<std::size_t>(v)] = static_cast<std::int32_t>(i);
+      m_vertex_node[static_cast<std::size_t>(v)] = node;
+    }
+  }
+
+  // Distance along edges from the seams: limb vertices with a neighbour outside their limb.
+  std::vector<std::int32_t> offsets, neighbours;
+  edge_adjacency(garment, offsets, neighbours);
+  const std::span<const float> x = garment.positions;
+  m_seam_distance.assign(nv, std::numeric_limits<double>::infinity());
+  m_seam_limb.assign(nv, -1);
+  using Item = std::pair<double, std::int32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (m_vertex_limb[v] < 0) continue;
+    for (std::int32_t i = offsets[v]; i < offsets[v + 1]; ++i)
+      if (m_vertex_limb[static_cast<std::size_t>(neighbours[static_cast<std::size_t>(i)])] != m_vertex_limb[v]) {
+        m_seam_distance[v] = 0;
+        m_seam_limb[v] = m_vertex_limb[v];
+        queue.emplace(0.0, static_cast<std::int32_t>(v));
+        break;
+      }
+  }
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > m_seam_distance[static_cast<std::size_t>(v)]) continue;
+    for (std::int32_t i = offsets[static_cast<std::size_t>(v)]; i < offsets[static_cast<std::size_t>(v) + 1]; ++i) {
+      const auto w = static_cast<std::size_t>(neighbours[static_cast<std::size_t>(i)]);
+      const double dw = d + (point(x, w) - point(x, static_cast<std::size_t>(v))).norm();
+      if (dw < m_seam_distance[w]) {
+        m_seam_distance[w] = dw;
+        m_seam_limb[w] = m_seam_limb[static_cast<std::size_t>(v)];
+        queue.emplace(dw, static_cast<std::int32_t>(w));
+      }
+    }
+  }
+  for (std::size_t v = 0; v < nv; ++v)
+    if (m_seam_distance[v] > options.seam_radius) m_handles.push_back(static_cast<std::int32_t>(v));
+
+  m_deformer = std::make_unique<LaplacianDeformer>(garment, m_handles, options.handle_weight);
+  if (!m_deformer->ok())
+    throw Error("skeleton driving", 0,
+                "the Laplacian system is singular: a piece of the garment lies entirely within " +
+                    std::to_string(options.seam_radius) + " m of a seam, so it has no handle");
+  m_rest_delta = m_deformer->laplacian_coordinates(garment.positions);
+  m_setup_ms = ms_since(t0);
+}
+
+SkeletonDriver::~SkeletonDriver() = default;
+SkeletonDriver::SkeletonDriver(SkeletonDriver&&) noexcept = default;
+SkeletonDriver& SkeletonDriver::operator=(SkeletonDriver&&) noexcept = default;
+
+SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints) const {
+  SkeletonDriving out;
+  const auto t0 = Clock::now();
+  const std::size_t nv = m_garment.vertex_count();
+  const std::span<const float> x = m_garment.positions;
+  auto joint = [&](Joint j) { return Eigen::Vector3d(body_joints.row(idx(j)).transpose()); };
+
+  // Orientation (eq. 5–7): R_h turns the garment's horizontal (J2 − J1) onto the body's, then
+  // R_v, about the body's horizontal, turns the garment's vertical (+Y, an upright garment)
+  // onto the body's trunk (pelvis → neck), both made normal to that horizontal. The collar or
+  // waistband is too close to J1, J2 to give a vertical within a few degrees.
+  const GarmentKeyJoints& g = m_key_joints;
+  const Eigen::Vector3d h1 = joint(g.legs ? Joint::RIGHT_HIP : Joint::RIGHT_SHOULDER);
+  const Eigen::Vector3d h2 = joint(g.legs ? Joint::LEFT_HIP : Joint::LEFT_SHOULDER);
+  const Eigen::Vector3d vh_body = h2 - h1;
+  const Eigen::Matrix3d Rh = rotation_between(g.j2 - g.j1, vh_body);
+  const Eigen::Vector3d axis = vh_body.normalized();
+  auto normal_part = [&](const Eigen::Vector3d& v) { return Eigen::Vector3d(v - v.dot(axis) * axis); };
+  const Eigen::Vector3d vv_cloth = normal_part(Rh * Eigen::Vector3d::UnitY());
+  const Eigen::Vector3d vv_body = normal_part(joint(Joint::NECK) - joint(Joint::PELVIS));
+  const Eigen::Matrix3d R = rotation_between(vv_cloth, vv_body) * Rh;
+  // Eq. 16–17: the key joints' midpoints coincide.
+  const Eigen::Vector3d t = 0.5 * (h1 + h2) - R * (0.5 * (g.j1 + g.j2));
+  out.torso_rotation = R;
+  out.torso_translation = t;
+  out.timings.orientation_ms = ms_since(t0);
+
+  // Skeleton driving (eq. 8–11) and node rotations (eq. 13–15).
+  const auto t1 = Clock::now();
+  std::vector<std::vector<Eigen::Vector3d>> moved(m_skeletons.size());
+  std::vector<std::vector<double>> along_axis;
+  std::vector<Eigen::Vector3d> axes, own_joints;
+  for (std::size_t i = 0; i < m_skeletons.size(); ++i) {
+    const PartSkeleton& s = m_skeletons[i];
+    std::vector<Eigen::Vector3d>& l = moved[i];
+    for (const Eigen::Vector3d& p : s.nodes)
+      l.push_back(R * p + t);
+    const std::array<Joint, 3> jb = limb_bones(s.part);
+    const std::array<Eigen::Vector3d, 3> bones{joint(jb[0]), joint(jb[1]), joint(jb[2])};
+    const bool left = s.part == GarmentPart::LEFT_SLEEVE || s.part == GarmentPart::LEFT_LEG;
+    const Eigen::Vector3d own_joint = R * (left ? g.j2 : g.j1) + t;
+    const Eigen::Vector3d axis_g = R * (left ? g.left_axis : g.right_axis);
+    // Each node's distance from the garment's own joint along the limb's axis: the part covers
+    // the same stretch of the limb from that joint as it did on the garment (eq. 9–11).
+    std::vector<double> along(l.size());
+    for (std::size_t k = 0; k < l.size(); ++k)
+      along[k] = std::max(0.0, (l[k] - own_joint).dot(axis_g));
+    DrivenLimb limb;
+    limb.part = s.part;
+    limb.segment.assign(l.size(), 0);
+    for (std::size_t k = 0; k < l.size(); ++k)
+      limb.targets.push_back(point_at_arc_length(bones, along[k], limb.segment[k]));
+    // Twist-free frames (eq. 13–15): the limb's axis turned onto the upper bone, and on the
+    // lower bone further through the joint's bend.
+    const Eigen::Matrix3d upper = rotation_between(axis_g, bones[1] - bones[0]);
+    const Eigen::Matrix3d lower = rotation_between(bones[1] - bones[0], bones[2] - bones[1]) * upper;
+    for (std::size_t k = 0; k < l.size(); ++k)
+      limb.rotations.push_back(limb.segment[k] == 0 ? upper : lower);
+    along_axis.push_back(std::move(along));
+    axes.push_back(axis_g);
+    own_joints.push_back(own_joint);
+    out.limbs.push_back(std::move(limb));
+  }
+
+  // Per-vertex rigid transforms: the torso's, or its node's T2·Q'·T1 (blended with the nearer
+  // neighbour node by the vertex's position along the chain).
+  std::vector<Eigen::Matrix3d> rotation(nv, R);
+  Eigen::MatrixXd rigid(static_cast<Eigen::Index>(nv), 3);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const Eigen::Vector3d xv = R * point(x, v) + t;
+    const std::int32_t li = m_vertex_limb[v];
+    if (li < 0) {
+      rigid.row(static_cast<Eigen::Index>(v)) = xv.transpose();
+      continue;
+    }
+    const std::vector<Eigen::Vector3d>& l = moved[static_cast<std::size_t>(li)];
+    const DrivenLimb& limb = out.limbs[static_cast<std::size_t>(li)];
+    const auto k = static_cast<std::size_t>(m_vertex_node[v]);
+    auto apply = [&](std::size_t n) {
+      // T2·Q'·T1 of eq. 13–15 about the node's foot on the limb's axis rather than the node
+      // itself: the node keeps its offset from the axis, so a skeleton that wobbles about the
+      // axis (short, wide sleeves) shears nothing.
+      const auto i = static_cast<std::size_t>(li);
+      return Eigen::Vector3d(limb.targets[n] + limb.rotations[n] * (xv - own_joints[i] - along_axis[i][n] * axes[i]));
+    };
+    Eigen::Vector3d p = apply(k);
+    Eigen::Matrix3d Q = limb.rotations[k] * R;
+    if (m_options.blend_nodes && l.size() > 1) {
+      // Position along the axis relative to the neighbour node on that side; half way to it
+      // both transforms weigh the same, so the blend is continuous across the boundary between
+      // the two nodes' vertex sets.
+      const std::vector<double>& s_k = along_axis[static_cast<std::size_t>(li)];
+      const double u = (xv - l[k]).dot(axes[static_cast<std::size_t>(li)]);
+      const std::size_t j = u >= 0 ? std::min(k + 1, l.size() - 1) : (k > 0 ? k - 1 : 0);
+      const double gap = std::abs(s_k[j] - s_k[k]);
+      if (j != k && gap > 1e-9) {
+        const double w = std::min(0.5, std::abs(u) / gap);
+        p = (1 - w) * p + w * apply(j);
+        Q = slerp(Q, limb.rotations[j] * R, w);
+      }
+    }
+    rigid.row(static_cast<Eigen::Index>(v)) = p.transpose();
+    rotation[v] = Q;
+  }
+  out.timings.driving_ms = ms_since(t1);
+
+  // Laplacian surface deformation: handles at their rigid positions, the rest's differential
+  // coordinates turned by each vertex's rotation; near a seam the rotation fades from the
+  // limb's to the torso's over seam_radius on both sides.
+  const auto t2 = Clock::now();
+  Eigen::MatrixXd delta(m_rest_delta.rows(), 3);
+  const double r = m_options.seam_radius;
+  for (std::size_t v = 0; v < nv; ++v) {
+    Eigen::Matrix3d Q = rotation[v];
+    if (m_seam_distance[v] < r) {
+      if (m_vertex_limb[v] >= 0)
+        Q = slerp(R, Q, 0.5 + 0.5 * m_seam_distance[v] / r);
+      else if (m_seam_limb[v] >= 0)
+        Q = slerp(R, out.limbs[static_cast<std::size_t>(m_seam_limb[v])].rotations.front() * R,
+                  0.5 - 0.5 * m_seam_distance[v] / r);
+    }
+    delta.row(static_cast<Eigen::Index>(v)) =
+        (Q * m_rest_delta.row(static_cast<Eigen::Index>(v)).transpose()).transpose();
+  }
+  Eigen::MatrixXd targets(static_cast<Eigen::Index>(m_handles.size()), 3);
+  for (std::size_t c = 0; c < m_handles.size(); ++c)
+    targets.row(static_cast<Eigen::Index>(c)) = rigid.row(m_handles[c]);
+  out.positions = m_deformer->deform(delta, targets);
+  out.timings.laplacian_ms = ms_since(t2);
+  out.timings.total_ms = out.timings.orientation_ms + out.timings.driving_ms + out.timings.laplacian_ms;
+  return out;
+}
+
+SkeletonDriving drive_garment(const Mesh& garment, const GarmentSegmentation& segmentation,
+                              std::span<const PartSkeleton> skeletons, const JointPositions& body_joints,
+                              const SkeletonDrivingOptions& options) {
+  const SkeletonDriver driver(garment, segmentation, skeletons, options);
+  SkeletonDriving out = driver.drive(body_joints);
+  out.timings.setup_ms = driver.setup_ms();
+  out.timings.total_ms += driver.setup_ms();
+  return out;
+}
+
+} // namespace vfit

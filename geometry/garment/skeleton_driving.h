@@ -1,0 +1,149 @@
+#pragma once
+/// \file
+/// Skeleton-driven garment deformation (seed 000 §5.2–5.4): the garment's torso is turned and
+/// moved onto the body's trunk (orientation, eq. 5–7, plus the translation of eq. 16–17), each
+/// sleeve and leg skeleton is laid along the body's shoulder→elbow→wrist or hip→knee→ankle
+/// bones by arc length (eq. 8–11), the part's vertices follow their node rigidly (eq. 13–15,
+/// blended between neighbouring nodes), and a Laplacian surface deformation (Sorkine et al.
+/// 2004, laplacian_deformation.h) joins limbs and torso continuously across the seams.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "geometry/body/skeleton.h"
+#include "geometry/mesh/mesh.h"
+#include "laplacian_deformation.h"
+#include "segment.h"
+#include "skeleton_parts.h"
+
+namespace vfit {
+
+struct SkeletonDrivingOptions {
+  /// Vertices closer than this to a limb's seam (the ring where a sleeve or leg meets the
+  /// torso), in metres, are left free for the Laplacian solve; all others are handles.
+  double seam_radius = 0.06;
+  /// Weight of the handles in the Laplacian least squares (LaplacianDeformer's `weight`).
+  double handle_weight = 10.0;
+  /// Blend each vertex's rigid transform with the neighbouring node's by its position along
+  /// the chain, so that consecutive nodes leave no steps in the sleeve.
+  bool blend_nodes = true;
+};
+
+/// Wall-clock time per stage (ms).
+struct SkeletonDrivingTimings {
+  double orientation_ms = 0; ///< key joints, torso rotation (eq. 5–7) and translation
+  double driving_ms = 0;   ///< node targets (eq. 8–11), node rotations and per-vertex rigid transforms (eq. 13–15)
+  double laplacian_ms = 0; ///< rotated differential coordinates and the three per-axis solves
+  double setup_ms = 0;     ///< SkeletonDriver construction: seam distances, handles, factorisation
+  double total_ms = 0;     ///< all of the above
+};
+
+/// One sleeve or leg after driving. Each node is placed by its distance from the garment's own
+/// shoulder or hip joint along the limb's axis, which for the straight limbs of a garment
+/// modelled in T- or A-pose is eq. 8's arc length, but is not thrown off by the wobble of a
+/// short, wide sleeve's skeleton.
+struct DrivenLimb {
+  GarmentPart part = GarmentPart::LEFT_SLEEVE;
+  std::vector<Eigen::Vector3d> targets; ///< #N node targets l'_k on the body's bones (m), eq. 11
+  std::vector<Eigen::Matrix3d>
+      rotations;            ///< #N node rotations Q_k (eq. 13–15): the limb's axis onto its bone, twist-free
+  std::vector<int> segment; ///< #N: 0 on the upper bone (shoulder→elbow, hip→knee), 1 on the lower
+};
+
+/// Result of driving a garment onto a body.
+struct SkeletonDriving {
+  std::vector<float> positions;                                 ///< #V × 3 deformed positions (m)
+  Eigen::Matrix3d torso_rotation = Eigen::Matrix3d::Identity(); ///< R = R_v R_h of eq. 5–7
+  Eigen::Vector3d torso_translation = Eigen::Vector3d::Zero();  ///< after the rotation (eq. 16–17)
+  std::vector<DrivenLimb> limbs;                                ///< in the skeletons' order
+  SkeletonDrivingTimings timings;
+};
+
+/// The garment's key joints and limb axes for orientation and placement (mesh units). For a
+/// top, j1 and j2 are the right and left shoulder joints and the axes the upper sleeves' (the
+/// sleeve boundary planes' points and normals of §4.2, eq. 1–2). For trousers and shorts they
+/// are the right and left hip joints and the legs' axes: each leg's axis is the principal
+/// direction of its skeleton's nodes through their centroid, and the hip is the axis's point at
+/// a height calibrated on the catalogue's mannequin between the crotch key point and the
+/// waistband's centre, both hips then at their mean depth (the garment is left/right
+/// symmetric, as segment_garment() requires). The garment's vertical is +Y, as segment_garment() requires. Throws
+/// vfit::Error("skeleton driving", …) when the segmentation lacks the key points or skeletons
+/// needed.
+struct GarmentKeyJoints {
+  Eigen::Vector3d j1 = Eigen::Vector3d::Zero();           ///< right shoulder or hip (−X side)
+  Eigen::Vector3d j2 = Eigen::Vector3d::Zero();           ///< left shoulder or hip (+X side)
+  Eigen::Vector3d right_axis = -Eigen::Vector3d::UnitX(); ///< unit, from j1 towards the right limb's open end
+  Eigen::Vector3d left_axis = Eigen::Vector3d::UnitX();   ///< unit, from j2 towards the left limb's open end
+  bool legs = false;                                      ///< true: hips (trousers, shorts); false: shoulders (tops)
+};
+GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons);
+
+/// Target points of a chain on a bone polyline (seed 000 eq. 8–11): node k, at arc length
+/// f_seg(l_1, l_k) from the first node, goes to arc length `offset` + f_seg(l_1, l_k) along
+/// `bones` (#B ≥ 2 joints, e.g. shoulder, elbow, wrist), continued along the last bone beyond
+/// its end. `segment` (#N) receives the bone index each target lies on. Coincident joints are
+/// skipped; a polyline of zero length maps every node to its first joint.
+std::vector<Eigen::Vector3d> arc_length_targets(std::span<const Eigen::Vector3d> nodes,
+                                                std::span<const Eigen::Vector3d> bones, double offset,
+                                                std::vector<int>& segment);
+
+/// The rotation taking unit-or-not vector `from` to `to` about their common normal (Rodrigues,
+/// seed 000 eq. 6–7); identity for a zero vector; a half turn about an axis normal to `from`
+/// for opposite vectors.
+Eigen::Matrix3d rotation_between(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
+
+/// Precompute/solve skeleton driving for one garment: the handles (vertices further than
+/// options.seam_radius from every limb seam) and the Laplacian factorisation depend on the
+/// garment alone and are built once; drive() then places the garment on any body.
+///
+/// garment: #V × 3 positions (m), #F × 3 triangles; segmentation: segment_garment()'s result
+/// for it (labels and key points); skeletons: extract_limb_skeletons()'s for it (entries that
+/// are not sleeves or legs are ignored). Throws vfit::Error("skeleton driving", …) when the
+/// labels or skeletons do not match the mesh, when the garment has no key joints (skirts,
+/// sleeveless tops and dresses: see garment_key_joints()), or when a connected piece of the
+/// garment has no handle.
+class SkeletonDriver {
+public:
+  SkeletonDriver(const Mesh& garment, const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons,
+                 const SkeletonDrivingOptions& options = {});
+  ~SkeletonDriver();
+  SkeletonDriver(SkeletonDriver&&) noexcept;
+  SkeletonDriver& operator=(SkeletonDriver&&) noexcept;
+
+  /// Deforms the garment onto a body with joints `body_joints` (24 × 3, m, posed).
+  SkeletonDriving drive(const JointPositions& body_joints) const;
+
+  /// Vertex ids held as handles in the Laplacian solve, ascending.
+  const std::vector<std::int32_t>& handles() const { return m_handles; }
+  /// #V distances (m) from each vertex to the nearest limb seam vertex (+∞ with no limb).
+  const std::vector<double>& seam_distance() const { return m_seam_distance; }
+  double setup_ms() const { return m_setup_ms; }
+
+private:
+  Mesh m_garment;
+  std::vector<GarmentPart> m_parts;
+  std::vector<PartSkeleton> m_skeletons;
+  GarmentKeyJoints m_key_joints;
+  SkeletonDrivingOptions m_options;
+  std::vector<double> m_seam_distance;
+  std::vector<std::int32_t> m_seam_limb; ///< #V: the limb whose seam is nearest, −1 when none
+  std::vector<std::int32_t> m_handles;
+  std::vector<std::int32_t> m_vertex_limb; ///< #V: index into m_skeletons, −1 for the torso
+  std::vector<std::int32_t> m_vertex_node; ///< #V: node within its limb, −1 for the torso
+  Eigen::MatrixXd m_rest_delta;            ///< #V × 3: L · rest positions
+  std::unique_ptr<LaplacianDeformer> m_deformer;
+  double m_setup_ms = 0;
+};
+
+/// One call: SkeletonDriver(garment, segmentation, skeletons, options).drive(body_joints), with
+/// the setup time in the timings.
+SkeletonDriving drive_garment(const Mesh& garment, const GarmentSegmentation& segmentation,
+                              std::span<const PartSkeleton> skeletons, const JointPositions& body_joints,
+                              const SkeletonDrivingOptions& options = {});
+
+} // namespace vfit

@@ -1,0 +1,95 @@
+#pragma once
+/// \file
+/// Implicit (backward) Euler integration of a mass-spring cloth (Baraff & Witkin 1998, §3 and
+/// §5; seed 004 §2 uses it): one linearised backward-Euler step of length h solves
+///   (M − h·∂f/∂v − h²·∂f/∂x)·Δv = h·(f₀ + h·∂f/∂x·v₀)                       (B&W eq. 16)
+/// for the velocity change Δv, then v₁ = v₀ + Δv, x₁ = x₀ + h·v₁. f is the cloth's force of
+/// kernels/cloth_rk4.h (springs, gravity m·g, global damping −μ·m·v); the spring Jacobian
+/// blocks come from cloth_math.h's vfit_spring_system_block (compressed springs' negative
+/// transverse stiffness clamped to zero, so the matrix is symmetric positive definite).
+///
+/// The solve is a conjugate gradient preconditioned by the inverse 3×3 diagonal blocks (block
+/// Jacobi), matrix-free over the CSR spring adjacency: each particle gathers its own row, so no
+/// atomics. Pinned particles (inverse mass 0) are constraints handled by B&W's filter (§5.3):
+/// their rows and columns are projected out, their Δv is 0 and they never move. Dot products
+/// are summed per fixed chunk of particles in double and the chunk sums added in chunk order,
+/// so the serial and TBB drivers give the same bits for any thread count.
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "cloth_rk4.h"
+#include "cloth_springs.h"
+
+namespace vfit {
+
+/// Particles per reduction chunk (and per TBB task) of the implicit solver. Fixed, so the
+/// order of every floating-point sum is independent of the thread count.
+inline constexpr std::size_t CLOTH_IMPLICIT_CHUNK = 2048;
+
+/// Stopping rule of the conjugate gradient.
+struct ImplicitSolveOptions {
+  /// Stop when ‖r‖ ≤ tolerance·‖b‖ (filtered residual and right-hand side, Euclidean norms in
+  /// N·s). 1e-3 leaves a velocity error far below what one step changes; at rest b → 0 and
+  /// the relative test still drives the solve, so the equilibrium is the true f(x) = 0.
+  double tolerance = 1e-3;
+  int max_iterations = 200; ///< also stops here (the step is then taken with the last iterate)
+};
+
+/// The linear system of one implicit step, assembled at the step start (x₀, v₀). Row i of
+/// A = M − h·∂f/∂v − h²·∂f/∂x is A_ii·p_i − Σ_e S_e·p_j over particle i's adjacency entries e
+/// (neighbour j); pinned rows are filtered out.
+struct ImplicitSystem {
+  std::vector<float> off_diagonal;   ///< #adjacency entries × 6: S_e (vfit_sym3, kg)
+  std::vector<float> diagonal;       ///< #V × 6: A_ii = m_i·(1 + h·μ)·I + Σ_e S_e (kg)
+  std::vector<float> preconditioner; ///< #V × 6: A_ii⁻¹ (1/kg), zero for pinned particles
+  std::vector<float> rhs;            ///< #V × 3: b = h·(f₀ + h·∂f/∂x·v₀) (N·s), zero when pinned
+  std::vector<unsigned char> free;   ///< #V: 1 = free particle, 0 = pinned (filtered)
+};
+
+/// Scratch of the solver (#V × 3 each, sized by the callee) and the system, reused across steps.
+struct ImplicitWorkspace {
+  ImplicitSystem system;
+  std::vector<float> dv, r, z, p, q;
+  std::vector<double> partials; ///< one entry per reduction chunk and quantity
+};
+
+/// What one implicit solve did.
+struct ImplicitSolveReport {
+  int iterations = 0;             ///< CG iterations
+  double relative_residual = 0;   ///< ‖r‖/‖b‖ at exit (0 when b = 0)
+  bool converged = false;         ///< relative_residual ≤ tolerance
+};
+
+/// Assembles the system for a step of h (s) at the state (positions m, velocities m/s, #V × 3)
+/// into `system` (resized). `parallel` selects the TBB driver (same bits as serial).
+void assemble_implicit_system(std::span<const float> positions, std::span<const float> velocities,
+                              const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
+                              ImplicitSystem& system, bool parallel);
+
+/// out = filtered A·p (#V × 3 each, out resized); pinned rows of out are 0 and pinned entries
+/// of p are ignored. Serial; for tests and for building a dense oracle.
+void implicit_system_multiply(const ImplicitSystem& system, const SpringAdjacency& adjacency,
+                              std::span<const float> p, std::vector<float>& out);
+
+/// Solves A·Δv = b by block-Jacobi-preconditioned, filtered CG from Δv = 0 into workspace.dv
+/// (#V × 3, m/s). `parallel` selects the TBB driver (same bits as serial).
+ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                          ImplicitWorkspace& workspace, bool parallel);
+
+/// One implicit Euler step of h (s) in place: assemble, solve, v += Δv, x += h·v for the free
+/// particles (pinned ones keep x and v). Serial range kernels.
+ImplicitSolveReport implicit_euler_step_serial(std::span<float> positions, std::span<float> velocities,
+                                               const SpringAdjacency& adjacency, const ClothParticles& particles,
+                                               float h, const ImplicitSolveOptions& options,
+                                               ImplicitWorkspace& workspace);
+
+/// TBB driver of implicit_euler_step_serial() (chunks of CLOTH_IMPLICIT_CHUNK particles); the
+/// same bits for any thread count.
+ImplicitSolveReport implicit_euler_step_tbb(std::span<float> positions, std::span<float> velocities,
+                                            const SpringAdjacency& adjacency, const ClothParticles& particles,
+                                            float h, const ImplicitSolveOptions& options,
+                                            ImplicitWorkspace& workspace);
+
+} // namespace vfit

@@ -1,0 +1,101 @@
+// Fit feedback: strain against a known stretch, and the size verdicts of seed 000 Fig. 13 (the
+// catalogue's trousers P1-P4 on one body: tight, good, loose, falls off) and of tops by size.
+#include "engine/fit_feedback.h"
+
+#include <map>
+
+#include <gtest/gtest.h>
+
+#include "geometry/body/mannequin.h"
+#include "geometry/garment/catalogue.h"
+#include "kernels/error.h"
+
+namespace vfit {
+namespace {
+
+const Body& body() {
+  static const Body b = [] {
+    MannequinOptions o;
+    o.pose = RestPose::APOSE;
+    o.target_vertices = 5000;
+    return make_mannequin(o);
+  }();
+  return b;
+}
+
+const Garment& garment(GarmentType type, const char* size) {
+  static std::map<std::string, Garment> cache;
+  const std::string key = garment_type_name(type) + size;
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  GarmentOptions o;
+  o.type = type;
+  o.size = size;
+  o.pose = RestPose::APOSE;
+  o.target_vertices = 2500;
+  return cache.emplace(key, make_garment(o)).first->second;
+}
+
+TEST(FitFeedback, StrainIsTheEdgeStretchAndEaseTheSignedDistance) {
+  const Garment& g = garment(GarmentType::TEE, "M");
+  Mesh stretched = g.mesh;
+  for (float& x : stretched.positions) x *= 1.05f; // every edge 5 % longer
+  const FitFeedback f = fit_feedback(g.mesh, stretched, g.vertex_parts, GarmentType::TEE, body());
+  ASSERT_EQ(f.strain.size(), g.mesh.vertex_count());
+  for (float s : f.strain) ASSERT_NEAR(s, 0.05, 1e-4); // float rounding of the scaled positions
+  const FitFeedback same = fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TEE, body());
+  for (float s : same.strain) ASSERT_NEAR(s, 0.0f, 1e-6f); // rest lengths are stored as float
+  // The catalogue tee is built 3 mm or more outside its body: every vertex's ease is positive.
+  for (float e : same.ease) ASSERT_GT(e, 0.0f);
+}
+
+// Seed 000 Fig. 13: the four trousers on one body get four different, correct verdicts.
+TEST(FitFeedback, TrousersP1ToP4AreTightGoodLooseAndFallOff) {
+  const std::pair<const char*, SizeVerdict> cases[] = {{"P1", SizeVerdict::TIGHT},
+                                                       {"P2", SizeVerdict::GOOD},
+                                                       {"P3", SizeVerdict::LOOSE},
+                                                       {"P4", SizeVerdict::FALLS_OFF}};
+  for (const auto& [size, want] : cases) {
+    const Garment& g = garment(GarmentType::TROUSERS, size);
+    const FitFeedback f = fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TROUSERS, body());
+    EXPECT_EQ(size_verdict_name(f.verdict), size_verdict_name(want)) << size << ": " << f.reason;
+    for (const RegionFeedback& r : f.regions)
+      std::cout << size << " " << r.name << ": " << r.vertices << " vertices, girth ease " << 100 * r.girth_ease
+                << " cm, mean ease " << r.mean_ease_mm << " mm, verdict " << size_verdict_name(r.verdict) << "\n";
+  }
+}
+
+TEST(FitFeedback, TeesByChestEase) {
+  const std::pair<const char*, SizeVerdict> cases[] = {
+      {"XS", SizeVerdict::TIGHT}, {"M", SizeVerdict::GOOD}, {"XXL", SizeVerdict::LOOSE}};
+  for (const auto& [size, want] : cases) {
+    const Garment& g = garment(GarmentType::TEE, size);
+    const FitFeedback f = fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TEE, body());
+    EXPECT_EQ(size_verdict_name(f.verdict), size_verdict_name(want)) << size << ": " << f.reason;
+    for (const RegionFeedback& r : f.regions)
+      std::cout << size << " " << r.name << ": " << r.vertices << " vertices, girth ease " << 100 * r.girth_ease
+                << " cm, mean ease " << r.mean_ease_mm << " mm, verdict " << size_verdict_name(r.verdict) << "\n";
+  }
+}
+
+TEST(FitFeedback, AWaistbandThatSlidDownFallsOff) {
+  const Garment& g = garment(GarmentType::TROUSERS, "P2");
+  std::vector<float> before = g.mesh.positions;
+  for (std::size_t v = 0; v < g.mesh.vertex_count(); ++v) before[3 * v + 1] += 0.05f; // it was 5 cm higher
+  const FitFeedback f = fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TROUSERS, body(), before);
+  EXPECT_EQ(f.verdict, SizeVerdict::FALLS_OFF) << f.reason;
+  EXPECT_NEAR(f.waistband_drop, 0.05, 1e-5);
+}
+
+TEST(FitFeedback, MismatchedInputsAreErrors) {
+  const Garment& g = garment(GarmentType::TEE, "M");
+  std::vector<GarmentPart> few(g.vertex_parts.begin(), g.vertex_parts.end() - 1);
+  EXPECT_THROW(fit_feedback(g.mesh, g.mesh, few, GarmentType::TEE, body()), Error);
+  Mesh other = g.mesh;
+  other.triangles.resize(other.triangles.size() - 3);
+  EXPECT_THROW(fit_feedback(g.mesh, other, g.vertex_parts, GarmentType::TEE, body()), Error);
+  const std::vector<float> short_before(6, 0.0f);
+  EXPECT_THROW(fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TEE, body(), short_before), Error);
+}
+
+} // namespace
+} // namespace vfit

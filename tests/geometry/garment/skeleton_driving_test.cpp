@@ -1,0 +1,262 @@
+// Skeleton driving (seed 000 §5.2–5.4): catalogue garments in T-pose driven onto the mannequin
+// in other poses land on the body's bones without stretching the cloth away from the seams.
+#include "geometry/garment/skeleton_driving.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numbers>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "geometry/body/mannequin_shape.h"
+#include "geometry/body/pose_io.h"
+#include "geometry/garment/catalogue.h"
+#include "kernels/error.h"
+
+namespace vfit {
+namespace {
+
+struct Fixture {
+  Garment garment;
+  GarmentSegmentation segmentation;
+  std::vector<PartSkeleton> skeletons;
+};
+
+// Generated once per process (a garment, its segmentation and skeletons: about a second).
+const Fixture& fixture(GarmentType type) {
+  static std::map<GarmentType, Fixture> cache;
+  auto it = cache.find(type);
+  if (it != cache.end()) return it->second;
+  GarmentOptions o;
+  o.type = type;
+  o.pose = RestPose::TPOSE;
+  o.target_vertices = 4000;
+  Fixture f;
+  f.garment = make_garment(o);
+  f.segmentation = segment_garment(f.garment.mesh);
+  f.skeletons = extract_limb_skeletons(f.garment.mesh, f.segmentation.vertex_parts);
+  return cache.emplace(type, std::move(f)).first->second;
+}
+
+// The rest joints of the T-pose mannequin the catalogue's garments are built around (same
+// default measurements), without meshing it.
+const JointPositions& rest_joints() {
+  static const JointPositions joints = MannequinShape(BodyMeasurements{}, RestPose::TPOSE).joints();
+  return joints;
+}
+
+JointPositions joints_in(const std::string& pose) {
+  return posed_joints(rest_joints(), named_pose(pose, RestPose::TPOSE));
+}
+
+Eigen::Vector3d joint_at(const JointPositions& j, Joint which) { return j.row(idx(which)).transpose(); }
+
+double segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d d = b - a;
+  const double s = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+  return (a + s * d - p).norm();
+}
+
+// Largest distance from a driven limb's node centroids (recomputed from the deformed vertices:
+// eq. 12's vertex sets) to the bones `a`→`b`→`c`.
+double worst_node_distance(const PartSkeleton& s, const std::vector<float>& x, const Eigen::Vector3d& a,
+                           const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& rest_joint,
+                           const Eigen::Vector3d& rest_axis) {
+  std::vector<Eigen::Vector3d> sum(s.nodes.size(), Eigen::Vector3d::Zero());
+  std::vector<int> count(s.nodes.size(), 0);
+  for (std::size_t k = 0; k < s.vertices.size(); ++k) {
+    const auto v = static_cast<std::size_t>(s.vertices[k]);
+    sum[static_cast<std::size_t>(s.vertex_node[k])] += Eigen::Vector3d(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+    ++count[static_cast<std::size_t>(s.vertex_node[k])];
+  }
+  double worst = 0;
+  for (std::size_t n = 0; n < sum.size(); ++n) {
+    if (count[n] == 0) continue;
+    const Eigen::Vector3d p = sum[n] / count[n];
+    const Eigen::Vector3d r = s.nodes[n] - rest_joint;
+    const double rest_offset = (r - r.dot(rest_axis) * rest_axis).norm();
+    worst = std::max(worst, std::min(segment_distance(p, a, b), segment_distance(p, b, c)) - rest_offset);
+  }
+  return worst;
+}
+
+// Mean |length after / length before − 1| over the edges whose two ends are both `keep`.
+double edge_change_where(const Mesh& rest, const std::vector<float>& after, const std::vector<char>& keep) {
+  auto p = [](const std::vector<float>& x, std::int32_t v) {
+    const auto i = static_cast<std::size_t>(v);
+    return Eigen::Vector3d(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+  };
+  double sum = 0;
+  std::size_t n = 0;
+  for (std::size_t f = 0; f < rest.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = rest.triangles[3 * f + k], b = rest.triangles[3 * f + (k + 1) % 3];
+      if (!keep[static_cast<std::size_t>(a)] || !keep[static_cast<std::size_t>(b)]) continue;
+      const double l0 = (p(rest.positions, a) - p(rest.positions, b)).norm();
+      const double l1 = (p(after, a) - p(after, b)).norm();
+      sum += std::abs(l1 / l0 - 1);
+      ++n;
+    }
+  EXPECT_GT(n, rest.face_count()) << "too few edges away from the joints to measure";
+  return n ? sum / double(n) : 0.0;
+}
+
+TEST(ArcLengthTargets, KeepsLengthAndFollowsTheBend) {
+  // A straight chain of length 0.5 onto an L-shaped polyline of bones 0.3 + 0.3.
+  std::vector<Eigen::Vector3d> nodes;
+  for (int k = 0; k <= 5; ++k)
+    nodes.emplace_back(0.1 * k, 1.0, 0.0);
+  const std::vector<Eigen::Vector3d> bones{{0, 0, 0}, {0, -0.3, 0}, {0.3, -0.3, 0}};
+  std::vector<int> segment;
+  const auto t = arc_length_targets(nodes, bones, 0.05, segment);
+  ASSERT_EQ(t.size(), nodes.size());
+  EXPECT_NEAR((t[0] - Eigen::Vector3d(0, -0.05, 0)).norm(), 0, 1e-12);
+  EXPECT_NEAR((t[2] - Eigen::Vector3d(0, -0.25, 0)).norm(), 0, 1e-12);
+  EXPECT_NEAR((t[3] - Eigen::Vector3d(0.05, -0.3, 0)).norm(), 0, 1e-12);
+  // Past the last joint the chain continues along the last bone.
+  EXPECT_NEAR((t[5] - Eigen::Vector3d(0.25, -0.3, 0)).norm(), 0, 1e-12);
+  EXPECT_EQ(segment, (std::vector<int>{0, 0, 0, 1, 1, 1}));
+  const std::vector<Eigen::Vector3d> longer{{0, 0, 0}, {0, -0.1, 0}, {0.1, -0.1, 0}};
+  const auto u = arc_length_targets(nodes, longer, 0.0, segment);
+  EXPECT_NEAR((u[5] - Eigen::Vector3d(0.4, -0.1, 0)).norm(), 0, 1e-12);
+  EXPECT_THROW(arc_length_targets(nodes, std::span(bones).first(1), 0.0, segment), Error);
+}
+
+TEST(RotationBetween, TurnsOneDirectionOntoAnother) {
+  const std::vector<Eigen::Vector3d> dirs{{1, 0, 0}, {0, -2, 0}, {0.3, 0.4, -1}, {-1, 0, 0}, {1, 1e-14, 0}};
+  for (const auto& a : dirs)
+    for (const auto& b : dirs) {
+      const Eigen::Matrix3d R = rotation_between(a, b);
+      EXPECT_NEAR((R * a.normalized() - b.normalized()).norm(), 0, 1e-9);
+      EXPECT_NEAR((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 0, 1e-9);
+      EXPECT_NEAR(R.determinant(), 1, 1e-9);
+      // Minimal: directions normal to both stay put.
+      const Eigen::Vector3d n = a.cross(b);
+      if (n.norm() > 1e-6) {
+        EXPECT_NEAR((R * n - n).norm(), 0, 1e-9 * n.norm());
+      }
+    }
+  EXPECT_TRUE(rotation_between(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()).isIdentity());
+}
+
+// Onto the pose it was made in, a garment barely moves: the torso transform is about the
+// identity, every node's rotation too.
+class OwnPose : public ::testing::TestWithParam<GarmentType> {};
+
+TEST_P(OwnPose, GarmentStaysPut) {
+  const Fixture& f = fixture(GetParam());
+  const SkeletonDriving d = drive_garment(f.garment.mesh, f.segmentation, f.skeletons, rest_joints());
+  ASSERT_EQ(d.positions.size(), f.garment.mesh.positions.size());
+  double mean = 0;
+  for (std::size_t v = 0; v < f.garment.mesh.vertex_count(); ++v)
+    mean += (Eigen::Vector3d(d.positions[3 * v], d.positions[3 * v + 1], d.positions[3 * v + 2]) -
+             Eigen::Vector3d(f.garment.mesh.positions[3 * v], f.garment.mesh.positions[3 * v + 1],
+                             f.garment.mesh.positions[3 * v + 2]))
+                .norm();
+  mean /= double(f.garment.mesh.vertex_count());
+  std::printf("own pose: mean move %.4f m, torso angle %.4f rad, translation %.4f m\n", mean,
+              Eigen::AngleAxisd(d.torso_rotation).angle(), d.torso_translation.norm());
+  // The garment's key joints are estimates (sleeve planes, thigh axes) of the mannequin's
+  // joints: within about a degree and 2 cm of them.
+  EXPECT_LT(Eigen::AngleAxisd(d.torso_rotation).angle(), 0.03);
+  EXPECT_LT(d.torso_translation.norm(), 0.03);
+  // Limbs keep their offsets from the bones, so only the small torso transform moves them.
+  EXPECT_LT(mean, 0.01);
+}
+
+INSTANTIATE_TEST_SUITE_P(Catalogue, OwnPose, ::testing::Values(GarmentType::TEE, GarmentType::TROUSERS),
+                         [](const auto& param_info) { return garment_type_name(param_info.param); });
+
+struct PoseCase {
+  const char* pose;
+  GarmentType type;
+};
+void PrintTo(const PoseCase& c, std::ostream* os) { *os << c.pose; }
+
+class DrivenOntoPose : public ::testing::TestWithParam<PoseCase> {};
+
+TEST_P(DrivenOntoPose, LimbsFollowTheBonesWithoutStretching) {
+  const PoseCase& c = GetParam();
+  const Fixture& f = fixture(c.type);
+  ASSERT_EQ(f.skeletons.size(), 2u);
+  const JointPositions j = joints_in(c.pose);
+  const SkeletonDrivingOptions options;
+  const GarmentKeyJoints g = garment_key_joints(f.segmentation, f.skeletons);
+  const SkeletonDriver driver(f.garment.mesh, f.segmentation, f.skeletons, options);
+  const SkeletonDriving d = driver.drive(j);
+  ASSERT_EQ(d.positions.size(), f.garment.mesh.positions.size());
+  ASSERT_EQ(d.limbs.size(), 2u);
+  std::printf("%s: orientation %.2f ms, driving %.2f ms, laplacian %.2f ms, setup %.2f ms, handles %zu / %zu\n", c.pose,
+              d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms, driver.setup_ms(),
+              driver.handles().size(), f.garment.mesh.vertex_count());
+  for (const PartSkeleton& s : f.skeletons) {
+    const bool sleeve = s.part == GarmentPart::LEFT_SLEEVE || s.part == GarmentPart::RIGHT_SLEEVE;
+    const bool left = s.part == GarmentPart::LEFT_SLEEVE || s.part == GarmentPart::LEFT_LEG;
+    const Joint a =
+        sleeve ? (left ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER) : (left ? Joint::LEFT_HIP : Joint::RIGHT_HIP);
+    const Joint b =
+        sleeve ? (left ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW) : (left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE);
+    const Joint e =
+        sleeve ? (left ? Joint::LEFT_WRIST : Joint::RIGHT_WRIST) : (left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE);
+    const double worst = worst_node_distance(s, d.positions, joint_at(j, a), joint_at(j, b), joint_at(j, e),
+                                             left ? g.j2 : g.j1, left ? g.left_axis : g.right_axis);
+    std::printf("  %s: %zu nodes, worst node–bone distance beyond its rest offset %.4f m\n",
+                garment_part_name(s.part).c_str(), s.nodes.size(), worst);
+    // 2 cm: the bar for skeletons on the bones after driving. Deformed nodes keep
+    // their rest offset from the limb's axis (a slanted armhole ring's centroid lies a few cm
+    // off it), so that offset is allowed on top.
+    EXPECT_LT(worst, 0.02) << garment_part_name(s.part);
+    // The driven skeleton itself (eq. 11) lies on the bones.
+    const auto limb =
+        std::find_if(d.limbs.begin(), d.limbs.end(), [&](const DrivenLimb& x) { return x.part == s.part; });
+    ASSERT_NE(limb, d.limbs.end());
+    for (const Eigen::Vector3d& target : limb->targets)
+      EXPECT_LT(std::min(segment_distance(target, joint_at(j, a), joint_at(j, b)),
+                         segment_distance(target, joint_at(j, b), joint_at(j, e))),
+                0.02)
+          << garment_part_name(s.part);
+  }
+  // Away from the joints the cloth moves rigidly, up to the Laplacian's smoothing: the issue's
+  // bar is ≤ 3 % mean edge-length change there. Away: more than 2 cm (along the surface) from
+  // the seams where sleeves or legs meet the torso, which keeps 4 of the 6 cm of free band on
+  // each side of a seam in the measure, and more than 10 cm (about the cloth's radius around
+  // the limb plus 3 cm) from the posed elbows and knees, where the cloth must fold.
+  const double seam_gap = 0.02, joint_gap = 0.10;
+  std::vector<char> keep(f.garment.mesh.vertex_count(), 1);
+  for (std::size_t v = 0; v < keep.size(); ++v) {
+    const Eigen::Vector3d p(d.positions[3 * v], d.positions[3 * v + 1], d.positions[3 * v + 2]);
+    if (driver.seam_distance()[v] < seam_gap) keep[v] = 0;
+    for (Joint middle : {Joint::LEFT_ELBOW, Joint::RIGHT_ELBOW, Joint::LEFT_KNEE, Joint::RIGHT_KNEE})
+      if ((p - joint_at(j, middle)).norm() < joint_gap) keep[v] = 0;
+  }
+  const double change = edge_change_where(f.garment.mesh, d.positions, keep);
+  // Over the whole garment, folds at the shoulders, hips, elbows and knees included (measured
+  // 2.4–5.4 %): the bar only catches a seam torn open or a limb left behind.
+  const double overall = edge_change_where(f.garment.mesh, d.positions, std::vector<char>(keep.size(), 1));
+  std::printf("  mean edge-length change away from the joints %.4f, overall %.4f\n", change, overall);
+  EXPECT_LE(change, 0.03);
+  EXPECT_LE(overall, 0.08);
+}
+
+INSTANTIATE_TEST_SUITE_P(Tee, DrivenOntoPose,
+                         ::testing::Values(PoseCase{"arms_down", GarmentType::TEE},
+                                           PoseCase{"elbows_bent", GarmentType::TEE},
+                                           PoseCase{"arms_raised", GarmentType::TEE}),
+                         [](const auto& param_info) { return std::string(param_info.param.pose); });
+INSTANTIATE_TEST_SUITE_P(Trousers, DrivenOntoPose,
+                         ::testing::Values(PoseCase{"legs_apart", GarmentType::TROUSERS},
+                                           PoseCase{"knee_bent", GarmentType::TROUSERS}),
+                         [](const auto& param_info) { return std::string(param_info.param.pose); });
+
+TEST(SkeletonDriving, RejectsLabelsOfAnotherMesh) {
+  const Fixture& f = fixture(GarmentType::TEE);
+  GarmentSegmentation wrong = f.segmentation;
+  wrong.vertex_parts.pop_back();
+  EXPECT_THROW(SkeletonDriver(f.garment.mesh, wrong, f.skeletons), Error);
+}
+
+} // namespace
+} // namespace vfit
