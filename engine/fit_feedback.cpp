@@ -145,7 +145,16 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   index.closest_points(fitted.positions, std::numeric_limits<float>::infinity(), hits);
   out.ease = hits.signed_distances;
 
-  // Regions.
+  // Regions. Girth ease is the garment's size against the body's, so it is measured where the
+  // garment was placed (before the simulation, when there was one): a garment settling under
+  // gravity brings its narrower waist down to the hips, which says where it rests, not what size
+  // it is. Strain and distance come from the final shape.
+  Mesh placed_storage;
+  if (!before_simulation.empty()) {
+    placed_storage.triangles = fitted.triangles;
+    placed_storage.positions.assign(before_simulation.begin(), before_simulation.end());
+  }
+  const Mesh& placed = before_simulation.empty() ? fitted : placed_storage;
   const BodyLandmarks lm = landmarks(body);
   const double height_scale = std::max(0.5, joint(body, Joint::HEAD).y() - std::min(joint(body, Joint::LEFT_ANKLE).y(),
                                                                                    joint(body, Joint::RIGHT_ANKLE).y()));
@@ -192,7 +201,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
     RegionFeedback r = summarise(name, [&](std::size_t v) {
       return (parts[v] == GarmentPart::TORSO || parts[v] == GarmentPart::SKIRT) && near_height(v, y);
     });
-    r.girth_ease = r.vertices ? girth_ease(fitted, body.mesh, y, torso_axis(body, y)) : NaN;
+    r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, y, torso_axis(body, y)) : NaN;
     judge(r, min_ease);
     out.regions.push_back(r);
   };
@@ -204,7 +213,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
     if (is_bottom(type)) torso_region("hip", lm.hip, options.min_ease_hip);
   } else {
     RegionFeedback r = summarise("waist", [&](std::size_t v) { return parts[v] == GarmentPart::TORSO && near_height(v, lm.waist); });
-    r.girth_ease = r.vertices ? girth_ease(fitted, body.mesh, lm.waist, torso_axis(body, lm.waist)) : NaN;
+    r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, lm.waist, torso_axis(body, lm.waist)) : NaN;
     judge(r, 0.0);
     out.regions.push_back(r);
   }
@@ -215,7 +224,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
     double sum = 0;
     int count = 0;
     for (bool left : {true, false}) {
-      const double e = thigh_ease(fitted, body, left, lm.thigh, band);
+      const double e = thigh_ease(placed, body, left, lm.thigh, band);
       if (std::isfinite(e)) {
         sum += e;
         ++count;
@@ -280,9 +289,11 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
       out.reason = reason.str();
       return out;
     }
-    if (drop > options.slide_limit) {
+    const double band_height = highest->centroid.y();
+    if (!before_simulation.empty() && (drop > options.slide_limit || band_height < lm.hip)) {
       out.verdict = SizeVerdict::FALLS_OFF;
-      reason << "the waistband slid " << 100 * drop << " cm down the body during the simulation";
+      reason << "the waistband slid " << 100 * drop << " cm down the body during the simulation"
+             << (band_height < lm.hip ? ", past the hips" : "");
       out.reason = reason.str();
       return out;
     }

@@ -53,8 +53,10 @@ struct FitFeedbackOptions {
   /// Mean strain of a region above which it is tight whatever its girth (cloth stretched 3 %).
   double tight_strain = 0.03;
   /// A bottom falls off when its waistband's girth reaches the body's hip girth (nothing holds
-  /// it up), or when it slid down by more than this during the simulation (m).
-  double slide_limit = 0.03;
+  /// it up), when the simulation left its waistband below the hip line (it slid past the
+  /// hips), or when it slid down by more than this during the simulation (m). A garment that
+  /// settles by a few centimetres onto the hips stays up.
+  double slide_limit = 0.10;
 };
 
 /// Per-vertex values and summaries.
@@ -79,7 +81,9 @@ struct FitFeedback {
 /// - body: the posed body (closed mesh, outward; canonical joints). Landmark heights come from
 ///   measure_body() when the body is upright in a rest-like pose, else from its joints.
 /// - before_simulation: #V × 3 positions before the cloth simulation (empty when there was
-///   none): a bottom whose waistband dropped by more than slide_limit falls off.
+///   none): a bottom whose waistband dropped by more than slide_limit, or below the hip line,
+///   falls off; girth ease is measured on these positions (the garment as placed), strain and
+///   distance on `fitted`.
 /// Throws vfit::Error when the sizes disagree.
 FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const GarmentPart> parts, GarmentType type,
                          const Body& body, std::span<const float> before_simulation = {},

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <numeric>
 #include <span>
 #include <utility>
 
 #include "engine/fabric.h"
+#include "engine/fit_feedback.h"
+#include "geometry/garment/skeleton_driving.h"
 #include "engine/layering.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
@@ -112,14 +115,38 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
   report.timings.skeletons_ms = ms_since(t0);
   report.skeleton_parts = skeletons.size();
 
-  // Skeleton driving (seed 000 §5.3–5.4) lands here once geometry/garment/skeleton_driving is
-  // available; until then the garment keeps its own pose and the stage is reported as skipped.
-  report.driving = "skipped (not yet available)";
-  report.timings.driving_ms = 0;
+  // Skeleton driving (seed 000 §5.2–5.4): orientation, limbs onto the body's bones, Laplacian
+  // continuity; it includes the translation of eq. 16–17. Garments it cannot drive (skirts,
+  // dresses, sleeveless tops: no key joints) keep their own pose and get the coarse move alone.
+  const std::vector<float> as_modelled = mesh.positions; // rest lengths for the fit feedback
+  bool driven = false;
+  t0 = Clock::now();
+  if (!skeletons.empty()) {
+    try {
+      const SkeletonDriver driver(mesh, out.segmentation, skeletons, options.driving);
+      const SkeletonDriving d = driver.drive(body.joints);
+      mesh.positions = d.positions;
+      driven = true;
+      char line[160];
+      std::snprintf(line, sizeof line, "driven: %zu limbs (orientation %.1f, driving %.1f, Laplacian %.1f, setup %.1f ms)",
+                    d.limbs.size(), d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms,
+                    driver.setup_ms());
+      report.driving = line;
+    } catch (const Error& e) {
+      report.driving = std::string("skipped: ") + e.what();
+    }
+  } else {
+    report.driving = "skipped: no limb skeletons";
+  }
+  report.timings.driving_ms = ms_since(t0);
 
   t0 = Clock::now();
-  report.coarse_move = compute_coarse_move(report.type, out.segmentation.key_points, skeletons, body.joints);
-  translate_positions(mesh.positions, report.coarse_move.translation);
+  if (driven) {
+    report.coarse_move.rule = CoarseMoveRule::IN_DRIVING;
+  } else {
+    report.coarse_move = compute_coarse_move(report.type, out.segmentation.key_points, skeletons, body.joints);
+    translate_positions(mesh.positions, report.coarse_move.translation);
+  }
   report.timings.coarse_move_ms = ms_since(t0);
 
   t0 = Clock::now();
@@ -134,6 +161,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
   report.after_removal = removal.after;
   report.penetration_iterations = removal.iterations;
 
+  std::vector<float> before_simulation;
   if (!options.simulate) {
     report.simulation = SimulationOutcome::SKIPPED;
     report.simulation_status = "skipped (--no-simulation)";
@@ -158,6 +186,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
                                 ": its result is discarded, the mesh after penetration removal is kept");
     } else {
       report.simulation = rest.converged ? SimulationOutcome::CONVERGED : SimulationOutcome::TIME_LIMIT;
+      before_simulation = mesh.positions;
       const auto p = sim.positions();
       std::copy(p.begin(), p.end(), mesh.positions.begin());
     }
@@ -169,11 +198,32 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
       if (s.max_depth > POST_SIMULATION_TOLERANCE || s.crossing_edges > 0 || s.layer_inside_count > 0) {
         remove_penetration(mesh, body_index, crossings, layers, po);
         report.post_simulation_cleanup = true;
+        // A settled garment that removal cannot bring back outside the body (cloth drawn into
+        // a fold between limb and torso) is worse than no simulation: keep the garment as
+        // removal left it, and say so.
+        const PenetrationStats cleaned = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+        if (cleaned.max_depth > std::max(POST_SIMULATION_TOLERANCE, report.after_removal.max_depth) ||
+            cleaned.layer_inside_count > report.after_removal.layer_inside_count) {
+          mesh.positions = before_simulation;
+          before_simulation.clear();
+          report.simulation_discarded = true;
+          report.warnings.push_back("the simulated garment stayed " + std::to_string(cleaned.max_depth * 1e3) +
+                                    " mm inside the body after clean-up: the mesh after penetration removal is kept");
+        }
       }
       report.timings.penetration_ms += ms_since(t0);
     }
   }
   report.after = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+
+  t0 = Clock::now();
+  Mesh rest = mesh;
+  rest.positions = as_modelled;
+  out.feedback = fit_feedback(rest, mesh, out.segmentation.vertex_parts, report.type, body, before_simulation);
+  report.verdict = out.feedback.verdict;
+  report.verdict_reason = out.feedback.reason;
+  report.regions = out.feedback.regions;
+  report.timings.feedback_ms = ms_since(t0);
   report.timings.total_ms = report.timings.units_ms + report.timings.segmentation_ms + ms_since(t_dress);
 }
 
@@ -192,7 +242,7 @@ std::string to_string(SimulationOutcome outcome) {
 std::vector<std::pair<std::string, double>> FitStageTimes::named() const {
   return {{"units", units_ms},           {"segmentation", segmentation_ms}, {"skeletons", skeletons_ms},
           {"driving", driving_ms},       {"coarse_move", coarse_move_ms},   {"penetration", penetration_ms},
-          {"simulation", simulation_ms}, {"total", total_ms}};
+          {"simulation", simulation_ms}, {"feedback", feedback_ms},        {"total", total_ms}};
 }
 
 std::string cpu_model_name() {
@@ -261,6 +311,8 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& gar
     report.timings.coarse_move_ms += g.timings.coarse_move_ms;
     report.timings.penetration_ms += g.timings.penetration_ms;
     report.timings.simulation_ms += g.timings.simulation_ms;
+    report.timings.feedback_ms += g.timings.feedback_ms;
+    report.verdict = std::min(report.verdict, g.verdict); // FALLS_OFF < TIGHT < LOOSE < GOOD
   }
   report.timings.total_ms = ms_since(t_total);
   return result;

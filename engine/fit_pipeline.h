@@ -16,11 +16,13 @@
 #include <vector>
 
 #include "engine/cloth_sim.h"
+#include "engine/fit_feedback.h"
 #include "engine/penetration.h"
 #include "geometry/body/body.h"
 #include "geometry/garment/coarse_move.h"
 #include "geometry/garment/garment.h"
 #include "geometry/garment/segment.h"
+#include "geometry/garment/skeleton_driving.h"
 #include "geometry/garment/skeleton_parts.h"
 #include "geometry/mesh/mesh.h"
 #include "geometry/mesh/units.h"
@@ -38,6 +40,7 @@ struct FitOptions {
   /// The garments' length unit; detected per garment from its size and position when absent.
   std::optional<Units> garment_units;
   SegmentOptions segmentation;
+  SkeletonDrivingOptions driving;
   PartSkeletonOptions skeletons;
   int penetration_iterations = 25; ///< PenetrationOptions::max_iterations
   double smoothness = 1.0;         ///< PenetrationOptions::smoothness (λ2/λ1)
@@ -67,14 +70,15 @@ struct FitStageTimes {
   double units_ms = 0;        ///< unit detection and conversion to metres
   double segmentation_ms = 0; ///< segment_garment(): type detection and part labels
   double skeletons_ms = 0;    ///< extract_limb_skeletons()
-  double driving_ms = 0;      ///< skeleton driving (0 while the stage is not available)
-  double coarse_move_ms = 0;  ///< compute_coarse_move() and the translation
+  double driving_ms = 0;      ///< SkeletonDriver setup and drive(): orientation, driving, Laplacian
+  double coarse_move_ms = 0;  ///< compute_coarse_move() and the translation (garments not driven)
   double penetration_ms = 0;  ///< remove_penetration() (and any clean-up after simulation)
   double simulation_ms = 0;   ///< ClothSim construction and run_to_rest()
+  double feedback_ms = 0;     ///< fit_feedback(): strain, ease, regions, verdict
   double total_ms = 0;        ///< the garment's whole pass
 
   /// (stage name, ms) in pipeline order: "units", "segmentation", "skeletons", "driving",
-  /// "coarse_move", "penetration", "simulation", "total".
+  /// "coarse_move", "penetration", "simulation", "feedback", "total".
   std::vector<std::pair<std::string, double>> named() const;
 };
 
@@ -87,8 +91,11 @@ struct GarmentFitReport {
   std::size_t order = 0;           ///< position in the processing order (0 = first)
   FitStageTimes timings;
   std::size_t skeleton_parts = 0;  ///< limb skeletons extracted
-  std::string driving = "skipped (not yet available)"; ///< state of the driving stage
+  std::string driving = "skipped"; ///< "driven: ..." with the sub-stage times, or why it was skipped
   CoarseMove coarse_move;
+  SizeVerdict verdict = SizeVerdict::GOOD;   ///< fit_feedback()'s verdict for this garment
+  std::string verdict_reason;                ///< the region and numbers behind it
+  std::vector<RegionFeedback> regions;       ///< strain and ease summaries per region
   /// Garments fitted before this one that it was kept outside of (its inner layers).
   std::size_t inner_layers = 0;
   /// After the coarse move, before removal (depths m). Crossing edges are always measured;
@@ -102,6 +109,9 @@ struct GarmentFitReport {
   double simulated_seconds = 0;    ///< s
   int simulation_steps = 0;
   bool post_simulation_cleanup = false; ///< remove_penetration() ran again on the simulated mesh
+  /// The simulated shape was discarded because clean-up could not bring it as far out of the
+  /// body as penetration removal had (the pre-simulation mesh is returned).
+  bool simulation_discarded = false;
   std::vector<std::string> warnings;
 };
 
@@ -114,9 +124,8 @@ struct FitReport {
   std::string backend;                    ///< "serial" | "tbb"
   int threads = 0;                        ///< TBB worker threads
   std::string cpu_model;                  ///< /proc/cpuinfo's "model name", or "unknown"
-  /// Size verdict (tight / good / loose / falls): "unknown" until fit feedback (strain and
-  /// ease per region) exists.
-  std::string verdict = "unknown";
+  /// The worst of the garments' size verdicts (falls off, tight, loose, good); GOOD with no garment.
+  SizeVerdict verdict = SizeVerdict::GOOD;
 };
 
 /// A fitted garment, in metres, in the body's frame.
@@ -124,6 +133,7 @@ struct FittedGarment {
   std::string name;
   Mesh mesh;
   GarmentSegmentation segmentation; ///< of the input (positions in metres before the move)
+  FitFeedback feedback;             ///< per-vertex strain and ease of the fitted mesh, regions, verdict
 };
 
 struct FitResult {

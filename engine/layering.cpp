@@ -94,7 +94,9 @@ InnerLayer::InnerLayer(const Mesh& garment, const ProximityIndex& body, double c
   oriented.positions = garment.positions;
   oriented.triangles = triangles;
   m_boundary = boundary_masks(oriented, m_boundary_edges);
-  m_index = std::make_unique<ProximityIndex>(oriented.positions, oriented.triangles);
+  // One-sided: a garment is an open sheet, and its side is that of the sheet itself (capping
+  // its openings, as a body with holes gets, would put the waistband's inside "inside").
+  m_index = std::make_unique<ProximityIndex>(oriented.positions, oriented.triangles, OpenMeshSide::ONE_SIDED);
 }
 
 InnerLayer::~InnerLayer() = default;

@@ -83,7 +83,9 @@ struct PenetrationOptions {
 struct PenetrationReport {
   PenetrationStats before, after;
   int iterations = 0;      ///< detection → solve rounds run
-  int factorisations = 0;  ///< sparse factorisations computed (1 whenever anything was solved)
+  /// Sparse factorisations computed: 1 whenever anything was solved, one more each time a
+  /// round's pushes left the region of the factored system.
+  int factorisations = 0;
   double milliseconds = 0; ///< wall time of the whole call
 };
 
@@ -100,8 +102,11 @@ PenetrationStats measure_penetration(const Mesh& garment, const ProximityIndex& 
 /// Removes penetration in place. garment: positions and triangles (its uniform Laplacian keeps
 /// the shape: argmin_y Σ_i ‖y_i − t_i‖² + λ ‖L (y − y⁰)‖², y⁰ the round's start, t_i = closest
 /// body point + κ·outward for vertices inside (or, in the first round only, within κ), t_i = y⁰_i
-/// elsewhere; the matrix I + λ LᵀL is factored once and reused every round, as seed 004 does).
-/// Returns the statistics before and after.
+/// elsewhere). Only the vertices within 8 rings of a pushed vertex are unknowns; the rest of
+/// the garment is the fixed region and does not move. The matrix I + λ L_RᵀL_R of that region is
+/// factored once and reused every round, as seed 004 does (a later round pushing a vertex
+/// outside the region grows it and factors again). After a solve only the moved vertices are
+/// detected again. Returns the statistics before and after.
 /// Vertex tests only: edges crossing the body are neither found nor counted.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const PenetrationOptions& options = {});
 
@@ -111,7 +116,11 @@ PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, 
 /// to lie κ/2 outside its closest body point h; the ends move by the smallest pair that does
 /// it, δ·(1 − s)/w and δ·s/w with w = (1 − s)² + s² (the end nearer the chord moves more). A
 /// vertex proposed several displacements keeps the largest. Edges with an end inside are left
-/// to that end's vertex push for the round.
+/// to that end's vertex push for the round; crossing pushes wait until no vertex is deeper
+/// than `tolerance`; a chord deeper than its edge is long (the garment passes through a limb,
+/// e.g. a T-pose sleeve on an arms-down body) is not pushed, only counted. When the rounds run
+/// out unresolved, the best state seen is returned (least depth beyond `tolerance`, then
+/// fewest vertices inside + crossing edges + vertices inside layers, then least depth).
 /// Rounds repeat until no vertex is inside and no edge crosses (at most max_iterations).
 /// `crossings` indexes the same body mesh as `body`.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,

@@ -24,7 +24,8 @@ HoleCaps build_hole_caps(std::span<const std::int32_t> triangles, std::size_t ve
   std::vector<HalfEdge> boundary;
   for (std::size_t i = 0; i < half.size();) {
     std::size_t j = i + 1;
-    while (j < half.size() && half[j].lo == half[i].lo && half[j].hi == half[i].hi) ++j;
+    while (j < half.size() && half[j].lo == half[i].lo && half[j].hi == half[i].hi)
+      ++j;
     if (j == i + 1 && half[i].lo != half[i].hi) boundary.push_back(half[i]);
     i = j;
   }
@@ -69,9 +70,11 @@ void capped_positions(std::span<const float> positions, const HoleCaps& caps, st
   std::copy(positions.begin(), positions.end(), capped.begin());
   for (std::size_t l = 0; l < loops; ++l) {
     double sum[3] = {0.0, 0.0, 0.0};
-    const auto begin = static_cast<std::size_t>(caps.loop_offsets[l]), end = static_cast<std::size_t>(caps.loop_offsets[l + 1]);
+    const auto begin = static_cast<std::size_t>(caps.loop_offsets[l]),
+               end = static_cast<std::size_t>(caps.loop_offsets[l + 1]);
     for (std::size_t i = begin; i < end; ++i)
-      for (std::size_t k = 0; k < 3; ++k) sum[k] += positions[3 * static_cast<std::size_t>(caps.loop_vertices[i]) + k];
+      for (std::size_t k = 0; k < 3; ++k)
+        sum[k] += positions[3 * static_cast<std::size_t>(caps.loop_vertices[i]) + k];
     for (std::size_t k = 0; k < 3; ++k)
       capped[3 * (vertex_count + l) + k] = static_cast<float>(sum[k] / static_cast<double>(end - begin));
   }

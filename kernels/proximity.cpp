@@ -55,6 +55,7 @@ struct IndexData {
   std::vector<std::int32_t> triangles; // (#F + #C) × 3, shared with Embree as UINT3
   std::size_t vertex_count = 0, face_count = 0;
   std::size_t capped_vertex_count = 0, capped_face_count = 0;
+  std::size_t hole_count = 0; // boundary loops found, capped or not
   MeshEdges edges;
   VertexFaceAdjacency vertex_faces;
   PseudoNormals normals;
@@ -205,7 +206,8 @@ void check_queries(std::span<const float> queries, float max_distance) {
   if (!(max_distance >= 0.0f))
     throw Error("proximity queries", 0, "max_distance must be ≥ 0 (or +inf), got " + std::to_string(max_distance));
   bool finite = true;
-  for (const float x : queries) finite &= std::isfinite(x);
+  for (const float x : queries)
+    finite &= std::isfinite(x);
   if (finite) return;
   for (std::size_t i = 0; i < queries.size(); ++i)
     if (!std::isfinite(queries[i]))
@@ -235,8 +237,8 @@ embree::GeometryPtr attach_triangles(IndexData& m, std::size_t first, std::size_
   embree::throw_if_failed(m.errors, "rtcNewGeometry");
   RTCGeometry g = geometry.get();
   rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_REFIT);
-  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m.positions.data(), 0,
-                             3 * sizeof(float), m.capped_vertex_count);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m.positions.data(), 0, 3 * sizeof(float),
+                             m.capped_vertex_count);
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m.triangles.data(),
                              3 * sizeof(std::int32_t) * first, 3 * sizeof(std::int32_t), count);
   embree::throw_if_failed(m.errors, "rtcSetSharedGeometryBuffer");
@@ -264,7 +266,8 @@ void ClosestHits::resize(std::size_t query_count) {
   features.resize(query_count);
 }
 
-ProximityIndex::ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles)
+ProximityIndex::ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles,
+                               OpenMeshSide open_side)
     : m_impl(std::make_unique<Impl>()) {
   check_mesh(positions, triangles);
   Impl& m = *m_impl;
@@ -272,6 +275,8 @@ ProximityIndex::ProximityIndex(std::span<const float> positions, std::span<const
   m.face_count = triangles.size() / 3;
   assert(m.vertex_count < NO_TRIANGLE / 2 && m.face_count < NO_TRIANGLE / 2 && "mesh too large for 32-bit indices");
   m.caps = build_hole_caps(triangles, m.vertex_count);
+  m.hole_count = m.caps.loop_count();
+  if (open_side == OpenMeshSide::ONE_SIDED) m.caps = HoleCaps{{0}, {}, {}};
   m.capped_vertex_count = m.vertex_count + m.caps.loop_count();
   m.capped_face_count = m.face_count + m.caps.triangles.size() / 3;
   m.positions.assign(positions.begin(), positions.end());
@@ -309,7 +314,8 @@ void ProximityIndex::refit(std::span<const float> positions) {
   Impl& m = *m_impl;
   if (positions.size() != 3 * m.vertex_count)
     throw Error("proximity refit", 0,
-                "expected " + std::to_string(m.vertex_count) + " × 3 coordinates, got " + std::to_string(positions.size()));
+                "expected " + std::to_string(m.vertex_count) + " × 3 coordinates, got " +
+                    std::to_string(positions.size()));
   std::copy(positions.begin(), positions.end(), m.positions.begin());
   m.update_normals();
   if (!m.geometry) return;
@@ -351,13 +357,13 @@ void ProximityIndex::closest_points_brute_force(std::span<const float> queries, 
 
 std::size_t ProximityIndex::vertex_count() const { return m_impl->vertex_count; }
 std::size_t ProximityIndex::face_count() const { return m_impl->face_count; }
-std::size_t ProximityIndex::hole_count() const { return m_impl->caps.loop_count(); }
+std::size_t ProximityIndex::hole_count() const { return m_impl->hole_count; }
 
 std::string ProximityIndex::warning() const {
-  const std::size_t holes = hole_count();
+  const std::size_t holes = m_impl->caps.loop_count();
   if (holes == 0) return {};
-  return "the body has " + std::to_string(holes) + (holes == 1 ? " hole" : " holes") +
-         "; the side is decided as if " + (holes == 1 ? "it were" : "they were") + " closed";
+  return "the body has " + std::to_string(holes) + (holes == 1 ? " hole" : " holes") + "; the side is decided as if " +
+         (holes == 1 ? "it were" : "they were") + " closed";
 }
 
 ProximitySideMesh ProximityIndex::side_mesh() const {

@@ -52,18 +52,28 @@ struct ClosestHits {
 /// Queries per TBB task in ProximityIndex::closest_points (each query is ~1 µs of traversal).
 inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 
+/// How ProximityIndex decides the side of a query on a mesh with holes (boundary edges).
+enum class OpenMeshSide : std::int8_t {
+  /// A body with holes (a scan open at the neck, soles, eyes): the holes are capped internally
+  /// and the side is that of the capped, closed mesh (see ProximityIndex). The default.
+  CAP_HOLES = 0,
+  /// A sheet (a garment used as an obstacle): no caps; the side is the pseudo-normal side of
+  /// the open surface itself, a boundary edge's pseudo-normal being its one face's normal.
+  ONE_SIDED = 1,
+};
+
 /// The mesh on which ProximityIndex decides the side, for other backends that must decide it
 /// the same way (OpenClProximity). Views into the index, valid until it is refitted, moved or
 /// destroyed. The capped mesh is the indexed mesh plus one fan cap per hole (hole_caps.h):
 /// vertices [0, #V) and triangles [0, #F) are the mesh's, the rest belong to caps.
 struct ProximitySideMesh {
-  std::span<const float> positions;           ///< (#V + #L) × 3 (m), #L loop centroids last
-  std::span<const std::int32_t> triangles;    ///< (#F + #C) × 3, cap triangles last
+  std::span<const float> positions;             ///< (#V + #L) × 3 (m), #L loop centroids last
+  std::span<const std::int32_t> triangles;      ///< (#F + #C) × 3, cap triangles last
   std::span<const std::int32_t> triangle_edges; ///< (#F + #C) × 3 edge ids (MeshEdges)
-  std::span<const float> face_normals;        ///< (#F + #C) × 3 unit pseudo-normals
-  std::span<const float> edge_normals;        ///< #E × 3
-  std::span<const float> vertex_normals;      ///< (#V + #L) × 3
-  std::size_t mesh_face_count = 0;            ///< #F: triangles at or past it are caps
+  std::span<const float> face_normals;          ///< (#F + #C) × 3 unit pseudo-normals
+  std::span<const float> edge_normals;          ///< #E × 3
+  std::span<const float> vertex_normals;        ///< (#V + #L) × 3
+  std::size_t mesh_face_count = 0;              ///< #F: triangles at or past it are caps
 };
 
 /// Closest-point index over one triangle mesh: build once, refit when the vertices move,
@@ -93,7 +103,10 @@ public:
   /// non-finite coordinate or an index out of range, naming the vertex or triangle.
   /// An empty mesh (#F = 0) is allowed: every query then reports no hit. Boundary edges are
   /// found here; a mesh with holes is capped for the side test (see the class comment).
-  ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles);
+  /// `open_side` says how a mesh with holes is treated (OpenMeshSide); a closed mesh is the
+  /// same either way.
+  ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles,
+                 OpenMeshSide open_side = OpenMeshSide::CAP_HOLES);
   ~ProximityIndex();
   ProximityIndex(ProximityIndex&&) noexcept;
   ProximityIndex& operator=(ProximityIndex&&) noexcept;
@@ -128,8 +141,8 @@ public:
 
   /// Number of holes (boundary loops) found at construction; 0 for a closed mesh.
   std::size_t hole_count() const;
-  /// Empty for a closed mesh; otherwise "the body has N holes; the side is decided as if they
-  /// were closed", for callers to pass on to the user.
+  /// Empty for a closed mesh or OpenMeshSide::ONE_SIDED; otherwise "the body has N holes; the
+  /// side is decided as if they were closed", for callers to pass on to the user.
   std::string warning() const;
 
   /// The capped mesh and pseudo-normals the side is decided with (see ProximitySideMesh).

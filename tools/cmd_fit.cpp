@@ -113,8 +113,7 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
   j["timings_ms"] = timings;
   j["penetration"] = {{"before", stats_json(combined(report, &GarmentFitReport::before))},
                       {"after", stats_json(combined(report, &GarmentFitReport::after))}};
-  j["verdict"] = report.verdict;
-  j["verdict_note"] = "no size verdict yet: it needs the fit feedback (strain and ease per region), not implemented";
+  j["verdict"] = size_verdict_name(report.verdict);
   j["machine"] = {{"cpu_model", report.cpu_model}, {"threads", report.threads}, {"backend", report.backend}};
   j["body"] = {{"source", body.source},
                {"kind", loaded.kind},
@@ -148,7 +147,23 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
                         {"status", g.simulation_status},
                         {"simulated_seconds", g.simulated_seconds},
                         {"steps", g.simulation_steps},
-                        {"post_simulation_cleanup", g.post_simulation_cleanup}};
+                        {"post_simulation_cleanup", g.post_simulation_cleanup},
+                        {"discarded", g.simulation_discarded}};
+    gj["verdict"] = size_verdict_name(g.verdict);
+    gj["verdict_reason"] = g.verdict_reason;
+    gj["regions"] = nlohmann::ordered_json::array();
+    for (const RegionFeedback& r : g.regions) {
+      nlohmann::ordered_json rj = {{"name", r.name},
+                                   {"vertices", r.vertices},
+                                   {"mean_strain", r.mean_strain},
+                                   {"max_strain", r.max_strain},
+                                   {"mean_ease_mm", r.mean_ease_mm},
+                                   {"min_ease_mm", r.min_ease_mm},
+                                   {"verdict", size_verdict_name(r.verdict)}};
+      rj["girth_ease_m"] = std::isfinite(r.girth_ease) ? nlohmann::ordered_json(r.girth_ease) : nlohmann::ordered_json();
+      if (r.girth_ease_estimated) rj["girth_ease_estimated"] = true;
+      gj["regions"].push_back(rj);
+    }
     gj["warnings"] = g.warnings;
     j["garments"].push_back(gj);
   }
@@ -177,7 +192,10 @@ void print_table(const FitReport& report, double body_ms) {
                 g.after.max_depth * 1e3, g.before.crossing_edges, g.after.crossing_edges, g.before.layer_inside_count,
                 g.after.layer_inside_count, g.simulation_status.c_str());
   }
-  std::printf("verdict: %s (no fit feedback yet)\n", report.verdict.c_str());
+  for (const GarmentFitReport& g : report.garments)
+    std::printf("%s: %s (%s)\n", std::filesystem::path(g.name).stem().string().c_str(),
+                size_verdict_name(g.verdict).c_str(), g.verdict_reason.c_str());
+  std::printf("verdict: %s\n", size_verdict_name(report.verdict).c_str());
 }
 
 } // namespace

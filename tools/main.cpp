@@ -62,13 +62,15 @@ cpu, or a substring of its name) or the environment variable VFIT_OPENCL_DEVICE.
 
 constexpr const char* DEMO_HELP = R"(usage: vfit demo [--out DIR] [--corpus DIR] [--device SEL] [--quiet]
 
-The built-in demonstration. Builds the parametric mannequin (and measures it back), a catalogue
-tee and trousers made for it, and the mannequin posed by its skeleton (arms down, left knee bent);
-when the shared corpus is present (--corpus, $VFIT_CORPUS, or ../shared/corpus) it reads and
-validates its MakeHuman body and garments (detecting their units); prints a summary table,
-computes vertex normals on the serial, TBB and OpenCL backends and compares them, and writes
-DIR/demo.glb (all meshes in metres, one named mesh each) and DIR/demo.json. DIR defaults to
-./vfit_demo. It grows into the full fitting demo as the fitting stages land.
+The built-in demonstration: a catalogue tee (M) and trousers (P2), modelled in T-pose and
+written to DIR as OBJ, are fitted by `vfit fit` onto the mannequin posed by its skeleton (arms
+down, left knee bent): DIR/fit.glb (body and garments), DIR/fit_report.json (stage times,
+penetration before/after, verdict) and DIR/fit_views.png (front, side, back). Then it measures
+the mannequin back against its request; when the shared corpus is present (--corpus,
+$VFIT_CORPUS, or ../shared/corpus) it reads and validates its MakeHuman body and garments
+(detecting their units); prints a summary table, computes vertex normals on the serial, TBB and
+OpenCL backends and compares them, and writes DIR/demo.glb (all meshes in metres, one named
+mesh each) and DIR/demo.json. DIR defaults to ./vfit_demo.
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
@@ -152,17 +154,20 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U] [--quiet]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
-detection -> part skeletons -> skeleton driving (not yet available: reported as skipped) ->
-coarse move (eq. 16-17) -> penetration removal against the body -> cloth simulation to rest
-(stops at --max-sim-seconds of simulated time, default 2; a diverged simulation is discarded
-and reported). Bottoms are dressed before tops; each garment is resolved against the body only.
+detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
+the placement of eq. 16-17; garments it cannot drive, e.g. skirts, get the coarse move alone)
+-> penetration removal against the body and the garments under it, edges crossing the body
+included -> cloth simulation to rest (stops at --max-sim-seconds of simulated time, default 2;
+a diverged simulation is discarded and reported) -> fit feedback (strain, ease, size verdict).
+Bottoms are dressed before tops.
 --body takes the same sources and flags as `vfit body --from` (default: the mannequin; use
 --pose-rest apose|tpose and the measurement flags); --pose poses it. Garments may be in any
 length unit (detected, or --garment-units) but must be upright (Y up) and face +Z.
   --out FILE        .glb: the body and each garment as named meshes; .obj/.ply: the garments,
                     one group per garment
   --report FILE     JSON: timings_ms per stage, penetration before/after (inside_count,
-                    max_depth_mm), verdict ("unknown": no fit feedback yet), machine, per garment
+                    max_depth_mm, crossing_edges), verdict (falls off, tight, loose, good),
+                    machine, and per garment the stages, regions (strain, ease) and reason
   --render FILE     front, side and back views of body and garments (N x N px each, default 512)
   --fabric NAME     cotton_jersey (default), denim, silk, wool
   --clearance M     gap left between garment and body in metres (default 0.003)

@@ -25,6 +25,7 @@ std::string to_string(CoarseMoveRule rule) {
   case CoarseMoveRule::LEG_ROOTS_TO_HIPS: return "leg roots -> hips (eq. 17)";
   case CoarseMoveRule::COLLAR_TO_NECK: return "collar centre -> neck";
   case CoarseMoveRule::WAISTBAND_TO_PELVIS: return "waistband centre -> pelvis/spine1";
+  case CoarseMoveRule::IN_DRIVING: return "key joints -> body joints, within the skeleton driving (eq. 16-17)";
   }
   return "unknown";
 }

@@ -31,6 +31,7 @@ enum class CoarseMoveRule {
   LEG_ROOTS_TO_HIPS,         ///< eq. 17: leg skeletons' first nodes → hip joints
   COLLAR_TO_NECK,            ///< fallback for tops without sleeve skeletons
   WAISTBAND_TO_PELVIS,       ///< fallback for bottoms without leg skeletons (skirts)
+  IN_DRIVING,                ///< skeleton driving placed the garment (its eq. 16–17 translation)
 };
 
 /// "sleeve roots → shoulders (eq. 16)" and so on.

@@ -9,8 +9,8 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <type_traits>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "../embree_device.h"
@@ -45,12 +45,14 @@ void* create_inner(RTCThreadLocalAllocator alloc, unsigned int child_count, void
 
 void set_children(void* node, void** children, unsigned int child_count, void*) {
   auto* n = static_cast<BuildInner*>(node);
-  for (unsigned k = 0; k < child_count && k < 2; ++k) n->children[k] = static_cast<BuildNode*>(children[k]);
+  for (unsigned k = 0; k < child_count && k < 2; ++k)
+    n->children[k] = static_cast<BuildNode*>(children[k]);
 }
 
 void set_bounds(void* node, const RTCBounds** bounds, unsigned int child_count, void*) {
   auto* n = static_cast<BuildInner*>(node);
-  for (unsigned k = 0; k < child_count && k < 2; ++k) n->bounds[k] = *bounds[k];
+  for (unsigned k = 0; k < child_count && k < 2; ++k)
+    n->bounds[k] = *bounds[k];
 }
 
 void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* primitives, size_t count, void*) {
@@ -58,7 +60,8 @@ void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* primit
   auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(BuildLeaf), 16)) BuildLeaf;
   n->leaf = true;
   n->count = static_cast<unsigned>(std::min<std::size_t>(count, OPENCL_PROXIMITY_LEAF_SIZE));
-  for (unsigned k = 0; k < n->count; ++k) n->faces[k] = primitives[k].primID;
+  for (unsigned k = 0; k < n->count; ++k)
+    n->faces[k] = primitives[k].primID;
   return n;
 }
 
@@ -73,13 +76,15 @@ struct FlatBvh {
 
   void append(const BuildNode* node, const RTCBounds& box) {
     const std::size_t n = size();
-    bounds.insert(bounds.end(), {box.lower_x, box.lower_y, box.lower_z, 0.0f, box.upper_x, box.upper_y, box.upper_z, 0.0f});
+    bounds.insert(bounds.end(),
+                  {box.lower_x, box.lower_y, box.lower_z, 0.0f, box.upper_x, box.upper_y, box.upper_z, 0.0f});
     nodes.insert(nodes.end(), {0, 0});
     if (node->leaf) {
       const auto* leaf = static_cast<const BuildLeaf*>(node);
       nodes[2 * n] = static_cast<std::int32_t>(leaf->count);
       nodes[2 * n + 1] = static_cast<std::int32_t>(primitives.size());
-      for (unsigned k = 0; k < leaf->count; ++k) primitives.push_back(static_cast<std::int32_t>(leaf->faces[k]));
+      for (unsigned k = 0; k < leaf->count; ++k)
+        primitives.push_back(static_cast<std::int32_t>(leaf->faces[k]));
       return;
     }
     const auto* inner = static_cast<const BuildInner*>(node);

@@ -108,6 +108,15 @@ TEST(Cli, DemoRunsOnBuiltInMeshesAndWritesItsOutputs) {
   EXPECT_EQ(scene.mesh.label_names.size(), 4u);
   const auto j = nlohmann::json::parse(test::read_file(tmp / "demo" / "demo.json"));
   for (const auto& n : j["vertex_normals"]) EXPECT_LT(n["max_deviation_deg"].get<double>(), 1e-3) << n.dump();
+  // The fit: body and the two garments in one glTF, the report, the pictures.
+  const ParsedMesh fit = read_mesh(tmp / "demo" / "fit.glb");
+  EXPECT_EQ(fit.mesh.label_names.size(), 3u);
+  const auto report = nlohmann::json::parse(test::read_file(tmp / "demo" / "fit_report.json"));
+  for (const char* stage : {"segmentation", "skeletons", "driving", "penetration", "simulation", "total"})
+    EXPECT_TRUE(report["timings_ms"].contains(stage)) << stage;
+  // The demo's bar is the issue's: nothing inside the body by more than 1 mm.
+  EXPECT_LE(report["penetration"]["after"]["max_depth_mm"].get<double>(), 1.0);
+  EXPECT_TRUE(std::filesystem::exists(tmp / "demo" / "fit_views.png"));
 }
 
 } // namespace
