@@ -44,6 +44,11 @@ struct ClothSim::Impl {
   std::vector<float> body_positions, body_velocities;
   std::vector<std::int32_t> body_triangles;
   ClosestHits hits;
+  // Implicit Euler's contact constraints, built from `hits` when they describe the current
+  // positions (the query of the last contact pass, taken before its response).
+  bool hits_valid = false;
+  ImplicitConstraints constraints;
+  std::vector<unsigned char> released; // 1: the constraint pulled last step, left free this one
 
   void update_substep() {
     if (options.integrator == ClothIntegrator::IMPLICIT_EULER) {
@@ -55,6 +60,7 @@ struct ClothSim::Impl {
   }
 
   void integrate(double h, int count) {
+    hits_valid = false;
     for (int s = 0; s < count; ++s) {
       if (options.backend == ClothBackend::SERIAL)
         rk4_step_serial(x, v, adjacency, particles, static_cast<float>(h), workspace);
@@ -63,14 +69,36 @@ struct ClothSim::Impl {
     }
   }
 
-  // One implicit Euler step of h; returns the CG iterations.
-  int implicit_step(double h) {
+  // One implicit Euler step of h (with the body contacts as constraints of the solve and their
+  // friction when contacts_in_solve), then a contact pass; returns the CG iterations.
+  int implicit_step(double h, std::size_t& contacts) {
     const ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
+    const ImplicitConstraints* c = nullptr;
+    const float hf = static_cast<float>(h);
+    if (body && options.contacts_in_solve) {
+      if (!hits_valid) contacts += resolve_contacts();
+      released.resize(masses.size(), 0);
+      body_contact_constraints(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
+                               contact_parameters(), options.contact_margin, hf, released, constraints);
+      c = &constraints;
+    }
     const ImplicitSolveReport r =
         options.backend == ClothBackend::SERIAL
-            ? implicit_euler_step_serial(x, v, adjacency, particles, static_cast<float>(h), solve, implicit_workspace)
-            : implicit_euler_step_tbb(x, v, adjacency, particles, static_cast<float>(h), solve, implicit_workspace);
+            ? implicit_euler_step_serial(x, v, adjacency, particles, hf, solve, implicit_workspace, c)
+            : implicit_euler_step_tbb(x, v, adjacency, particles, hf, solve, implicit_workspace, c);
+    if (c != nullptr) {
+      const std::vector<float>& impulses = implicit_workspace.normal_impulses;
+      apply_contact_friction(x, v, particles.inverse_masses, constraints, impulses, hits, body_triangles,
+                             body_velocities, options.contact_friction, hf);
+      for (std::size_t i = 0; i < released.size(); ++i)
+        released[i] = impulses[i] < 0.0f ? 1 : 0;
+    }
+    contacts += resolve_contacts();
     return r.iterations;
+  }
+
+  ContactParameters contact_parameters() const {
+    return ContactParameters{options.contact_thickness, options.contact_friction, options.contact_restitution};
   }
 
   std::size_t resolve_contacts() {
@@ -79,9 +107,9 @@ struct ClothSim::Impl {
       body->closest_points_serial(x, options.contact_search_radius, hits);
     else
       body->closest_points(x, options.contact_search_radius, hits);
-    const ContactParameters contact{options.contact_thickness, options.contact_friction, options.contact_restitution};
+    hits_valid = true;
     return resolve_body_contacts(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
-                                 contact);
+                                 contact_parameters());
   }
 
   // Divergence check and displacement of the step just taken (restores the state on divergence).
@@ -241,6 +269,7 @@ void ClothSim::set_body(std::span<const float> positions, std::span<const std::i
   m.body_positions.assign(positions.begin(), positions.end());
   m.body_triangles.assign(triangles.begin(), triangles.end());
   m.body_velocities.clear();
+  m.hits_valid = false;
 }
 
 void ClothSim::move_body(std::span<const float> positions, double dt) {
@@ -255,6 +284,7 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
     m.body_velocities[i] = dt > 0 ? static_cast<float>((positions[i] - m.body_positions[i]) / dt) : 0.0f;
   m.body_positions.assign(positions.begin(), positions.end());
   m.body->refit(positions);
+  m.hits_valid = false;
 }
 
 ClothStepReport ClothSim::step(double dt) {
@@ -266,10 +296,8 @@ ClothStepReport ClothSim::step(double dt) {
   m.saved_v = m.v;
   if (m.options.integrator == ClothIntegrator::IMPLICIT_EULER) {
     const int steps = std::max(1, static_cast<int>(std::ceil(dt / m.substep - 1e-9)));
-    for (int s = 0; s < steps; ++s) {
-      r.solver_iterations += m.implicit_step(dt / steps);
-      r.contacts += m.resolve_contacts();
-    }
+    for (int s = 0; s < steps; ++s)
+      r.solver_iterations += m.implicit_step(dt / steps, r.contacts);
     r.substeps = steps;
     return m.finish_step(r);
   }
@@ -292,6 +320,7 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
   if (m.status != ClothStatus::OK) {
     m.x = m.saved_x;
     m.v = m.saved_v;
+    m.hits_valid = false;
     return r;
   }
   double total = 0;
@@ -311,15 +340,20 @@ ClothRestReport ClothSim::run_to_rest(const ClothRestOptions& options) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   ClothRestReport r;
+  // Implicit Euler steps longer than step_dt are taken whole; their displacement is scaled to
+  // step_dt, so the threshold keeps meaning the same residual speed (M / step_dt).
+  const double stride = m_impl->options.integrator == ClothIntegrator::IMPLICIT_EULER
+                            ? std::max(options.step_dt, m_impl->substep)
+                            : options.step_dt;
   while (r.simulated_seconds < options.max_simulated_seconds) {
-    const ClothStepReport s = step(options.step_dt);
+    const ClothStepReport s = step(stride);
     r.status = s.status;
     if (s.status != ClothStatus::OK) break;
     ++r.steps;
-    r.simulated_seconds += options.step_dt;
-    r.mean_displacement = s.mean_displacement;
+    r.simulated_seconds += stride;
+    r.mean_displacement = s.mean_displacement * (options.step_dt / stride);
     r.solver_iterations += s.solver_iterations;
-    if (s.mean_displacement < options.displacement_threshold) {
+    if (r.mean_displacement < options.displacement_threshold) {
       r.converged = true;
       break;
     }

@@ -1,9 +1,11 @@
 #include "cloth_collision.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 
 #include "cloth_gather.h"
+#include "cloth_implicit.h"
 #include "parallel.h"
 #include "proximity.h"
 
@@ -61,6 +63,71 @@ std::size_t resolve_body_contacts(std::span<float> positions, std::span<float> v
     }
   });
   return contacts;
+}
+
+std::size_t body_contact_constraints(std::span<const float> positions, std::span<const float> velocities,
+                                     std::span<const float> inverse_masses, const ClosestHits& hits,
+                                     std::span<const float> body_positions,
+                                     std::span<const std::int32_t> body_triangles,
+                                     std::span<const float> body_velocities, const ContactParameters& contact,
+                                     float margin, float h, std::span<const unsigned char> released,
+                                     ImplicitConstraints& out) {
+  const std::size_t n = inverse_masses.size();
+  assert(positions.size() == 3 * n && velocities.size() == 3 * n && hits.size() == n && "one hit per particle");
+  assert((released.empty() || released.size() == n) && "one release flag per particle");
+  out.normals.assign(3 * n, 0.0f);
+  out.targets.assign(n, 0.0f);
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int32_t t = hits.triangles[i];
+    const float sd = hits.signed_distances[i];
+    if (t < 0 || inverse_masses[i] == 0.0f || !(sd < contact.thickness + margin)) continue;
+    if (!released.empty() && released[i]) continue;
+    // The hit was taken before the contact response: a particle then closer than τ sits at τ.
+    // The response moved it to p + τ·n, so x − p points outwards (d > 0: no flip).
+    const float d = std::max(sd, contact.thickness);
+    const vfit_vec3 x = load3(positions.data(), i);
+    const vfit_vec3 nrm = contact_normal(x, load3(hits.points.data(), i), d, body_positions, body_triangles, t);
+    if (!(vfit_v3_dot(nrm, nrm) > 0.0f)) continue;
+    const vfit_vec3 bv =
+        body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1]);
+    const float target_vn = vfit_v3_dot(bv, nrm) - (d - contact.thickness) / h;
+    store3(out.normals.data(), i, nrm);
+    out.targets[i] = target_vn - vfit_v3_dot(load3(velocities.data(), i), nrm);
+    ++count;
+  }
+  return count;
+}
+
+void apply_contact_friction(std::span<float> positions, std::span<float> velocities,
+                            std::span<const float> inverse_masses, const ImplicitConstraints& constraints,
+                            std::span<const float> normal_impulses, const ClosestHits& hits,
+                            std::span<const std::int32_t> body_triangles, std::span<const float> body_velocities,
+                            float friction, float h) {
+  const std::size_t n = inverse_masses.size();
+  if (constraints.empty() || normal_impulses.size() != n) return;
+  assert(positions.size() == 3 * n && velocities.size() == 3 * n && hits.size() == n && "one hit per particle");
+  parallel_for_range(n, CLOTH_CONTACT_GRAIN, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const float lambda = normal_impulses[i];
+      if (!(lambda > 0.0f) || inverse_masses[i] == 0.0f || hits.triangles[i] < 0) continue;
+      const vfit_vec3 nrm = load3(constraints.normals.data(), i);
+      const vfit_vec3 bv = body_velocity_at(body_velocities, body_triangles, hits.triangles[i],
+                                            hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1]);
+      const vfit_vec3 v = load3(velocities.data(), i);
+      const vfit_vec3 rel = vfit_v3_sub(v, bv);
+      const float vn = vfit_v3_dot(rel, nrm);
+      const vfit_vec3 vt{rel.x - vn * nrm.x, rel.y - vn * nrm.y, rel.z - vn * nrm.z};
+      const float vt_len = std::sqrt(vfit_v3_dot(vt, vt));
+      if (!(vt_len > 0.0f)) continue;
+      const float cut = std::min(vt_len, friction * lambda * inverse_masses[i]);
+      const float s = cut / vt_len;
+      const vfit_vec3 dv{-s * vt.x, -s * vt.y, -s * vt.z};
+      store3(velocities.data(), i, vfit_vec3{v.x + dv.x, v.y + dv.y, v.z + dv.z});
+      const vfit_vec3 x = load3(positions.data(), i);
+      store3(positions.data(), i, vfit_vec3{x.x + h * dv.x, x.y + h * dv.y, x.z + h * dv.z});
+    }
+  });
 }
 
 } // namespace vfit

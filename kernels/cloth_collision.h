@@ -13,6 +13,7 @@
 namespace vfit {
 
 struct ClosestHits;
+struct ImplicitConstraints;
 
 /// Contact constants.
 struct ContactParameters {
@@ -37,5 +38,34 @@ std::size_t resolve_body_contacts(std::span<float> positions, std::span<float> v
                                   std::span<const float> inverse_masses, const ClosestHits& hits,
                                   std::span<const float> body_positions, std::span<const std::int32_t> body_triangles,
                                   std::span<const float> body_velocities, const ContactParameters& contact);
+
+/// Contact constraints for the next implicit Euler step (Baraff & Witkin §5.3; kernels/
+/// cloth_implicit.h): `hits` are the closest body points of the particles queried before
+/// resolve_body_contacts() moved them (so a particle found closer than τ now sits at τ). A free
+/// particle whose distance is below τ + margin (m) and whose row of `released` is 0 (or
+/// `released` empty) is constrained along the outward contact normal n to the velocity change
+/// Δv·n = (v_b·n − (d − τ)/h) − v·n, which makes it end the step of h (s) at the gap τ moving
+/// with the body along n (v_b: the body's velocity at the contact, d: its distance, v: its
+/// velocity, #V × 3 m/s). Pinned particles and rows without a hit get a zero normal. Writes
+/// out.normals (#V × 3) and out.targets (#V); returns the number of constrained particles.
+std::size_t body_contact_constraints(std::span<const float> positions, std::span<const float> velocities,
+                                     std::span<const float> inverse_masses, const ClosestHits& hits,
+                                     std::span<const float> body_positions,
+                                     std::span<const std::int32_t> body_triangles,
+                                     std::span<const float> body_velocities, const ContactParameters& contact,
+                                     float margin, float h, std::span<const unsigned char> released,
+                                     ImplicitConstraints& out);
+
+/// Coulomb friction of the constrained contacts after an implicit step of h (s): a particle
+/// whose constraint pushed with the normal impulse λ > 0 (N·s, ImplicitWorkspace::
+/// normal_impulses) has its tangential velocity relative to the body reduced by μ_f·λ·m⁻¹
+/// (stopping, never reversing), and its position moved by h times that velocity change so it
+/// stays consistent with x₁ = x₀ + h·v₁. Same inputs as body_contact_constraints() (the hits
+/// the constraints were built from). Parallel over particles.
+void apply_contact_friction(std::span<float> positions, std::span<float> velocities,
+                            std::span<const float> inverse_masses, const ImplicitConstraints& constraints,
+                            std::span<const float> normal_impulses, const ClosestHits& hits,
+                            std::span<const std::int32_t> body_triangles, std::span<const float> body_velocities,
+                            float friction, float h);
 
 } // namespace vfit

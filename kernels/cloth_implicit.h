@@ -48,18 +48,33 @@ struct ImplicitSystem {
   std::vector<unsigned char> free;   ///< #V: 1 = free particle, 0 = pinned (filtered)
 };
 
+/// Contact constraints of one step (Baraff & Witkin §5.3's filter, for particles resting on a
+/// body): particle i with a nonzero unit `normals` row may not choose its velocity change along
+/// that normal; it takes Δv·n = targets[i] (m/s) exactly and solves for the other two
+/// directions. Both arrays empty = no constraint; otherwise normals is #V × 3 (unit or zero)
+/// and targets #V. A pinned particle stays fully constrained whatever its row says.
+struct ImplicitConstraints {
+  std::vector<float> normals; ///< #V × 3: the constrained direction, zero for a free particle
+  std::vector<float> targets; ///< #V: the prescribed Δv·n (m/s), ignored where normals is zero
+  bool empty() const { return normals.empty(); }
+};
+
 /// Scratch of the solver (#V × 3 each, sized by the callee) and the system, reused across steps.
 struct ImplicitWorkspace {
   ImplicitSystem system;
   std::vector<float> dv, r, z, p, q;
   std::vector<double> partials; ///< one entry per reduction chunk and quantity
+  /// #V, written by a solve with constraints: the impulse (N·s) the constraint applied along
+  /// its normal, ((A·Δv − b)·n); negative when it pulled the particle towards the body (B&W's
+  /// release test), zero for unconstrained particles.
+  std::vector<float> normal_impulses;
 };
 
 /// What one implicit solve did.
 struct ImplicitSolveReport {
-  int iterations = 0;             ///< CG iterations
-  double relative_residual = 0;   ///< ‖r‖/‖b‖ at exit (0 when b = 0)
-  bool converged = false;         ///< relative_residual ≤ tolerance
+  int iterations = 0;           ///< CG iterations
+  double relative_residual = 0; ///< ‖r‖/‖b‖ at exit (0 when b = 0)
+  bool converged = false;       ///< relative_residual ≤ tolerance
 };
 
 /// Assembles the system for a step of h (s) at the state (positions m, velocities m/s, #V × 3)
@@ -70,26 +85,33 @@ void assemble_implicit_system(std::span<const float> positions, std::span<const 
 
 /// out = filtered A·p (#V × 3 each, out resized); pinned rows of out are 0 and pinned entries
 /// of p are ignored. Serial; for tests and for building a dense oracle.
-void implicit_system_multiply(const ImplicitSystem& system, const SpringAdjacency& adjacency,
-                              std::span<const float> p, std::vector<float>& out);
+void implicit_system_multiply(const ImplicitSystem& system, const SpringAdjacency& adjacency, std::span<const float> p,
+                              std::vector<float>& out);
 
-/// Solves A·Δv = b by block-Jacobi-preconditioned, filtered CG from Δv = 0 into workspace.dv
-/// (#V × 3, m/s). `parallel` selects the TBB driver (same bits as serial).
+/// Solves A·Δv = b by block-Jacobi-preconditioned, filtered CG into workspace.dv (#V × 3, m/s),
+/// starting from Δv = 0 (B&W's modified PCG starting from the constrained values when
+/// `constraints` is given and not empty: the residual, search directions and A·p are projected
+/// by the filter S_i = I − n·nᵀ, so constrained components stay at their targets). With
+/// constraints, also writes workspace.normal_impulses. `parallel` selects the TBB driver (same
+/// bits as serial).
 ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
-                                          ImplicitWorkspace& workspace, bool parallel);
+                                          ImplicitWorkspace& workspace, bool parallel,
+                                          const ImplicitConstraints* constraints = nullptr);
 
-/// One implicit Euler step of h (s) in place: assemble, solve, v += Δv, x += h·v for the free
-/// particles (pinned ones keep x and v). Serial range kernels.
+/// One implicit Euler step of h (s) in place: assemble, solve (with the contact constraints
+/// when given), v += Δv, x += h·v for the free particles (pinned ones keep x and v). Serial
+/// range kernels.
 ImplicitSolveReport implicit_euler_step_serial(std::span<float> positions, std::span<float> velocities,
                                                const SpringAdjacency& adjacency, const ClothParticles& particles,
                                                float h, const ImplicitSolveOptions& options,
-                                               ImplicitWorkspace& workspace);
+                                               ImplicitWorkspace& workspace,
+                                               const ImplicitConstraints* constraints = nullptr);
 
 /// TBB driver of implicit_euler_step_serial() (chunks of CLOTH_IMPLICIT_CHUNK particles); the
 /// same bits for any thread count.
 ImplicitSolveReport implicit_euler_step_tbb(std::span<float> positions, std::span<float> velocities,
-                                            const SpringAdjacency& adjacency, const ClothParticles& particles,
-                                            float h, const ImplicitSolveOptions& options,
-                                            ImplicitWorkspace& workspace);
+                                            const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
+                                            const ImplicitSolveOptions& options, ImplicitWorkspace& workspace,
+                                            const ImplicitConstraints* constraints = nullptr);
 
 } // namespace vfit

@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <random>
 #include <memory>
 
 #include "engine/cloth_sim.h"
@@ -147,25 +148,43 @@ void BM_rk4_tbb(benchmark::State& state) {
 }
 BENCHMARK(BM_rk4_tbb)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// One implicit Euler step at h = 1/120 s from the flat grid (the first steps of a fall: the
-// gravity load makes CG work), timed over a fresh copy every iteration.
+// One implicit Euler step at h = 1/120 s from the flat grid moving with random velocities
+// (uniform in ±0.1 m/s per component, fixed seed): a mid-simulation state whose right-hand side
+// has every wavelength, unlike a uniform fall, which CG solves in one iteration. Each timed
+// step starts from that same state. cg_ns_per_particle = the step's wall time (assembly and
+// update included) per CG iteration and particle.
 void implicit_step_bench(benchmark::State& state, bool parallel) {
   const Cloth& c = cloth(state.range(0));
-  std::vector<float> x = c.x, v = c.v;
+  std::vector<float> v0 = c.v;
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> speed(-0.1f, 0.1f);
+  for (float& q : v0)
+    q = speed(rng);
+  for (std::size_t i = 0; i < c.adjacency.particle_count(); ++i)
+    if (c.particles.inverse_masses[i] == 0.0f) v0[3 * i] = v0[3 * i + 1] = v0[3 * i + 2] = 0.0f;
+  std::vector<float> x, v;
   vfit::ImplicitWorkspace w;
-  const vfit::ImplicitSolveOptions solve;
-  int iterations = 0;
-  std::int64_t steps = 0;
+  const vfit::ImplicitSolveOptions solve{1e-2, 200}; // ClothSim's default tolerance
+  std::int64_t iterations = 0, steps = 0;
+  double seconds = 0;
   for (auto _ : state) {
+    state.PauseTiming();
+    x = c.x;
+    v = v0;
+    state.ResumeTiming();
+    const auto t0 = std::chrono::steady_clock::now();
     const vfit::ImplicitSolveReport r =
         parallel ? vfit::implicit_euler_step_tbb(x, v, c.adjacency, c.particles, 1.0f / 120.0f, solve, w)
                  : vfit::implicit_euler_step_serial(x, v, c.adjacency, c.particles, 1.0f / 120.0f, solve, w);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     iterations += r.iterations;
     ++steps;
   }
+  const double n = double(c.adjacency.particle_count());
   state.SetItemsProcessed(steps * std::int64_t(c.adjacency.particle_count()));
-  state.counters["particles"] = double(c.adjacency.particle_count());
+  state.counters["particles"] = n;
   state.counters["cg_iterations"] = double(iterations) / double(std::max<std::int64_t>(1, steps));
+  state.counters["cg_ns_per_particle"] = 1e9 * seconds / (n * double(std::max<std::int64_t>(1, iterations)));
   state.counters["rk4_substeps_replaced"] = (1.0 / 120.0) / c.h;
 }
 
@@ -209,7 +228,8 @@ const Drape& drape() {
   return d;
 }
 
-void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, double max_simulated_seconds) {
+void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, double max_simulated_seconds,
+                 bool contacts_in_solve = false) {
   const Drape& d = drape();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
   vfit::ClothRestReport last;
@@ -217,6 +237,10 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   for (auto _ : state) {
     vfit::ClothOptions o;
     o.integrator = integrator;
+    if (contacts_in_solve) {
+      o.contacts_in_solve = true;
+      o.implicit_step = 1.0 / 60.0;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     vfit::ClothSim sim(d.tee.position_view(), d.tee.triangle_view(), o);
     sim.set_body(d.body.mesh.position_view(), d.body.mesh.triangle_view());
@@ -242,7 +266,16 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
 void BM_drape_tee_to_rest(benchmark::State& state) {
   drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0);
 }
+// One drape per thread count (each takes seconds); the garment and body are built once, untimed.
 BENCHMARK(BM_drape_tee_to_rest)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+// The same drape with the body contacts as constraints of the implicit solve
+// (ClothOptions::contacts_in_solve) in steps of 1/60 s (they diverge without it), cut at 3
+// simulated s: its rate, and whether it came to rest by then.
+void BM_drape_tee_contacts_in_solve(benchmark::State& state) {
+  drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 3.0, true);
+}
+BENCHMARK(BM_drape_tee_contacts_in_solve)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 // RK4 on the same drape, cut at 0.05 simulated s: its rate only (it would take minutes to rest).
 void BM_drape_tee_rk4_rate(benchmark::State& state) { drape_bench(state, vfit::ClothIntegrator::RK4, 0.05); }

@@ -1,5 +1,6 @@
 #include "kernels/cloth_implicit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -8,7 +9,9 @@
 #include <gtest/gtest.h>
 
 #include "geometry/mesh/primitives.h"
+#include "kernels/cloth_collision.h"
 #include "kernels/cloth_gather.h"
+#include "kernels/proximity.h"
 
 namespace vfit {
 namespace {
@@ -35,8 +38,8 @@ struct Cloth {
 Cloth jittered_cloth(int n, unsigned seed, float mass) {
   const Mesh m = make_grid(n, n, 1.0f, 1.0f);
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> jitter(-0.2f / float(n), 0.2f / float(n)), kd(100.0f, 500.0f),
-      cd(0.0f, 0.05f), vel(-0.5f, 0.5f);
+  std::uniform_real_distribution<float> jitter(-0.2f / float(n), 0.2f / float(n)), kd(100.0f, 500.0f), cd(0.0f, 0.05f),
+      vel(-0.5f, 0.5f);
   ClothSprings s = build_cloth_springs(m.position_view(), m.triangle_view());
   for (std::size_t i = 0; i < s.size(); ++i) {
     s.stiffness[i] = kd(rng);
@@ -142,6 +145,154 @@ TEST(ClothImplicit, ConjugateGradientMatchesADenseSolve) {
     EXPECT_EQ(w.dv[k], 0.0f);
 }
 
+// Random unit normals and targets on every third free particle: the contact constraints of a
+// generic state.
+ImplicitConstraints random_constraints(const Cloth& c, unsigned seed) {
+  const std::size_t nv = c.adjacency.particle_count();
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  std::uniform_real_distribution<float> target(-0.2f, 0.2f);
+  ImplicitConstraints k;
+  k.normals.assign(3 * nv, 0.0f);
+  k.targets.assign(nv, 0.0f);
+  for (std::size_t i = 0; i < nv; i += 3) {
+    if (c.particles.inverse_masses[i] == 0.0f) continue;
+    Eigen::Vector3f n(gauss(rng), gauss(rng), gauss(rng));
+    n.normalize();
+    for (int a = 0; a < 3; ++a)
+      k.normals[3 * i + std::size_t(a)] = n[a];
+    k.targets[i] = target(rng);
+  }
+  return k;
+}
+
+// B&W's filtered CG with contact constraints against the dense KKT system
+//   [A Cᵀ; C 0]·[Δv; λ] = [b; t]   (C: one row nᵀ per constrained particle)
+// solved by LU in double: the constrained components equal their targets (to float rounding of
+// the projection, 1e-5 m/s), Δv matches (same 1e-4 relative drift margin as the unconstrained
+// solve above), and the reported normal impulses (A·Δv − b)·n equal −λ (1e-3 of |λ|: they are
+// a residual-sized difference of two float products, one more rounding than Δv).
+TEST(ClothImplicit, ConstrainedSolveMatchesADenseKktSolve) {
+  const Cloth c = jittered_cloth(7, 11u, 2e-3f);
+  const std::size_t nv = c.adjacency.particle_count();
+  const ImplicitConstraints k = random_constraints(c, 12u);
+  ImplicitWorkspace w;
+  assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, 0.005f, w.system, false);
+  std::vector<std::size_t> free_rows, constrained;
+  for (std::size_t i = 0; i < nv; ++i)
+    if (w.system.free[i]) {
+      for (std::size_t a = 0; a < 3; ++a)
+        free_rows.push_back(3 * i + a);
+      if (k.normals[3 * i] != 0.0f || k.normals[3 * i + 1] != 0.0f || k.normals[3 * i + 2] != 0.0f)
+        constrained.push_back(i);
+    }
+  ASSERT_GT(constrained.size(), 5u);
+  const auto n = static_cast<Eigen::Index>(free_rows.size());
+  const auto m = static_cast<Eigen::Index>(constrained.size());
+  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + m, n + m);
+  Eigen::VectorXd rhs(n + m);
+  std::vector<float> unit(3 * nv, 0.0f), column;
+  for (Eigen::Index col = 0; col < n; ++col) {
+    unit[free_rows[col]] = 1.0f;
+    implicit_system_multiply(w.system, c.adjacency, unit, column);
+    unit[free_rows[col]] = 0.0f;
+    for (Eigen::Index row = 0; row < n; ++row)
+      kkt(row, col) = column[free_rows[row]];
+    rhs(col) = w.system.rhs[free_rows[col]];
+  }
+  for (Eigen::Index j = 0; j < m; ++j) {
+    const std::size_t i = constrained[std::size_t(j)];
+    for (Eigen::Index col = 0; col < n; ++col)
+      if (free_rows[col] / 3 == i) {
+        kkt(n + j, col) = kkt(col, n + j) = k.normals[free_rows[col]];
+      }
+    rhs(n + j) = k.targets[i];
+  }
+  const Eigen::VectorXd exact = kkt.partialPivLu().solve(rhs);
+
+  const ImplicitSolveReport r = solve_implicit_system(c.adjacency, ImplicitSolveOptions{1e-6, 500}, w, false, &k);
+  EXPECT_TRUE(r.converged) << r.relative_residual;
+  Eigen::VectorXd cg(n);
+  for (Eigen::Index a = 0; a < n; ++a)
+    cg(a) = w.dv[free_rows[a]];
+  EXPECT_LT((cg - exact.head(n)).norm(), 1e-4 * exact.head(n).norm()) << "after " << r.iterations << " iterations";
+  ASSERT_EQ(w.normal_impulses.size(), nv);
+  const double lambda_scale = exact.tail(m).norm();
+  for (Eigen::Index j = 0; j < m; ++j) {
+    const std::size_t i = constrained[std::size_t(j)];
+    const float dvn = w.dv[3 * i] * k.normals[3 * i] + w.dv[3 * i + 1] * k.normals[3 * i + 1] +
+                      w.dv[3 * i + 2] * k.normals[3 * i + 2];
+    EXPECT_NEAR(dvn, k.targets[i], 1e-5) << "particle " << i;
+    EXPECT_NEAR(w.normal_impulses[i], -exact(n + j), 1e-3 * lambda_scale) << "particle " << i;
+  }
+  for (std::size_t i = 0; i < nv; ++i) {
+    if (std::find(constrained.begin(), constrained.end(), i) == constrained.end()) {
+      EXPECT_EQ(w.normal_impulses[i], 0.0f) << "unconstrained particle " << i;
+    }
+  }
+}
+
+// With constraints the TBB driver still gives the serial bits (their filter and start value are
+// per particle; the reductions keep their fixed chunk order).
+TEST(ClothImplicit, ConstrainedTbbEqualsSerialBitForBit) {
+  const Cloth c = jittered_cloth(120, 13u, 1e-4f);
+  const ImplicitConstraints k = random_constraints(c, 14u);
+  std::vector<float> xs = c.x, vs = c.v, xt = c.x, vt = c.v;
+  ImplicitWorkspace ws, wt;
+  const ImplicitSolveOptions o{1e-4, 100};
+  const ImplicitSolveReport a = implicit_euler_step_serial(xs, vs, c.adjacency, c.particles, 1.0f / 120, o, ws, &k);
+  const ImplicitSolveReport b = implicit_euler_step_tbb(xt, vt, c.adjacency, c.particles, 1.0f / 120, o, wt, &k);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_GT(a.iterations, 1);
+  EXPECT_TRUE(same_bits(xs, xt));
+  EXPECT_TRUE(same_bits(vs, vt));
+  EXPECT_TRUE(same_bits(ws.normal_impulses, wt.normal_impulses));
+}
+
+// Contact constraints from the closest body points: on top of a sphere (radius 0.25 m, its pole
+// a mesh vertex, so the contact normal is +y up to float rounding), a particle within τ + margin
+// is constrained to end the step at the gap τ; one beyond the margin, a released one and a pinned
+// one are not. Then Coulomb friction: an impulse λ cuts the tangential speed by μ·λ/m, never
+// past zero, and moves the particle by h times that change.
+TEST(ClothContactConstraints, BuiltFromHitsAndFrictionStopsWithoutReversing) {
+  const Mesh sphere = make_uv_sphere(16, 32, 0.25f);
+  const ProximityIndex body(sphere.position_view(), sphere.triangle_view());
+  const ContactParameters contact{0.003f, 0.3f, 0.0f};
+  const float margin = 0.002f, h = 0.01f, gap = 0.001f;
+  // 0: in the margin; 1: beyond it; 2: in the margin but released; 3: in the margin but pinned.
+  std::vector<float> x = {0, 0.25f + 0.003f + gap, 0, 0, 0.35f, 0, 0, 0.2535f, 0, 0, 0.2535f, 0};
+  std::vector<float> v = {0.1f, -0.2f, 0, 0.1f, -0.2f, 0, 0.1f, -0.2f, 0, 0, 0, 0};
+  const std::vector<float> inv_mass = {10.0f, 10.0f, 10.0f, 0.0f};
+  const std::vector<unsigned char> released = {0, 0, 1, 0};
+  ClosestHits hits;
+  body.closest_points(x, 0.05f, hits);
+  ImplicitConstraints k;
+  const std::size_t n = body_contact_constraints(x, v, inv_mass, hits, sphere.positions, sphere.triangles, {}, contact,
+                                                 margin, h, released, k);
+  EXPECT_EQ(n, 1u);
+  EXPECT_NEAR(k.normals[1], 1.0f, 1e-5f);
+  EXPECT_NEAR(k.normals[0], 0.0f, 1e-5f);
+  // v₁·n = −gap/h (close the gap in one step), so Δv·n = −gap/h − v·n.
+  EXPECT_NEAR(k.targets[0], -gap / h + 0.2f, 1e-4f);
+  for (std::size_t i = 1; i < 4; ++i)
+    EXPECT_EQ(k.normals[3 * i] * k.normals[3 * i] + k.normals[3 * i + 1] * k.normals[3 * i + 1], 0.0f) << i;
+
+  // Friction: λ = 0.05 N·s at w = 10/kg could remove 0.15 m/s: the 0.1 m/s slide stops.
+  std::vector<float> xf = x, vf = v;
+  apply_contact_friction(xf, vf, inv_mass, k, std::vector<float>{0.05f, 0, 0, 0}, hits, sphere.triangles, {},
+                         contact.friction, h);
+  EXPECT_NEAR(vf[0], 0.0f, 1e-6f);
+  EXPECT_NEAR(xf[0], x[0] - h * 0.1f, 1e-7f);
+  EXPECT_EQ(vf[1], v[1]); // the normal component is the constraint's, not friction's
+  // λ = 0.01 N·s removes 0.03 m/s of it.
+  xf = x;
+  vf = v;
+  apply_contact_friction(xf, vf, inv_mass, k, std::vector<float>{0.01f, 0, 0, 0}, hits, sphere.triangles, {},
+                         contact.friction, h);
+  EXPECT_NEAR(vf[0], 0.07f, 1e-5f);
+  EXPECT_EQ(vf[3], v[3]); // unconstrained particles are untouched
+}
+
 TEST(ClothImplicit, TbbEqualsSerialBitForBit) {
   const Cloth c = jittered_cloth(120, 5u, 1e-4f); // 14,400 particles: several chunks
   std::vector<float> xs = c.x, vs = c.v, xt = c.x, vt = c.v;
@@ -208,9 +359,9 @@ TEST(ClothImplicit, ClothStaysBoundedAtAHundredTimesTheRk4Bound) {
     EXPECT_LT(std::sqrt(v2max), 9.81 * (t + h) + 1.0) << "step " << i; // g·t plus the initial 0.5 m/s range
   }
   for (std::size_t e = 0; e < c.adjacency.neighbors.size(); ++e) {
-    const std::size_t i = std::size_t(std::upper_bound(c.adjacency.offsets.begin(), c.adjacency.offsets.end(),
-                                                       std::int32_t(e)) -
-                                      c.adjacency.offsets.begin() - 1);
+    const std::size_t i =
+        std::size_t(std::upper_bound(c.adjacency.offsets.begin(), c.adjacency.offsets.end(), std::int32_t(e)) -
+                    c.adjacency.offsets.begin() - 1);
     const std::size_t j = std::size_t(c.adjacency.neighbors[e]);
     double l2 = 0;
     for (int k = 0; k < 3; ++k)

@@ -124,6 +124,22 @@ TEST(ClothSprings, DampingForcesAreMinusTheRayleighGradient) {
   EXPECT_LT(worst, 1e-4 * scale);
 }
 
+// A sliver edge (rest 0.1 mm) stretched to 1 mm reads as 10× against its own rest length but
+// only 0.1× against a 1 cm floor; a NaN position always reads as runaway.
+TEST(ClothSprings, MaxStretchMeasuresAgainstTheRestLengthFloor) {
+  ClothSprings s;
+  s.ends = {0, 1, 1, 2};
+  s.rest_lengths = {1e-4f, 0.02f};
+  s.stiffness = {1.0f, 1.0f};
+  s.damping = {0.0f, 0.0f};
+  s.kinds = {SpringKind::STRUCTURAL, SpringKind::STRUCTURAL};
+  std::vector<float> x = {0, 0, 0, 1e-3f, 0, 0, 1e-3f + 0.03f, 0, 0};
+  EXPECT_NEAR(max_spring_stretch(x, s), 10.0, 1e-3);
+  EXPECT_NEAR(max_spring_stretch(x, s, 0.01f), 1.5, 1e-5); // now the 2 cm spring at 3 cm leads
+  x[0] = NAN;
+  EXPECT_TRUE(std::isinf(max_spring_stretch(x, s, 0.01f)));
+}
+
 TEST(ClothSprings, GatherEqualsScatterBitForBit) {
   const Fixture f = jittered_cloth(17, 3u, true);
   const SpringAdjacency adj = build_spring_adjacency(f.springs, f.mesh.vertex_count());
