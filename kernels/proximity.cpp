@@ -165,9 +165,11 @@ void write_hit(const IndexData& index, const QueryState& s, std::size_t i, Close
   hits.signed_distances[i] = side < 0.0f ? -distance : distance;
 }
 
-void closest_points_range(const IndexData& index, std::span<const float> queries, float max_distance, ClosestHits& hits,
-                          std::size_t begin, std::size_t end) {
+// `radii` empty: every query searches within max_distance; otherwise query i within radii[i].
+void closest_points_range(const IndexData& index, std::span<const float> queries, float max_distance,
+                          std::span<const float> radii, ClosestHits& hits, std::size_t begin, std::size_t end) {
   for (std::size_t i = begin; i < end; ++i) {
+    if (!radii.empty()) max_distance = radii[i];
     QueryState s = start_query(index, queries.data() + 3 * i, max_distance);
     if (index.geometry) {
       RTCPointQuery query;
@@ -336,7 +338,27 @@ void ProximityIndex::closest_points(std::span<const float> queries, float max_di
   hits.resize(count);
   const Impl& m = *m_impl;
   parallel_for_range(count, PROXIMITY_QUERY_GRAIN,
-                     [&](std::size_t b, std::size_t e) { closest_points_range(m, queries, max_distance, hits, b, e); });
+                     [&](std::size_t b, std::size_t e) { closest_points_range(m, queries, max_distance, {}, hits, b, e); });
+  embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
+}
+
+void ProximityIndex::closest_points(std::span<const float> queries, std::span<const float> max_distances,
+                                    ClosestHits& hits) const {
+  check_queries(queries, 0.0f);
+  const std::size_t count = queries.size() / 3;
+  if (max_distances.size() != count)
+    throw Error("proximity queries", 0,
+                "expected " + std::to_string(count) + " search radii, got " + std::to_string(max_distances.size()));
+  for (std::size_t i = 0; i < count; ++i)
+    if (!(max_distances[i] >= 0.0f))
+      throw Error("proximity queries", 0,
+                  "query " + std::to_string(i) + " has search radius " + std::to_string(max_distances[i]) +
+                      " (must be ≥ 0 or +inf)");
+  hits.resize(count);
+  const Impl& m = *m_impl;
+  parallel_for_range(count, PROXIMITY_QUERY_GRAIN, [&](std::size_t b, std::size_t e) {
+    closest_points_range(m, queries, 0.0f, max_distances, hits, b, e);
+  });
   embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
 }
 
@@ -344,7 +366,7 @@ void ProximityIndex::closest_points_serial(std::span<const float> queries, float
                                            ClosestHits& hits) const {
   check_queries(queries, max_distance);
   hits.resize(queries.size() / 3);
-  closest_points_range(*m_impl, queries, max_distance, hits, 0, queries.size() / 3);
+  closest_points_range(*m_impl, queries, max_distance, {}, hits, 0, queries.size() / 3);
   embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
 }
 

@@ -81,7 +81,10 @@ struct ProximitySideMesh {
 /// not rebuilt, on refit()) and the pseudo-normals of every face, edge and vertex.
 ///
 /// The side (sign) is exact for a closed, edge-manifold, consistently outward-oriented mesh
-/// whose shared vertices share indices (edges are found by vertex index). An open mesh (a scan
+/// whose shared vertices share indices (edges are found by vertex index) and which does not
+/// intersect itself. Where a posed body overlaps itself (an upper arm skinned into the torso),
+/// a query inside one part whose closest surface is the other part's buried skin is reported
+/// on that skin's side, i.e. outside: the side is local to the closest surface. An open mesh (a scan
 /// with holes at the neck, soles or eyes) is capped internally at build time: each boundary
 /// loop gets a fan of triangles around its centroid (hole_caps.h). The caps never appear in
 /// the answers (closest point, triangle, distance are the mesh's) but the side is decided on
@@ -127,6 +130,13 @@ public:
   /// first query with a NaN or infinite coordinate, for a size not a multiple of 3, and for a
   /// negative or NaN max_distance; the check is one pass over the queries.
   void closest_points(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
+
+  /// As above with a search radius per query: `max_distances` is #Q (m, each ≥ 0 or +∞), query
+  /// i seeing only triangles within max_distances[i]. For re-queries whose previous closest
+  /// point bounds the new distance (a small radius prunes most of the BVH traversal). Throws
+  /// vfit::Error ("proximity queries: …") as above, and when max_distances.size() ≠ #Q or a
+  /// radius is negative or NaN.
+  void closest_points(std::span<const float> queries, std::span<const float> max_distances, ClosestHits& hits) const;
 
   /// Serial reference of closest_points(): the same Embree query, one point after another.
   void closest_points_serial(std::span<const float> queries, float max_distance, ClosestHits& hits) const;

@@ -9,6 +9,7 @@
 #include <unordered_set>
 
 #include <Eigen/Geometry>
+#include <Eigen/SparseCholesky>
 
 #include "kernels/error.h"
 #include "kernels/laplacian.h"
@@ -354,32 +355,57 @@ Eigen::MatrixXd contract_mesh(const Mesh& mesh, const ContractionOptions& option
   const double area0 = surface_area(x, mesh.triangles);
   const double wh = options.attraction_weight;
   double wl = options.contraction_weight;
-  SparseMatrix laplacian;
-  if (options.laplacian == ContractionLaplacian::UNIFORM) laplacian = uniform_laplacian(mesh.triangles, mesh.vertex_count());
+  double ratio = 1;
+  if (options.laplacian == ContractionLaplacian::UNIFORM) {
+    // The uniform L is fixed, so AᵀA = w_L²·LᵀL + w_H²·I keeps one sparsity pattern: LᵀL and
+    // the fill-reducing ordering are computed once, and each refactorisation is numeric only.
+    const Eigen::SparseMatrix<double> L = uniform_laplacian(mesh.triangles, mesh.vertex_count());
+    const Eigen::SparseMatrix<double> LtL = Eigen::SparseMatrix<double>(L.transpose()) * L;
+    Eigen::SparseMatrix<double> identity(n, n);
+    identity.setIdentity();
+    Eigen::SparseMatrix<double> normal = LtL + identity;
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+    ldlt.analyzePattern(normal);
+    int since_factor = options.iterations_per_factor;
+    bool factored = false;
+    for (int it = 0; it < options.max_iterations && area0 > 0 && ratio > options.area_ratio; ++it) {
+      if (since_factor == options.iterations_per_factor) {
+        if (factored) wl *= 4; // the flow is slow at this resolution: take longer steps
+        normal = wl * wl * LtL + wh * wh * identity;
+        ldlt.factorize(normal);
+        factored = true;
+        ++s.factorisations;
+        since_factor = 0;
+        // AᵀA is positive definite for w_H > 0; a failure (or a vanishing pivot) means w_H ≤ 0 or NaNs.
+        if (ldlt.info() != Eigen::Success) break;
+        const auto d = ldlt.vectorD();
+        if (!(d.minCoeff() > 1e-12 * std::max(1.0, d.cwiseAbs().maxCoeff()))) break;
+      }
+      // Aᵀb = [w_L Lᵀ, w_H I]·[0; w_H x_prev] = w_H² x_prev.
+      const Eigen::MatrixXd rhs = wh * wh * x;
+      x = ldlt.solve(rhs);
+      ++since_factor;
+      ++s.iterations;
+      ratio = surface_area(x, mesh.triangles) / area0;
+    }
+    s.final_area_ratio = ratio;
+    if (stats) *stats = s;
+    return x;
+  }
+  // COTANGENT: the weights follow the contracting surface, so every iteration refactors.
   std::optional<SparseLeastSquares> solver;
   std::vector<float> current;
-  int since_factor = 0;
-  double ratio = 1;
   for (int it = 0; it < options.max_iterations && area0 > 0 && ratio > options.area_ratio; ++it) {
-    if (options.laplacian == ContractionLaplacian::COTANGENT) {
-      if (it > 0) wl *= options.cotangent_growth;
-      current.resize(std::size_t(3 * n));
-      for (Eigen::Index v = 0; v < n; ++v)
-        for (int k = 0; k < 3; ++k) current[std::size_t(3 * v + k)] = float(x(v, k));
-      laplacian = cotangent_laplacian(current, mesh.triangles);
-      solver.emplace(contraction_system(laplacian, wl, wh));
-      ++s.factorisations;
-    } else if (!solver || since_factor == options.iterations_per_factor) {
-      if (solver) wl *= 4; // the flow is slow at this resolution: take longer steps
-      solver.emplace(contraction_system(laplacian, wl, wh));
-      ++s.factorisations;
-      since_factor = 0;
-    }
+    if (it > 0) wl *= options.cotangent_growth;
+    current.resize(std::size_t(3 * n));
+    for (Eigen::Index v = 0; v < n; ++v)
+      for (int k = 0; k < 3; ++k) current[std::size_t(3 * v + k)] = float(x(v, k));
+    solver.emplace(contraction_system(cotangent_laplacian(current, mesh.triangles), wl, wh));
+    ++s.factorisations;
     // AᵀA = w_L²LᵀL + w_H²I is positive definite for w_H > 0; a failure means w_H ≤ 0 or NaNs.
     if (!solver->ok()) break;
     // Aᵀb = [w_L Lᵀ, w_H I]·[0; w_H x_prev] = w_H² x_prev.
     x = solver->solve_normal(wh * wh * x);
-    ++since_factor;
     ++s.iterations;
     ratio = surface_area(x, mesh.triangles) / area0;
   }

@@ -50,4 +50,83 @@ std::vector<float> LaplacianDeformer::deform(const Eigen::MatrixXd& delta, const
   return out;
 }
 
+BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform)
+    : m_laplacian(uniform ? uniform_laplacian(mesh.triangle_view(), mesh.vertex_count())
+                          : cotangent_laplacian(mesh.position_view(), mesh.triangle_view())),
+      m_handles(handles.begin(), handles.end()) {
+  const std::size_t nv = mesh.vertex_count();
+  // column[v]: index among the free vertices (≥ 0) or −1 − index among the handles.
+  std::vector<std::int32_t> column(nv, 0);
+  for (std::size_t h = 0; h < m_handles.size(); ++h) {
+    const std::int32_t v = m_handles[h];
+    if (v < 0 || static_cast<std::size_t>(v) >= nv)
+      throw Error("laplacian deformation", 0, "handle vertex " + std::to_string(v) + " out of range");
+    if (column[static_cast<std::size_t>(v)] < 0)
+      throw Error("laplacian deformation", 0, "handle vertex " + std::to_string(v) + " given twice");
+    column[static_cast<std::size_t>(v)] = -1 - static_cast<std::int32_t>(h);
+  }
+  for (std::size_t v = 0; v < nv; ++v)
+    if (column[v] >= 0) {
+      column[v] = static_cast<std::int32_t>(m_free.size());
+      m_free.push_back(static_cast<std::int32_t>(v));
+    }
+  if (m_free.empty()) return;
+  std::vector<Eigen::Triplet<double>> free_entries, handle_entries;
+  for (Eigen::Index r = 0; r < m_laplacian.outerSize(); ++r) {
+    bool touches = false;
+    for (SparseMatrix::InnerIterator it(m_laplacian, r); it && !touches; ++it)
+      touches = column[static_cast<std::size_t>(it.col())] >= 0 && it.value() != 0;
+    if (!touches) continue;
+    const auto row = static_cast<Eigen::Index>(m_rows.size());
+    m_rows.push_back(static_cast<std::int32_t>(r));
+    for (SparseMatrix::InnerIterator it(m_laplacian, r); it; ++it) {
+      const std::int32_t c = column[static_cast<std::size_t>(it.col())];
+      if (c >= 0)
+        free_entries.emplace_back(row, c, it.value());
+      else
+        handle_entries.emplace_back(row, -1 - c, it.value());
+    }
+  }
+  const auto nr = static_cast<Eigen::Index>(m_rows.size());
+  m_free_block.resize(nr, static_cast<Eigen::Index>(m_free.size()));
+  m_free_block.setFromTriplets(free_entries.begin(), free_entries.end());
+  m_handle_block.resize(nr, static_cast<Eigen::Index>(m_handles.size()));
+  m_handle_block.setFromTriplets(handle_entries.begin(), handle_entries.end());
+  m_solver = std::make_unique<SparseLeastSquares>(m_free_block);
+}
+
+BandLaplacianDeformer::~BandLaplacianDeformer() = default;
+BandLaplacianDeformer::BandLaplacianDeformer(BandLaplacianDeformer&&) noexcept = default;
+BandLaplacianDeformer& BandLaplacianDeformer::operator=(BandLaplacianDeformer&&) noexcept = default;
+
+Eigen::MatrixXd BandLaplacianDeformer::laplacian_coordinates(std::span<const float> positions) const {
+  const Eigen::Index n = m_laplacian.rows();
+  Eigen::MatrixXd x(n, 3);
+  for (Eigen::Index v = 0; v < n; ++v)
+    for (int k = 0; k < 3; ++k)
+      x(v, k) = positions[static_cast<std::size_t>(3 * v + k)];
+  return m_laplacian * x;
+}
+
+std::vector<float> BandLaplacianDeformer::deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets) const {
+  const Eigen::Index n = m_laplacian.rows();
+  std::vector<float> out(static_cast<std::size_t>(3 * n));
+  for (std::size_t h = 0; h < m_handles.size(); ++h)
+    for (int k = 0; k < 3; ++k)
+      out[3 * static_cast<std::size_t>(m_handles[h]) + static_cast<std::size_t>(k)] =
+          static_cast<float>(targets(static_cast<Eigen::Index>(h), k));
+  if (m_free.empty()) return out;
+  // ‖L_F x_F − (δ − L_H t)‖² over the rows that touch a free vertex.
+  Eigen::MatrixXd b(static_cast<Eigen::Index>(m_rows.size()), 3);
+  for (std::size_t r = 0; r < m_rows.size(); ++r)
+    b.row(static_cast<Eigen::Index>(r)) = delta.row(m_rows[r]);
+  b -= m_handle_block * targets;
+  const Eigen::MatrixXd x = m_solver->solve(b);
+  for (std::size_t f = 0; f < m_free.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+      out[3 * static_cast<std::size_t>(m_free[f]) + static_cast<std::size_t>(k)] =
+          static_cast<float>(x(static_cast<Eigen::Index>(f), k));
+  return out;
+}
+
 } // namespace vfit

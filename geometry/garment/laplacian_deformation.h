@@ -6,6 +6,7 @@
 /// every new set of targets and δ.
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -39,6 +40,45 @@ private:
   std::vector<std::int32_t> m_constrained;
   double m_weight;
   SparseLeastSquares m_solver;
+};
+
+/// Laplacian surface deformation with the handles held exactly (hard constraints): only the
+/// free vertices are unknowns, argmin over x_F of ‖L x − δ‖² with x_H = t. Rows of L that touch
+/// no free vertex are constant and dropped, so the factorisation is of the free band's system
+/// alone (#F unknowns, not #V): far cheaper when most of the mesh is handles, as in skeleton
+/// driving (seed 000 §5.4). ok() is false when the reduced system is singular: a connected
+/// piece of free vertices with no handle in its Laplacian stencil.
+class BandLaplacianDeformer {
+public:
+  /// mesh: the rest surface (cotangent Laplacian; uniform when `uniform`). handles: vertex
+  /// indices held at their targets, in any order, each once; throws vfit::Error("laplacian
+  /// deformation", …) naming a handle out of range.
+  BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform = false);
+  ~BandLaplacianDeformer();
+  BandLaplacianDeformer(BandLaplacianDeformer&&) noexcept;
+  BandLaplacianDeformer& operator=(BandLaplacianDeformer&&) noexcept;
+
+  bool ok() const { return m_free.empty() || m_solver->ok(); }
+
+  /// δ = L · x for positions (#V × 3 flat, m) of this mesh: #V × 3.
+  Eigen::MatrixXd laplacian_coordinates(std::span<const float> positions) const;
+
+  /// delta: #V × 3 target differential coordinates (only the rows that touch a free vertex
+  /// are read); targets: #H × 3 (m), in `handles` order. Returns #V × 3 positions as floats
+  /// (flat): handles at their targets exactly, free vertices from the least squares.
+  std::vector<float> deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets) const;
+
+  /// The free vertices (not handles), ascending: the unknowns.
+  const std::vector<std::int32_t>& free_vertices() const { return m_free; }
+
+private:
+  SparseMatrix m_laplacian;            ///< #V × #V
+  std::vector<std::int32_t> m_handles; ///< #H, caller's order
+  std::vector<std::int32_t> m_free;    ///< #F ascending
+  std::vector<std::int32_t> m_rows;    ///< rows of L with a free column, ascending
+  SparseMatrix m_free_block;           ///< L[rows, F]
+  SparseMatrix m_handle_block;         ///< L[rows, H] (columns in `handles` order)
+  std::unique_ptr<SparseLeastSquares> m_solver;
 };
 
 } // namespace vfit

@@ -96,27 +96,32 @@ Eigen::Vector3d point_at_arc_length(std::span<const Eigen::Vector3d> bones, doub
   return a + s / (b - a).norm() * (b - a);
 }
 
-// Per-vertex adjacency (CSR) of the mesh's edges.
+// Per-vertex adjacency (CSR) of the mesh's edges: each vertex's neighbours gathered from its
+// faces by counting (no global sort), then sorted and deduplicated per vertex.
 void edge_adjacency(const Mesh& mesh, std::vector<std::int32_t>& offsets, std::vector<std::int32_t>& neighbours) {
   const std::size_t nv = mesh.vertex_count();
-  std::vector<std::pair<std::int32_t, std::int32_t>> edges;
-  edges.reserve(mesh.triangles.size() * 2);
+  std::vector<std::int32_t> start(nv + 1, 0);
+  for (std::int32_t v : mesh.triangles)
+    start[static_cast<std::size_t>(v) + 1] += 2;
+  for (std::size_t v = 0; v < nv; ++v)
+    start[v + 1] += start[v];
+  std::vector<std::int32_t> all(static_cast<std::size_t>(start[nv]));
+  std::vector<std::int32_t> fill(start.begin(), start.end() - 1);
   for (std::size_t f = 0; f < mesh.face_count(); ++f)
     for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
-      edges.emplace_back(a, b);
-      edges.emplace_back(b, a);
+      const auto a = static_cast<std::size_t>(mesh.triangles[3 * f + k]);
+      all[static_cast<std::size_t>(fill[a]++)] = mesh.triangles[3 * f + (k + 1) % 3];
+      all[static_cast<std::size_t>(fill[a]++)] = mesh.triangles[3 * f + (k + 2) % 3];
     }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   offsets.assign(nv + 1, 0);
-  for (const auto& e : edges)
-    ++offsets[static_cast<std::size_t>(e.first) + 1];
-  for (std::size_t v = 0; v < nv; ++v)
-    offsets[v + 1] += offsets[v];
-  neighbours.resize(edges.size());
-  for (std::size_t i = 0; i < edges.size(); ++i)
-    neighbours[i] = edges[i].second;
+  neighbours.clear();
+  neighbours.reserve(all.size() / 2 + nv);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto begin = all.begin() + start[v], end = all.begin() + start[v + 1];
+    std::sort(begin, end);
+    neighbours.insert(neighbours.end(), begin, std::unique(begin, end));
+    offsets[v + 1] = static_cast<std::int32_t>(neighbours.size());
+  }
 }
 
 Eigen::Matrix3d slerp(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b, double w) {
@@ -249,7 +254,7 @@ SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& s
   for (std::size_t v = 0; v < nv; ++v)
     if (m_seam_distance[v] > options.seam_radius) m_handles.push_back(static_cast<std::int32_t>(v));
 
-  m_deformer = std::make_unique<LaplacianDeformer>(garment, m_handles, options.handle_weight);
+  m_deformer = std::make_unique<BandLaplacianDeformer>(garment, m_handles);
   if (!m_deformer->ok())
     throw Error("skeleton driving", 0,
                 "the Laplacian system is singular: a piece of the garment lies entirely within " +

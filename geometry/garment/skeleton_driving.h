@@ -5,7 +5,8 @@
 /// sleeve and leg skeleton is laid along the body's shoulder→elbow→wrist or hip→knee→ankle
 /// bones by arc length (eq. 8–11), the part's vertices follow their node rigidly (eq. 13–15,
 /// blended between neighbouring nodes), and a Laplacian surface deformation (Sorkine et al.
-/// 2004, laplacian_deformation.h) joins limbs and torso continuously across the seams.
+/// 2004, laplacian_deformation.h) over the band within seam_radius of the seams joins limbs
+/// and torso continuously, the rest held at its rigid positions.
 
 #include <cstdint>
 #include <memory>
@@ -26,9 +27,9 @@ namespace vfit {
 struct SkeletonDrivingOptions {
   /// Vertices closer than this to a limb's seam (the ring where a sleeve or leg meets the
   /// torso), in metres, are left free for the Laplacian solve; all others are handles.
+  /// Handles are held at their rigid positions exactly (BandLaplacianDeformer), so only the
+  /// free band around the seams is solved for.
   double seam_radius = 0.06;
-  /// Weight of the handles in the Laplacian least squares (LaplacianDeformer's `weight`).
-  double handle_weight = 10.0;
   /// Blend each vertex's rigid transform with the neighbouring node's by its position along
   /// the chain, so that consecutive nodes leave no steps in the sleeve.
   bool blend_nodes = true;
@@ -136,7 +137,7 @@ private:
   std::vector<std::int32_t> m_vertex_limb; ///< #V: index into m_skeletons, −1 for the torso
   std::vector<std::int32_t> m_vertex_node; ///< #V: node within its limb, −1 for the torso
   Eigen::MatrixXd m_rest_delta;            ///< #V × 3: L · rest positions
-  std::unique_ptr<LaplacianDeformer> m_deformer;
+  std::unique_ptr<BandLaplacianDeformer> m_deformer;
   double m_setup_ms = 0;
 };
 

@@ -8,11 +8,13 @@
 #include <unordered_map>
 
 #include "kernels/error.h"
+#include "kernels/parallel.h"
 
 namespace vfit {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+constexpr std::size_t LIMBS_PER_TASK = 1;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 class DisjointSets {
@@ -206,20 +208,28 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
 
 std::vector<PartSkeleton> extract_limb_skeletons(const Mesh& garment, std::span<const GarmentPart> vertex_parts,
                                                  const PartSkeletonOptions& options) {
-  std::vector<PartSkeleton> skeletons;
   if (vertex_parts.size() != garment.vertex_count())
     throw Error("part skeleton", 0,
                 std::to_string(vertex_parts.size()) + " part labels for " + std::to_string(garment.vertex_count()) + " vertices");
-  for (GarmentPart part : {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {
+  std::vector<GarmentPart> parts;
+  for (GarmentPart part :
+       {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {
     bool present = false;
     for (std::size_t f = 0; f < garment.face_count() && !present; ++f) {
       const std::int32_t* t = &garment.triangles[3 * f];
-      present = t[0] >= 0 && t[1] >= 0 && t[2] >= 0 && std::size_t(std::max({t[0], t[1], t[2]})) < vertex_parts.size() &&
+      present = t[0] >= 0 && t[1] >= 0 && t[2] >= 0 &&
+                std::size_t(std::max({t[0], t[1], t[2]})) < vertex_parts.size() &&
                 vertex_parts[std::size_t(t[0])] == part && vertex_parts[std::size_t(t[1])] == part &&
                 vertex_parts[std::size_t(t[2])] == part;
     }
-    if (present) skeletons.push_back(extract_part_skeleton(garment, vertex_parts, part, options));
+    if (present) parts.push_back(part);
   }
+  // The limbs are independent: one task each (grain 1), results in the parts' order.
+  std::vector<PartSkeleton> skeletons(parts.size());
+  parallel_for_range(parts.size(), LIMBS_PER_TASK, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i)
+      skeletons[i] = extract_part_skeleton(garment, vertex_parts, parts[i], options);
+  });
   return skeletons;
 }
 

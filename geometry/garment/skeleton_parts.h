@@ -65,7 +65,8 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
 
 /// Skeletons of the sleeves and legs present (LEFT_SLEEVE, RIGHT_SLEEVE, LEFT_LEG, RIGHT_LEG
 /// in that order; a part is present when at least one face has it on all three vertices).
-/// The torso and skirts are not tubes and get none.
+/// The torso and skirts are not tubes and get none. The parts are extracted concurrently (one
+/// TBB task each); the result does not depend on the thread count.
 std::vector<PartSkeleton> extract_limb_skeletons(const Mesh& garment, std::span<const GarmentPart> vertex_parts,
                                                  const PartSkeletonOptions& options = {});
 

@@ -14,6 +14,7 @@
 #include "geometry/body/mannequin_shape.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
+#include "geometry/mesh/primitives.h"
 #include "kernels/error.h"
 
 namespace vfit {
@@ -256,6 +257,106 @@ TEST(SkeletonDriving, RejectsLabelsOfAnotherMesh) {
   GarmentSegmentation wrong = f.segmentation;
   wrong.vertex_parts.pop_back();
   EXPECT_THROW(SkeletonDriver(f.garment.mesh, wrong, f.skeletons), Error);
+}
+
+// A tube 0.4 m long whose bottom 5 and top 5 rings (of 20) are handles; the 10 between are free.
+struct BandCase {
+  Mesh tube = make_tube(20, 16, 0.05f, 0.4f);
+  std::vector<std::int32_t> handles;
+  BandCase() {
+    for (std::size_t v = 0; v < tube.vertex_count(); ++v) {
+      const float y = tube.positions[3 * v + 1];
+      if (y < 0.09f || y > 0.31f) handles.push_back(static_cast<std::int32_t>(v));
+    }
+  }
+  Eigen::MatrixXd targets(const std::vector<float>& x) const {
+    Eigen::MatrixXd t(static_cast<Eigen::Index>(handles.size()), 3);
+    for (std::size_t h = 0; h < handles.size(); ++h)
+      for (int k = 0; k < 3; ++k)
+        t(static_cast<Eigen::Index>(h), k) = x[3 * static_cast<std::size_t>(handles[h]) + k];
+    return t;
+  }
+};
+
+TEST(BandLaplacianDeformer, ReproducesARigidMotion) {
+  const BandCase c;
+  ASSERT_GT(c.handles.size(), 0u);
+  const BandLaplacianDeformer deformer(c.tube, c.handles);
+  ASSERT_TRUE(deformer.ok());
+  EXPECT_EQ(deformer.free_vertices().size() + c.handles.size(), c.tube.vertex_count());
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  std::vector<float> moved(c.tube.positions.size());
+  for (std::size_t v = 0; v < c.tube.vertex_count(); ++v) {
+    const Eigen::Vector3d p =
+        R * Eigen::Vector3d(c.tube.positions[3 * v], c.tube.positions[3 * v + 1], c.tube.positions[3 * v + 2]) +
+        Eigen::Vector3d(0.1, -0.2, 0.3);
+    for (int k = 0; k < 3; ++k)
+      moved[3 * v + k] = static_cast<float>(p[k]);
+  }
+  const std::vector<float> out = deformer.deform(deformer.laplacian_coordinates(moved), c.targets(moved));
+  ASSERT_EQ(out.size(), moved.size());
+  // The rigidly moved mesh is an exact minimiser; 1e-5 m: float positions in and out.
+  for (std::size_t i = 0; i < out.size(); ++i)
+    EXPECT_NEAR(out[i], moved[i], 1e-5) << "coordinate " << i;
+}
+
+TEST(BandLaplacianDeformer, HoldsHandlesExactlyAndAgreesWithStiffSoftHandles) {
+  const BandCase c;
+  const BandLaplacianDeformer hard(c.tube, c.handles);
+  const LaplacianDeformer soft(c.tube, c.handles, 1e3);
+  ASSERT_TRUE(hard.ok());
+  ASSERT_TRUE(soft.ok());
+  // The top handles shift 5 cm sideways, the bottom ones stay: the free band must shear.
+  std::vector<float> shifted = c.tube.positions;
+  for (std::size_t v = 0; v < c.tube.vertex_count(); ++v)
+    if (shifted[3 * v + 1] > 0.31f) shifted[3 * v] += 0.05f;
+  const Eigen::MatrixXd delta = hard.laplacian_coordinates(c.tube.positions);
+  const std::vector<float> a = hard.deform(delta, c.targets(shifted));
+  const std::vector<float> b = soft.deform(delta, c.targets(shifted));
+  for (std::int32_t h : c.handles)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(a[3 * static_cast<std::size_t>(h) + k], shifted[3 * static_cast<std::size_t>(h) + k]);
+  double worst = 0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, double(std::abs(a[i] - b[i])));
+  // Soft handles of weight w give way by about the Laplacian residual / w² (laplacian_deformation.h):
+  // under 1e-3 m at w = 1000 for a 5 cm shear.
+  EXPECT_LT(worst, 1e-3);
+  for (std::int32_t v : hard.free_vertices()) {
+    const float dx = a[3 * static_cast<std::size_t>(v)] - c.tube.positions[3 * static_cast<std::size_t>(v)];
+    EXPECT_GT(dx, -0.005f) << "vertex " << v;
+    EXPECT_LT(dx, 0.055f) << "vertex " << v;
+  }
+}
+
+TEST(BandLaplacianDeformer, ReportsAFreePieceWithoutHandlesAndRejectsBadHandles) {
+  const BandCase c;
+  Mesh two = c.tube;
+  const auto offset = static_cast<std::int32_t>(two.vertex_count());
+  for (std::size_t i = 0; i < c.tube.positions.size(); ++i)
+    two.positions.push_back(c.tube.positions[i] + (i % 3 == 0 ? 1.0f : 0.0f));
+  for (std::int32_t v : c.tube.triangles)
+    two.triangles.push_back(v + offset);
+  EXPECT_FALSE(BandLaplacianDeformer(two, c.handles).ok()); // the second tube has no handle
+  std::vector<std::int32_t> all(c.tube.vertex_count());
+  for (std::size_t v = 0; v < all.size(); ++v)
+    all[v] = static_cast<std::int32_t>(v);
+  const BandLaplacianDeformer fixed(c.tube, all);
+  EXPECT_TRUE(fixed.ok());
+  Eigen::MatrixXd everywhere(static_cast<Eigen::Index>(all.size()), 3);
+  for (std::size_t v = 0; v < all.size(); ++v)
+    for (int k = 0; k < 3; ++k)
+      everywhere(static_cast<Eigen::Index>(v), k) = c.tube.positions[3 * v + k] + 0.1;
+  const std::vector<float> out = fixed.deform(fixed.laplacian_coordinates(c.tube.positions), everywhere);
+  ASSERT_EQ(out.size(), c.tube.positions.size());
+  for (std::size_t i = 0; i < out.size(); ++i)
+    EXPECT_EQ(out[i], static_cast<float>(everywhere(Eigen::Index(i / 3), Eigen::Index(i % 3))));
+  std::vector<std::int32_t> bad = c.handles;
+  bad.push_back(offset);
+  EXPECT_THROW(BandLaplacianDeformer(c.tube, bad), Error);
+  bad = c.handles;
+  bad.push_back(c.handles.front());
+  EXPECT_THROW(BandLaplacianDeformer(c.tube, bad), Error);
 }
 
 } // namespace
