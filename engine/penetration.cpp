@@ -457,6 +457,7 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
   Region region;
   std::optional<SparseLeastSquares> solver;
   std::vector<char> ever_pushed(nv, 0);
+  int last_improvement = -1;
   for (int iter = 0; iter < rounds; ++iter) {
     if (iter > 0 && !propose(false)) break;
     for (std::size_t v = 0; v < nv; ++v) ever_pushed[v] |= pushes.flagged[v];
@@ -490,6 +491,9 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
     if (badness(report.after) < badness(best)) {
       best = report.after;
       best_positions = garment.positions;
+      last_improvement = iter;
+    } else if (o.stall_rounds > 0 && iter - last_improvement >= o.stall_rounds) {
+      break;
     }
   }
   if (!resolved(report.after) && badness(best) < badness(report.after)) {

@@ -72,6 +72,10 @@ struct PenetrationOptions {
   double clearance = 0.002;   ///< κ (m): the gap left between a pushed vertex and the body
   double smoothness = 1.0;    ///< λ2/λ1: weight of keeping the garment's Laplacian coordinates
   int max_iterations = 25;    ///< detection → solve rounds at most
+  /// Stop after this many rounds in a row that did not improve on the best state seen (the
+  /// pushes of vertices and of crossing edges can trade offences back and forth without end);
+  /// the best state is returned. 0: never stop early.
+  int stall_rounds = 8;
   double tolerance = 0.0005;  ///< stop when no vertex is deeper than this (m)
   PenetrationMethod method = PenetrationMethod::SEED_000;
   double seed004_smoothing = 6.0; ///< ω_s (seed 004 §3.2.2)
