@@ -111,6 +111,13 @@ std::string size_verdict_name(SizeVerdict verdict) {
 
 FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const GarmentPart> parts, GarmentType type,
                          const Body& body, std::span<const float> before_simulation, const FitFeedbackOptions& options) {
+  const ProximityIndex index(body.mesh.positions, body.mesh.triangles);
+  return fit_feedback(rest, fitted, parts, type, body, index, before_simulation, options);
+}
+
+FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const GarmentPart> parts, GarmentType type,
+                         const Body& body, const ProximityIndex& index, std::span<const float> before_simulation,
+                         const FitFeedbackOptions& options) {
   const std::size_t n = fitted.vertex_count();
   if (rest.vertex_count() != n || rest.triangles != fitted.triangles)
     throw Error("fit feedback", 0, "the rest and fitted garments differ in vertices or faces");
@@ -140,7 +147,6 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   }
 
   // Ease: signed distance to the body.
-  const ProximityIndex index(body.mesh.positions, body.mesh.triangles);
   ClosestHits hits;
   index.closest_points(fitted.positions, std::numeric_limits<float>::infinity(), hits);
   out.ease = hits.signed_distances;

@@ -12,6 +12,7 @@
 #include "geometry/body/body.h"
 #include "geometry/garment/garment.h"
 #include "geometry/mesh/mesh.h"
+#include "kernels/proximity.h"
 
 namespace vfit {
 
@@ -88,5 +89,11 @@ struct FitFeedback {
 FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const GarmentPart> parts, GarmentType type,
                          const Body& body, std::span<const float> before_simulation = {},
                          const FitFeedbackOptions& options = {});
+
+/// The same, with the body's proximity index already built (a caller fitting several garments
+/// onto one body builds it once); `body_index` must index `body.mesh`.
+FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const GarmentPart> parts, GarmentType type,
+                         const Body& body, const ProximityIndex& body_index,
+                         std::span<const float> before_simulation = {}, const FitFeedbackOptions& options = {});
 
 } // namespace vfit

@@ -219,7 +219,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
   t0 = Clock::now();
   Mesh rest = mesh;
   rest.positions = as_modelled;
-  out.feedback = fit_feedback(rest, mesh, out.segmentation.vertex_parts, report.type, body, before_simulation);
+  out.feedback = fit_feedback(rest, mesh, out.segmentation.vertex_parts, report.type, body, body_index, before_simulation);
   report.verdict = out.feedback.verdict;
   report.verdict_reason = out.feedback.reason;
   report.regions = out.feedback.regions;

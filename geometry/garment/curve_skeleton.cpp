@@ -19,6 +19,23 @@
 namespace vfit {
 namespace {
 
+// Projects x onto segments [lo, hi) of the polyline `line` (arc: its cumulative arc lengths):
+// sets `along` to the arc length of the nearest point; leaves it alone when the range is empty.
+void project_onto_polyline(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& line,
+                           const std::vector<double>& arc, std::size_t lo, std::size_t hi, double& along) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = lo; i < hi; ++i) {
+    const Eigen::Vector3d d = line[i + 1] - line[i];
+    const double dd = d.squaredNorm();
+    const double t = dd > 0 ? std::clamp((x - line[i]).dot(d) / dd, 0.0, 1.0) : 0.0;
+    const double dist = (x - line[i] - t * d).squaredNorm();
+    if (dist < best) {
+      best = dist;
+      along = arc[i] + t * (arc[i + 1] - arc[i]);
+    }
+  }
+}
+
 class DisjointSets {
 public:
   explicit DisjointSets(std::size_t n) : m_parent(n) { std::iota(m_parent.begin(), m_parent.end(), 0); }
@@ -305,17 +322,8 @@ void refine_slabs(const Mesh& mesh, std::vector<std::int32_t>& vertex_node, std:
       const Eigen::Vector3d x = rest_point(mesh, v);
       const auto own = std::size_t(vertex_node[v]);
       const std::size_t lo = own > 3 ? own - 3 : 0, hi = std::min(m - 1, own + 3);
-      double best = std::numeric_limits<double>::infinity(), along = arc[own];
-      for (std::size_t i = lo; i < hi; ++i) {
-        const Eigen::Vector3d d = line[i + 1] - line[i];
-        const double dd = d.squaredNorm();
-        const double t = dd > 0 ? std::clamp((x - line[i]).dot(d) / dd, 0.0, 1.0) : 0.0;
-        const double dist = (x - line[i] - t * d).squaredNorm();
-        if (dist < best) {
-          best = dist;
-          along = arc[i] + t * (arc[i + 1] - arc[i]);
-        }
-      }
+      double along = arc[own];
+      project_onto_polyline(x, line, arc, lo, hi, along);
       position[v] = along;
     }
     // Cut near each of the m − 1 equal divisions, at the widest gap between consecutive
@@ -468,17 +476,8 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
   std::vector<std::int32_t> chain_of(proxy_count, 0);
   for (std::size_t p = 0; p < proxy_count; ++p) {
     const Eigen::Vector3d x = contracted.row(Eigen::Index(p)).transpose();
-    double best = std::numeric_limits<double>::infinity(), along = 0;
-    for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-      const Eigen::Vector3d d = line[i + 1] - line[i];
-      const double dd = d.squaredNorm();
-      const double t = dd > 0 ? std::clamp((x - line[i]).dot(d) / dd, 0.0, 1.0) : 0.0;
-      const double dist = (x - line[i] - t * d).squaredNorm();
-      if (dist < best) {
-        best = dist;
-        along = arc[i] + t * (arc[i + 1] - arc[i]);
-      }
-    }
+    double along = 0;
+    project_onto_polyline(x, line, arc, 0, path.empty() ? 0 : path.size() - 1, along);
     // Nearest path node by arc length (arc is non-decreasing).
     const auto it = std::lower_bound(arc.begin(), arc.end(), along);
     std::size_t i = std::size_t(std::min<std::ptrdiff_t>(it - arc.begin(), std::ptrdiff_t(arc.size()) - 1));

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include "geometry/body/mannequin.h"
 #include "geometry/garment/catalogue.h"
 #include "kernels/error.h"
@@ -13,15 +15,7 @@
 namespace vfit {
 namespace {
 
-const Body& body() {
-  static const Body b = [] {
-    MannequinOptions o;
-    o.pose = RestPose::APOSE;
-    o.target_vertices = 5000;
-    return make_mannequin(o);
-  }();
-  return b;
-}
+const Body& body() { return test::mannequin(RestPose::APOSE, 5000); }
 
 const Garment& garment(GarmentType type, const char* size) {
   static std::map<std::string, Garment> cache;

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include "engine/fit_pipeline.h"
 #include "engine/layering.h"
 #include "geometry/body/mannequin.h"
@@ -21,15 +23,7 @@ namespace {
 // Garment vertices may sit inside the body by at most this much (issue 7's quality bar).
 constexpr double MAX_INSIDE_DEPTH = 0.001;
 
-const Body& mannequin() {
-  static const Body body = [] {
-    MannequinOptions o;
-    o.pose = RestPose::APOSE;
-    o.target_vertices = 4000;
-    return make_mannequin(o);
-  }();
-  return body;
-}
+const Body& mannequin() { return test::mannequin(RestPose::APOSE, 4000); }
 
 const std::vector<FitGarmentInput>& tee_and_trousers() {
   static const std::vector<FitGarmentInput> inputs = [] {

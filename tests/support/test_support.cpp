@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -13,9 +14,21 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "geometry/body/mannequin.h"
+
 extern char** environ;
 
 namespace vfit::test {
+
+const Body& mannequin(RestPose pose, std::size_t vertices) {
+  static std::map<std::pair<RestPose, std::size_t>, Body> cache;
+  const auto key = std::make_pair(pose, vertices);
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  MannequinOptions o;
+  o.pose = pose;
+  o.target_vertices = vertices;
+  return cache.emplace(key, make_mannequin(o)).first->second;
+}
 
 TempDir::TempDir() {
   std::random_device rd;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/body/body.h"
 #include "geometry/mesh/mesh.h"
 
 namespace vfit::test {
@@ -46,6 +47,10 @@ std::vector<std::filesystem::path> files_with_extensions(const std::filesystem::
                                                          const std::vector<std::string>& extensions);
 
 /// Two triangles sharing an edge (a unit square in the XY plane, CCW seen from +Z), with UVs.
+/// The default mannequin (average measurements) in `pose` with `vertices` vertices, built once
+/// per process and kept: a mannequin takes a second or more.
+const Body& mannequin(RestPose pose, std::size_t vertices);
+
 Mesh unit_square();
 
 /// Mean over the triangles' edges of |length after / length before − 1| (same topology): how

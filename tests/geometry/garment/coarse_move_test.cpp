@@ -2,6 +2,8 @@
 // it, wherever it starts; the move is a pure translation.
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include "geometry/body/mannequin.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/garment/coarse_move.h"
@@ -11,15 +13,7 @@
 namespace vfit {
 namespace {
 
-const Body& mannequin() {
-  static const Body body = [] {
-    MannequinOptions o;
-    o.pose = RestPose::APOSE;
-    o.target_vertices = 3000;
-    return make_mannequin(o);
-  }();
-  return body;
-}
+const Body& mannequin() { return test::mannequin(RestPose::APOSE, 3000); }
 
 Garment catalogue(GarmentType type) {
   GarmentOptions o;
