@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <optional>
+#include <queue>
 #include <string>
 
 #include "kernels/cloth_collision.h"
@@ -11,7 +13,13 @@
 #include "kernels/cloth_rk4.h"
 #include "kernels/cloth_springs.h"
 #include "kernels/error.h"
+#include "kernels/hole_caps.h"
+#include "kernels/opencl_context.h"
 #include "kernels/proximity.h"
+#include "kernels/spatial_hash.h"
+#ifdef VFIT_WITH_OPENCL
+#include "kernels/opencl_cloth.h"
+#endif
 
 namespace vfit {
 
@@ -25,8 +33,15 @@ const char* to_string(ClothStatus status) {
   return "unknown";
 }
 
+// A vertex pinned to a body triangle (a, b, c): x = a + s·(b − a) + t·(c − a) + h·n̂.
+struct BodyAttachment {
+  std::int32_t vertex = 0, triangle = 0;
+  double s = 0, t = 0, h = 0;
+};
+
 struct ClothSim::Impl {
   ClothOptions options;
+  std::vector<std::int32_t> triangles; // the cloth's, for the waistband search
   ClothSprings springs;
   SpringAdjacency adjacency;
   ClothParticles particles;
@@ -40,7 +55,18 @@ struct ClothSim::Impl {
   float stretch_floor = 0; // rest length below which stretch is measured against this (m)
   ClothStatus status = ClothStatus::OK;
 
+  // The body's broad phase: one of the two is set (ClothOptions::broad_phase) once a body is.
   std::optional<ProximityIndex> body;
+  std::optional<SpatialHash> hash;
+  std::vector<BodyAttachment> attachments; // ascending vertex
+  bool waistband_attached = false;
+  // ClothBackend::OPENCL: the device context, and the RK4 integrator holding the adjacency and
+  // the inverse masses on the device (null when pin() or attach_to_body() made it stale). The
+  // integrator is declared after the context so it is destroyed first.
+  std::unique_ptr<OpenClContext> cl_context;
+#ifdef VFIT_WITH_OPENCL
+  std::unique_ptr<OpenClClothRk4> cl_rk4;
+#endif
   std::vector<float> body_positions, body_velocities;
   std::vector<std::int32_t> body_triangles;
   ClosestHits hits;
@@ -59,8 +85,66 @@ struct ClothSim::Impl {
     substep = std::min(options.max_substep, options.substep_safety * b.max_step);
   }
 
+  bool has_body() const { return body.has_value() || hash.has_value(); }
+
+  // Closest body points of `queries` through the broad phase in use.
+  void query_body(std::span<const float> queries, float radius, ClosestHits& out) const {
+    const bool serial = options.backend == ClothBackend::SERIAL;
+    if (hash) {
+      if (serial)
+        hash->closest_points_serial(queries, radius, out);
+      else
+        hash->closest_points(queries, radius, out);
+    } else if (serial) {
+      body->closest_points_serial(queries, radius, out);
+    } else {
+      body->closest_points(queries, radius, out);
+    }
+  }
+
+  // The device copy of the inverse masses is stale after a change of pins.
+  void masses_changed() {
+#ifdef VFIT_WITH_OPENCL
+    cl_rk4.reset();
+#endif
+    update_substep();
+  }
+
+  // `count` RK4 substeps of h on the OpenCL device: one upload of the state before, one read
+  // after (the contacts between windows are resolved on the host).
+  void integrate_opencl([[maybe_unused]] double h, [[maybe_unused]] int count) {
+#ifdef VFIT_WITH_OPENCL
+    if (!cl_rk4) cl_rk4 = std::make_unique<OpenClClothRk4>(*cl_context, adjacency, particles);
+    cl_rk4->set_state(x, v);
+    cl_rk4->step(static_cast<float>(h), count);
+    cl_rk4->get_state(x, v);
+#endif
+  }
+
+  // Where attachment a puts its vertex on the current body.
+  void attached_position(const BodyAttachment& a, double out[3]) const {
+    const std::int32_t* t = body_triangles.data() + 3 * static_cast<std::size_t>(a.triangle);
+    const float* p[3] = {&body_positions[3 * std::size_t(t[0])], &body_positions[3 * std::size_t(t[1])],
+                         &body_positions[3 * std::size_t(t[2])]};
+    double e1[3], e2[3];
+    for (int k = 0; k < 3; ++k) {
+      e1[k] = double(p[1][k]) - p[0][k];
+      e2[k] = double(p[2][k]) - p[0][k];
+    }
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (double& c : n)
+      c = len > 0 ? c / len : 0.0;
+    for (int k = 0; k < 3; ++k)
+      out[k] = p[0][k] + a.s * e1[k] + a.t * e2[k] + a.h * n[k];
+  }
+
   void integrate(double h, int count) {
     hits_valid = false;
+    if (options.backend == ClothBackend::OPENCL) {
+      integrate_opencl(h, count);
+      return;
+    }
     for (int s = 0; s < count; ++s) {
       if (options.backend == ClothBackend::SERIAL)
         rk4_step_serial(x, v, adjacency, particles, static_cast<float>(h), workspace);
@@ -75,7 +159,7 @@ struct ClothSim::Impl {
     const ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
     const ImplicitConstraints* c = nullptr;
     const float hf = static_cast<float>(h);
-    if (body && options.contacts_in_solve) {
+    if (has_body() && options.contacts_in_solve) {
       if (!hits_valid) contacts += resolve_contacts();
       released.resize(masses.size(), 0);
       body_contact_constraints(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
@@ -102,11 +186,8 @@ struct ClothSim::Impl {
   }
 
   std::size_t resolve_contacts() {
-    if (!body) return 0;
-    if (options.backend == ClothBackend::SERIAL)
-      body->closest_points_serial(x, options.contact_search_radius, hits);
-    else
-      body->closest_points(x, options.contact_search_radius, hits);
+    if (!has_body()) return 0;
+    query_body(x, options.contact_search_radius, hits);
     hits_valid = true;
     return resolve_body_contacts(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
                                  contact_parameters());
@@ -186,6 +267,13 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     throw Error("cloth", 0, "implicit_step must be finite and > 0, got " + std::to_string(options.implicit_step));
   for (std::size_t f = 0; f < options.fabrics.size(); ++f)
     check_fabric(options.fabrics[f], f);
+  if (options.backend == ClothBackend::OPENCL) {
+    if (options.integrator != ClothIntegrator::RK4)
+      throw Error("cloth", 0, "the OpenCL backend runs the RK4 integrator only (set integrator = RK4)");
+#ifndef VFIT_WITH_OPENCL
+    throw Error("cloth", 0, "the OpenCL backend was requested but this build has no OpenCL");
+#endif
+  }
   if (!options.vertex_fabric.empty() && options.vertex_fabric.size() != nv)
     throw Error("cloth", 0,
                 "vertex_fabric has " + std::to_string(options.vertex_fabric.size()) + " entries for " +
@@ -200,6 +288,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     fabric[i] = &options.fabrics[static_cast<std::size_t>(f)];
   }
 
+  m.triangles.assign(triangles.begin(), triangles.end());
   m.x.assign(positions.begin(), positions.end());
   m.v.assign(positions.size(), 0.0f);
   std::vector<double> density(nv);
@@ -238,6 +327,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     m.stretch_floor = 0.5f * structural[structural.size() / 2];
   }
   m.update_substep();
+  if (options.backend == ClothBackend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);
 }
 
 ClothSim::~ClothSim() = default;
@@ -254,7 +344,7 @@ void ClothSim::pin(std::span<const std::int32_t> vertices) {
     for (int k = 0; k < 3; ++k)
       m.v[3 * static_cast<std::size_t>(p) + k] = 0.0f;
   }
-  m.update_substep();
+  m.masses_changed();
 }
 
 void ClothSim::set_body(std::span<const float> positions, std::span<const std::int32_t> triangles) {
@@ -265,16 +355,93 @@ void ClothSim::set_body(std::span<const float> positions, std::span<const std::i
       throw Error("body", 0,
                   "face " + std::to_string(i / 3) + " has vertex index " + std::to_string(triangles[i]) +
                       " outside [0, " + std::to_string(nb) + ")");
-  m.body.emplace(positions, triangles);
+  if (m.options.broad_phase == ClothBroadPhase::SPATIAL_HASH) {
+    m.hash.emplace(positions, triangles);
+    m.body.reset();
+  } else {
+    m.body.emplace(positions, triangles);
+    m.hash.reset();
+  }
   m.body_positions.assign(positions.begin(), positions.end());
   m.body_triangles.assign(triangles.begin(), triangles.end());
   m.body_velocities.clear();
   m.hits_valid = false;
+  std::vector<std::int32_t> attach = attached_vertices();
+  if (m.options.waistband_pins && !m.waistband_attached) {
+    const std::vector<std::int32_t> band = waistband_vertices(m.x, m.triangles, m.options.waistband_width);
+    attach.insert(attach.end(), band.begin(), band.end());
+    m.waistband_attached = true;
+  }
+  m.attachments.clear();
+  if (!attach.empty()) attach_to_body(attach);
+}
+
+void ClothSim::attach_to_body(std::span<const std::int32_t> vertices) {
+  Impl& m = *m_impl;
+  if (!m.has_body()) throw Error("cloth", 0, "attach_to_body called before set_body");
+  std::vector<float> points;
+  points.reserve(3 * vertices.size());
+  for (std::int32_t p : vertices) {
+    if (p < 0 || static_cast<std::size_t>(p) >= m.masses.size())
+      throw Error("cloth", 0,
+                  "attached vertex " + std::to_string(p) + " outside [0, " + std::to_string(m.masses.size()) + ")");
+    for (int k = 0; k < 3; ++k)
+      points.push_back(m.x[3 * static_cast<std::size_t>(p) + k]);
+  }
+  ClosestHits hits;
+  m.query_body(points, INFINITY, hits);
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    if (hits.triangles[i] < 0) continue; // an empty body: nothing to attach to
+    BodyAttachment a;
+    a.vertex = vertices[i];
+    a.triangle = hits.triangles[i];
+    const std::int32_t* t = m.body_triangles.data() + 3 * static_cast<std::size_t>(a.triangle);
+    const float* c[3] = {&m.body_positions[3 * std::size_t(t[0])], &m.body_positions[3 * std::size_t(t[1])],
+                         &m.body_positions[3 * std::size_t(t[2])]};
+    double e1[3], e2[3], r[3];
+    for (int k = 0; k < 3; ++k) {
+      e1[k] = double(c[1][k]) - c[0][k];
+      e2[k] = double(c[2][k]) - c[0][k];
+      r[k] = double(points[3 * i + k]) - c[0][k];
+    }
+    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    const auto dot = [](const double* p, const double* q) { return p[0] * q[0] + p[1] * q[1] + p[2] * q[2]; };
+    const double g11 = dot(e1, e1), g12 = dot(e1, e2), g22 = dot(e2, e2), det = dot(n, n);
+    if (det > 1e-12 * g11 * g22 && det > 0) {
+      // Lagrange's identity: det of the Gram matrix [g11 g12; g12 g22] is |e1 × e2|².
+      a.h = dot(r, n) / std::sqrt(det);
+      const double r1 = dot(r, e1), r2 = dot(r, e2); // the normal part of r is orthogonal to e1, e2
+      a.s = (g22 * r1 - g12 * r2) / det;
+      a.t = (g11 * r2 - g12 * r1) / det;
+    } else {
+      a.s = hits.barycentrics[2 * i];
+      a.t = hits.barycentrics[2 * i + 1];
+    }
+    const auto at = std::lower_bound(m.attachments.begin(), m.attachments.end(), a.vertex,
+                                     [](const BodyAttachment& b, std::int32_t v) { return b.vertex < v; });
+    if (at != m.attachments.end() && at->vertex == a.vertex)
+      *at = a;
+    else
+      m.attachments.insert(at, a);
+    const auto row = static_cast<std::size_t>(a.vertex);
+    m.particles.inverse_masses[row] = 0.0f;
+    for (int k = 0; k < 3; ++k)
+      m.v[3 * row + k] = 0.0f;
+  }
+  m.masses_changed();
+}
+
+std::vector<std::int32_t> ClothSim::attached_vertices() const {
+  std::vector<std::int32_t> out;
+  out.reserve(m_impl->attachments.size());
+  for (const BodyAttachment& a : m_impl->attachments)
+    out.push_back(a.vertex);
+  return out;
 }
 
 void ClothSim::move_body(std::span<const float> positions, double dt) {
   Impl& m = *m_impl;
-  if (!m.body) throw Error("body", 0, "move_body called before set_body");
+  if (!m.has_body()) throw Error("body", 0, "move_body called before set_body");
   if (positions.size() != m.body_positions.size())
     throw Error("body", 0,
                 "moved body has " + std::to_string(positions.size() / 3) + " vertices, expected " +
@@ -283,8 +450,20 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
   for (std::size_t i = 0; i < positions.size(); ++i)
     m.body_velocities[i] = dt > 0 ? static_cast<float>((positions[i] - m.body_positions[i]) / dt) : 0.0f;
   m.body_positions.assign(positions.begin(), positions.end());
-  m.body->refit(positions);
+  if (m.hash)
+    m.hash->update(positions);
+  else
+    m.body->refit(positions);
   m.hits_valid = false;
+  for (const BodyAttachment& a : m.attachments) {
+    double to[3];
+    m.attached_position(a, to);
+    const auto row = 3 * static_cast<std::size_t>(a.vertex);
+    for (int k = 0; k < 3; ++k) {
+      m.v[row + k] = dt > 0 ? static_cast<float>((to[k] - m.x[row + k]) / dt) : 0.0f;
+      m.x[row + k] = static_cast<float>(to[k]);
+    }
+  }
 }
 
 ClothStepReport ClothSim::step(double dt) {
@@ -302,7 +481,8 @@ ClothStepReport ClothSim::step(double dt) {
     return m.finish_step(r);
   }
   // Contact windows of at most contact_interval, each integrated in equal stable substeps.
-  const int windows = m.body ? std::max(1, static_cast<int>(std::ceil(dt / m.options.contact_interval - 1e-9))) : 1;
+  const int windows =
+      m.has_body() ? std::max(1, static_cast<int>(std::ceil(dt / m.options.contact_interval - 1e-9))) : 1;
   const double window = dt / windows;
   const int substeps = std::max(1, static_cast<int>(std::ceil(window / m.substep - 1e-9)));
   for (int w = 0; w < windows; ++w) {
@@ -383,5 +563,67 @@ double ClothSim::kinetic_energy() const {
 }
 
 double ClothSim::spring_energy() const { return vfit::spring_energy(m_impl->x, m_impl->springs); }
+
+std::vector<std::int32_t> waistband_vertices(std::span<const float> positions, std::span<const std::int32_t> triangles,
+                                             double band_width) {
+  const std::size_t nv = positions.size() / 3;
+  if (!(band_width >= 0) || !std::isfinite(band_width))
+    throw Error("waistband", 0, "band_width must be finite and ≥ 0, got " + std::to_string(band_width));
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= nv)
+      throw Error("waistband", 0,
+                  "face " + std::to_string(i / 3) + " has vertex index " + std::to_string(triangles[i]) +
+                      " outside [0, " + std::to_string(nv) + ")");
+  const HoleCaps loops = build_hole_caps(triangles, nv);
+  if (loops.loop_count() == 0) return {};
+  std::size_t top = 0;
+  double top_y = -INFINITY;
+  for (std::size_t l = 0; l < loops.loop_count(); ++l) {
+    double y = 0;
+    const std::int32_t b = loops.loop_offsets[l], e = loops.loop_offsets[l + 1];
+    for (std::int32_t k = b; k < e; ++k)
+      y += positions[3 * static_cast<std::size_t>(loops.loop_vertices[k]) + 1];
+    y /= std::max(1, e - b);
+    if (y > top_y) {
+      top_y = y;
+      top = l;
+    }
+  }
+  // Dijkstra from the waist loop over the mesh edges (each triangle side, both directions).
+  std::vector<std::vector<std::int32_t>> neighbours(nv);
+  for (std::size_t f = 0; f < triangles.size() / 3; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = triangles[3 * f + k], b = triangles[3 * f + (k + 1) % 3];
+      neighbours[static_cast<std::size_t>(a)].push_back(b);
+      neighbours[static_cast<std::size_t>(b)].push_back(a);
+    }
+  std::vector<double> distance(nv, INFINITY);
+  using Entry = std::pair<double, std::int32_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+  for (std::int32_t k = loops.loop_offsets[top]; k < loops.loop_offsets[top + 1]; ++k) {
+    distance[static_cast<std::size_t>(loops.loop_vertices[k])] = 0;
+    queue.emplace(0.0, loops.loop_vertices[k]);
+  }
+  while (!queue.empty()) {
+    const auto [d, a] = queue.top();
+    queue.pop();
+    if (d > distance[static_cast<std::size_t>(a)]) continue;
+    for (std::int32_t b : neighbours[static_cast<std::size_t>(a)]) {
+      double len2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double e = double(positions[3 * std::size_t(b) + k]) - positions[3 * std::size_t(a) + k];
+        len2 += e * e;
+      }
+      const double db = d + std::sqrt(len2);
+      if (db > band_width || db >= distance[static_cast<std::size_t>(b)]) continue;
+      distance[static_cast<std::size_t>(b)] = db;
+      queue.emplace(db, b);
+    }
+  }
+  std::vector<std::int32_t> band;
+  for (std::size_t i = 0; i < nv; ++i)
+    if (distance[i] <= band_width) band.push_back(static_cast<std::int32_t>(i));
+  return band;
+}
 
 } // namespace vfit

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "engine/fabric.h"
@@ -30,10 +31,32 @@ enum class ClothStatus : std::int8_t {
 /// "ok", "diverged: non-finite state", "diverged: energy blow-up", "diverged: runaway stretch".
 const char* to_string(ClothStatus status);
 
-/// Which implementation runs the integrator. Both give the same bits for the same input.
+/// Which implementation runs the integrator. SERIAL and TBB give the same bits for the same
+/// input; OPENCL agrees with them within float tolerance (a device's sqrt and division may
+/// differ by an ulp; tests/opencl/opencl_cloth_test.cpp states the bound after N steps; PoCL on
+/// a CPU and an H100's OpenCL gave the same bits as TBB there).
 enum class ClothBackend : std::int8_t {
   SERIAL = 0, ///< one thread (the reference)
   TBB = 1,    ///< TBB over particles (gather per particle, no atomics)
+  /// RK4 forces and stages on an OpenCL device (kernels/opencl_cloth.h; PoCL on a CPU, or a
+  /// GPU's ICD), picked by ClothOptions::opencl_device. Body contacts stay on the host (the
+  /// proximity core): every contact window uploads the state (#V × 6 floats) and reads it back
+  /// after the window's substeps, so a contact window costs two transfers of 24 bytes per
+  /// particle; without a body, one upload and one read per step(dt). RK4 only: a ClothSim with
+  /// IMPLICIT_EULER and OPENCL throws vfit::Error. A build without OpenCL throws too.
+  OPENCL = 2,
+};
+
+/// Which broad phase finds each particle's closest body triangle for the contacts. The BVH is
+/// the default: on the 7,000-vertex mannequin it answers 1.5–2.3× more queries per second
+/// than the hash (particles up to a few cm off the body), refits in half the hash's refill
+/// time, and a 6,000-vertex tee's step costs about the same with either (0.9–1.1×,
+/// bench/engine/cloth_sim_bench.cpp).
+enum class ClothBroadPhase : std::int8_t {
+  BVH = 0, ///< the Embree BVH of the proximity core (kernels/proximity.h), refitted on move_body
+  /// seed 004's spatial hash of the body (Teschner et al. 2003, kernels/spatial_hash.h),
+  /// refilled on move_body
+  SPATIAL_HASH = 1,
 };
 
 /// Which time integrator advances the cloth.
@@ -71,6 +94,12 @@ struct ClothOptions {
   double substep_safety = 0.8;
   double max_substep = 2e-3; ///< s
   ClothBackend backend = ClothBackend::TBB;
+  /// ClothBackend::OPENCL: the device selector of select_opencl_device() (kernels/
+  /// opencl_context.h); empty = VFIT_OPENCL_DEVICE or the first device.
+  std::string opencl_device;
+  /// The broad phase of the body contacts. Both give the same closest triangle, distance and
+  /// side (so the same contacts) up to ties between equally close triangles.
+  ClothBroadPhase broad_phase = ClothBroadPhase::BVH;
 
   float contact_thickness = 0.003f; ///< τ (m): gap kept to the body
   float contact_friction = 0.3f;    ///< Coulomb μ_f against the body
@@ -96,7 +125,15 @@ struct ClothOptions {
   bool contacts_in_solve = false;
   float contact_margin = 0.002f; ///< m; see contacts_in_solve
 
-  double max_speed = 50;   ///< m/s: the energy blow-up threshold (as an RMS speed)
+  /// Waistband auto-pins: when a body is set, the band of the garment within waistband_width
+  /// of its waist opening (waistband_vertices()) is attached to the body (attach_to_body()), so
+  /// a bottom garment (trousers, shorts, skirt) cannot slide down and follows the body.
+  bool waistband_pins = false;
+  /// Width of the pinned band (m), measured along the garment's edges from the waist opening:
+  /// 3 cm, the height of a typical elastic waistband (2.5–4 cm).
+  double waistband_width = 0.03;
+
+  double max_speed = 50; ///< m/s: the energy blow-up threshold (as an RMS speed)
   /// Runaway stretch: any spring longer than this × its rest length, a rest length being taken
   /// as at least half the median edge length (so slivers of a generated mesh do not trip it).
   double max_stretch = 10;
@@ -123,11 +160,11 @@ struct ClothRestOptions {
 /// What run_to_rest() did.
 struct ClothRestReport {
   ClothStatus status = ClothStatus::OK;
-  bool converged = false;       ///< the displacement fell below the threshold
-  int steps = 0;                ///< step() calls made (of step_dt, or of implicit_step when longer)
-  double simulated_seconds = 0; ///< s
-  double wall_seconds = 0;      ///< s
-  double mean_displacement = 0; ///< of the last step, scaled to one step_dt (m)
+  bool converged = false;          ///< the displacement fell below the threshold
+  int steps = 0;                   ///< step() calls made (of step_dt, or of implicit_step when longer)
+  double simulated_seconds = 0;    ///< s
+  double wall_seconds = 0;         ///< s
+  double mean_displacement = 0;    ///< of the last step, scaled to one step_dt (m)
   long long solver_iterations = 0; ///< implicit Euler: CG iterations over all steps
 };
 
@@ -151,12 +188,29 @@ public:
   void pin(std::span<const std::int32_t> vertices);
 
   /// Sets the body to collide with: a closed, outward-oriented mesh (#B × 3 positions in m,
-  /// #T × 3 triangles), indexed by a ProximityIndex. Replaces any previous body.
+  /// #T × 3 triangles), indexed by the broad phase of ClothOptions::broad_phase. Replaces any
+  /// previous body; vertices attached to the previous body are attached to the new one (at
+  /// their current positions). With ClothOptions::waistband_pins, the first body set attaches
+  /// the waistband (waistband_vertices()). Throws vfit::Error for an index out of range.
   void set_body(std::span<const float> positions, std::span<const std::int32_t> triangles);
-  /// Moves the body (same topology) over the last `dt` seconds: refits the index (no rebuild)
-  /// and takes the body's velocity as (new − old)/dt for friction. Throws vfit::Error when no
-  /// body is set or the vertex count differs.
+  /// Moves the body (same topology) over the last `dt` seconds: refits the BVH (no rebuild) or
+  /// refills the spatial hash, takes the body's velocity as (new − old)/dt for friction, and
+  /// moves the attached vertices with their body triangles (their velocity becomes (new −
+  /// old)/dt too, which the springs' damping sees). Throws vfit::Error when no body is set or
+  /// the vertex count differs.
   void move_body(std::span<const float> positions, double dt);
+
+  /// Pins `vertices` (indices in [0, #V); vfit::Error otherwise, or when no body is set) to the
+  /// body: each is attached to its closest body triangle (a, b, c) by the coordinates
+  /// (s, t, h) with x = a + s·(b − a) + t·(c − a) + h·n̂, n̂ the triangle's unit normal: the
+  /// barycentrics of x's projection onto the triangle's plane and its offset along the normal.
+  /// The vertex keeps its position now and follows the triangle exactly under rigid motions of
+  /// the body (affinely under deformations). A degenerate closest triangle (zero area) gets its
+  /// closest point's barycentrics and h = 0 (the vertex then moves onto it at the next
+  /// move_body). Attaching a vertex twice re-attaches it.
+  void attach_to_body(std::span<const std::int32_t> vertices);
+  /// The vertices attached by attach_to_body() (or the waistband pins), ascending.
+  std::vector<std::int32_t> attached_vertices() const;
 
   /// Advances by dt (s, ≥ 0) in steps of at most stable_substep(): RK4 substeps with body
   /// contacts resolved every contact_interval, or implicit Euler steps each followed by body
@@ -183,5 +237,14 @@ private:
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
+
+/// The waistband of a bottom garment (trousers, shorts, skirt): the vertices whose distance
+/// along the mesh's edges (shortest path, Dijkstra over edge lengths in m) from the waist
+/// opening is at most band_width (m), the opening's own vertices included. The waist opening
+/// is the topmost boundary loop, the one of highest mean Y (Y up). positions: #V × 3 (m),
+/// triangles: #F × 3. Ascending indices; empty when the mesh has no boundary. Throws
+/// vfit::Error for an index out of range or a negative or non-finite band_width.
+std::vector<std::int32_t> waistband_vertices(std::span<const float> positions, std::span<const std::int32_t> triangles,
+                                             double band_width);
 
 } // namespace vfit

@@ -5,11 +5,13 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <numeric>
 #include <span>
 #include <utility>
 
 #include "engine/fabric.h"
+#include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
 #include "geometry/garment/skeleton_driving.h"
 #include "engine/layering.h"
@@ -48,6 +50,29 @@ struct Obstacles {
   std::span<const LayerObstacle> layers;
 };
 
+// Where one garment's stages report: the progress callback and the debug folder.
+struct StageSink {
+  const FitOptions& options;
+  const FitDebugWriter* debug; // null: no debug output
+  std::size_t garment;         // index in the input
+  std::string stem;            // the garment's debug file stem, unique among the garments
+
+  void done(const std::string& name, const char* stage, double ms, std::string detail = {}) const {
+    if (options.progress) options.progress({garment, name, stage, ms, std::move(detail)});
+  }
+  void write(int number, const char* stage, const FittedGarment& g, const std::string& note) const {
+    if (debug) debug->write_garment(stem, number, stage, g.mesh, g.segmentation.vertex_parts, note);
+  }
+};
+
+std::string penetration_note(const PenetrationStats& before, const PenetrationStats& after) {
+  char line[160];
+  std::snprintf(line, sizeof line, "inside %zu -> %zu (max %.2f -> %.2f mm), crossing edges %zu -> %zu", before.inside_count,
+                after.inside_count, before.max_depth * 1e3, after.max_depth * 1e3, before.crossing_edges,
+                after.crossing_edges);
+  return line;
+}
+
 Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions& options) {
   if (options.garment_units) return *options.garment_units;
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -67,7 +92,8 @@ Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions&
 }
 
 // Units and segmentation: what decides the processing order.
-void read_garment(const FitGarmentInput& input, const FitOptions& options, FittedGarment& out, GarmentFitReport& report) {
+void read_garment(const FitGarmentInput& input, const FitOptions& options, const StageSink& sink, FittedGarment& out,
+                  GarmentFitReport& report) {
   report.name = input.name;
   out.name = input.name;
   out.mesh = input.mesh;
@@ -82,6 +108,7 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, Fitte
     report.warnings.push_back("garment in " + units_name(report.units) + ", converted to metres");
   }
   report.timings.units_ms = ms_since(t0);
+  sink.done(input.name, "units", report.timings.units_ms, units_name(report.units));
 
   t0 = Clock::now();
   try {
@@ -93,10 +120,12 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, Fitte
   report.type = out.segmentation.type;
   for (const auto& w : out.segmentation.warnings)
     report.warnings.push_back("segmentation: " + w);
+  sink.done(input.name, "segmentation", report.timings.segmentation_ms, garment_type_name(report.type));
 }
 
 // The stages after segmentation, on out.mesh (already in metres).
-void dress_garment(const Obstacles& obstacles, const FitOptions& options, FittedGarment& out, GarmentFitReport& report) {
+void dress_garment(const Obstacles& obstacles, const FitOptions& options, const StageSink& sink, FittedGarment& out,
+                   GarmentFitReport& report) {
   const Body& body = obstacles.body;
   const ProximityIndex& body_index = obstacles.index;
   const EdgeCrossingIndex& crossings = obstacles.crossings;
@@ -114,6 +143,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
   }
   report.timings.skeletons_ms = ms_since(t0);
   report.skeleton_parts = skeletons.size();
+  sink.done(out.name, "skeletons", report.timings.skeletons_ms, std::to_string(skeletons.size()) + " limb skeletons");
+  if (sink.debug) sink.debug->write_skeletons(sink.stem, 2, mesh, out.segmentation.vertex_parts, skeletons);
 
   // Skeleton driving (seed 000 §5.2–5.4): orientation, limbs onto the body's bones, Laplacian
   // continuity; it includes the translation of eq. 16–17. Garments it cannot drive (skirts,
@@ -139,6 +170,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
     report.driving = "skipped: no limb skeletons";
   }
   report.timings.driving_ms = ms_since(t0);
+  sink.done(out.name, "driving", report.timings.driving_ms, report.driving);
+  sink.write(3, "driving", out, report.driving);
 
   t0 = Clock::now();
   if (driven) {
@@ -148,6 +181,11 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
     translate_positions(mesh.positions, report.coarse_move.translation);
   }
   report.timings.coarse_move_ms = ms_since(t0);
+  const Eigen::Vector3d& moved = report.coarse_move.translation;
+  const std::string move_note = to_string(report.coarse_move.rule) + ", translation (" + std::to_string(moved.x()) + ", " +
+                                std::to_string(moved.y()) + ", " + std::to_string(moved.z()) + ") m";
+  sink.done(out.name, "coarse_move", report.timings.coarse_move_ms, move_note);
+  sink.write(4, "coarse_move", out, move_note);
 
   t0 = Clock::now();
   PenetrationOptions po;
@@ -160,6 +198,9 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
   report.before = removal.before;
   report.after_removal = removal.after;
   report.penetration_iterations = removal.iterations;
+  const std::string removal_note = penetration_note(removal.before, removal.after);
+  sink.done(out.name, "penetration", report.timings.penetration_ms, removal_note);
+  sink.write(5, "penetration", out, removal_note);
 
   std::vector<float> before_simulation;
   if (!options.simulate) {
@@ -215,6 +256,14 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
     }
   }
   report.after = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+  if (options.simulate) {
+    const std::string note = report.simulation_status + (report.simulation_discarded ? ", discarded" : "") + "; " +
+                             penetration_note(report.after_removal, report.after);
+    sink.done(out.name, "simulation", report.timings.simulation_ms, note);
+    sink.write(6, "simulation", out, note);
+  } else {
+    sink.done(out.name, "simulation", 0, "skipped");
+  }
 
   t0 = Clock::now();
   Mesh rest = mesh;
@@ -224,6 +273,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, Fitted
   report.verdict_reason = out.feedback.reason;
   report.regions = out.feedback.regions;
   report.timings.feedback_ms = ms_since(t0);
+  sink.done(out.name, "feedback", report.timings.feedback_ms, size_verdict_name(report.verdict));
   report.timings.total_ms = report.timings.units_ms + report.timings.segmentation_ms + ms_since(t_dress);
 }
 
@@ -275,12 +325,35 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& gar
   const EdgeCrossingIndex body_crossings(body.mesh.positions, body.mesh.triangles);
   report.body_index_ms = ms_since(t0);
 
+  // Debug file stems, made unique by the garment's input index when two names share one.
+  std::vector<StageSink> sinks;
+  std::map<std::string, int> stem_count;
+  for (const FitGarmentInput& g : garments)
+    ++stem_count[debug_file_stem(g.name)];
+  for (std::size_t i = 0; i < garments.size(); ++i) {
+    std::string stem = debug_file_stem(garments[i].name);
+    if (stem_count[stem] > 1) stem += "_" + std::to_string(i);
+    sinks.push_back({options, nullptr, i, stem});
+  }
+
   // Bottoms before tops (seed 000 §6: the top is dressed over the trousers). The type is known
   // after segmentation, so every garment is segmented first, then dressed in that order.
   result.garments.resize(garments.size());
   report.garments.resize(garments.size());
   for (std::size_t i = 0; i < garments.size(); ++i)
-    read_garment(garments[i], options, result.garments[i], report.garments[i]);
+    read_garment(garments[i], options, sinks[i], result.garments[i], report.garments[i]);
+  // Debug output starts once every garment is known to be one, so a mesh that is not a
+  // garment leaves no files behind.
+  std::optional<FitDebugWriter> debug;
+  if (!options.debug_dir.empty()) {
+    debug.emplace(options.debug_dir);
+    debug->write_body(body.mesh);
+    for (std::size_t i = 0; i < garments.size(); ++i) {
+      const GarmentFitReport& gr = report.garments[i];
+      sinks[i].debug = &*debug;
+      sinks[i].write(1, "segmentation", result.garments[i], "type " + garment_type_name(gr.type) + ", units " + units_name(gr.units));
+    }
+  }
   std::vector<std::size_t> order(garments.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::stable_partition(order.begin(), order.end(), [&](std::size_t i) { return is_bottom(report.garments[i].type); });
@@ -292,7 +365,7 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& gar
     FittedGarment& g = result.garments[order[k]];
     GarmentFitReport& gr = report.garments[order[k]];
     gr.order = k;
-    dress_garment({body, body_index, body_crossings, layers}, options, g, gr);
+    dress_garment({body, body_index, body_crossings, layers}, options, sinks[order[k]], g, gr);
     if (k + 1 < order.size()) {
       t0 = Clock::now();
       inner.emplace_back(g.mesh, body_index, options.layer_clearance, LAYER_REACH);
@@ -301,6 +374,7 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& gar
       gr.timings.penetration_ms += layer_ms;
       gr.timings.total_ms += layer_ms;
     }
+    sinks[order[k]].done(g.name, "total", gr.timings.total_ms, penetration_note(gr.before, gr.after));
   }
 
   for (const GarmentFitReport& g : report.garments) {

@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +30,19 @@
 
 namespace vfit {
 
+/// One finished stage of one garment, as fit_garments() hands it to FitOptions::progress.
+struct FitProgress {
+  std::size_t garment = 0; ///< index of the garment in fit_garments()'s input
+  std::string name;        ///< FitGarmentInput::name
+  /// FitStageTimes::named()'s names: "units", "segmentation", "skeletons", "driving",
+  /// "coarse_move", "penetration", "simulation", "feedback", then "total".
+  std::string stage;
+  /// The stage's wall time when it finished (ms). The report's penetration_ms can end up larger:
+  /// the clean-up after simulation and the indexing of the garment as an inner layer come later.
+  double ms = 0;
+  std::string detail; ///< one short line: the detected type, "skipped: ...", the simulation's outcome, ...
+};
+
 /// Every option of the pipeline.
 struct FitOptions {
   ClothBackend backend = ClothBackend::TBB; ///< runs the cloth simulation
@@ -46,6 +60,18 @@ struct FitOptions {
   double smoothness = 1.0;         ///< PenetrationOptions::smoothness (λ2/λ1)
   /// k of seed 001 eq. 7 (m): the gap a garment keeps outside the garments fitted before it.
   double layer_clearance = 0.003;
+  /// Called on the calling thread after each stage of each garment, in pipeline order: for every
+  /// garment "units" and "segmentation" (all garments are segmented first, in input order), then,
+  /// in processing order (bottoms first), "skeletons", "driving", "coarse_move", "penetration",
+  /// "simulation" (also when skipped: detail "skipped"), "feedback" and "total" — nine calls per
+  /// garment that is fitted. Empty: no calls. An exception it throws aborts the fit.
+  std::function<void(const FitProgress&)> progress;
+  /// Non-empty: a folder (created when absent) that receives the per-stage debug meshes of
+  /// engine/fit_debug.h (FitDebugWriter). Nothing is written until every garment has been
+  /// segmented (a mesh that is not a garment leaves no file); then each stage's files are
+  /// written as it finishes (the writing counts in the garment's total_ms, in no stage's).
+  /// Throws vfit::Error naming the folder or file that cannot be written. Empty: nothing is written.
+  std::string debug_dir;
 };
 
 /// One garment handed to the pipeline.

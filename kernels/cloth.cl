@@ -80,3 +80,42 @@ __kernel void cloth_rk4_stage(__global const float* xs, __global const float* vs
   vfit_cloth_store3(next_x, i, nx);
   vfit_cloth_store3(next_v, i, nv);
 }
+
+// One work-item per particle: row i of the filtered implicit Euler matrix times p
+// (cloth_implicit.h's implicit_system_multiply): A_ii·p_i − Σ_e S_e·p_j over the CSR row, with
+// pinned entries of p read as zero and pinned rows written as zero. Blocks are vfit_sym3
+// (6 floats: xx, xy, xz, yy, yz, zz); the same order of operations as the C++ reference.
+static vfit_sym3 vfit_cloth_load_sym(__global const float* s, int i) {
+  vfit_sym3 r;
+  r.xx = s[6 * i];
+  r.xy = s[6 * i + 1];
+  r.xz = s[6 * i + 2];
+  r.yy = s[6 * i + 3];
+  r.yz = s[6 * i + 4];
+  r.zz = s[6 * i + 5];
+  return r;
+}
+
+__kernel void cloth_implicit_multiply(__global const float* diagonal, __global const float* off_diagonal,
+                                      __global const int* offsets, __global const int* neighbors,
+                                      __global const uchar* free_rows, __global const float* p, __global float* out,
+                                      int count) {
+  int i = get_global_id(0);
+  if (i >= count) return;
+  vfit_vec3 r;
+  r.x = 0.0f;
+  r.y = 0.0f;
+  r.z = 0.0f;
+  if (free_rows[i]) {
+    r = vfit_sym3_apply(vfit_cloth_load_sym(diagonal, i), vfit_cloth_load3(p, i));
+    for (int e = offsets[i]; e < offsets[i + 1]; ++e) {
+      int j = neighbors[e];
+      if (!free_rows[j]) continue; // the filter: a pinned p_j reads as zero
+      vfit_vec3 t = vfit_sym3_apply(vfit_cloth_load_sym(off_diagonal, e), vfit_cloth_load3(p, j));
+      r.x -= t.x;
+      r.y -= t.y;
+      r.z -= t.z;
+    }
+  }
+  vfit_cloth_store3(out, i, r);
+}

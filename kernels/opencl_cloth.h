@@ -15,6 +15,7 @@ namespace vfit {
 class OpenClContext;
 struct SpringAdjacency;
 struct ClothParticles;
+struct ImplicitSystem;
 
 /// Precompute/solve object: the constructor uploads the adjacency (with the springs'
 /// constants) and the particles' inverse masses once; set_state() uploads positions and
@@ -37,6 +38,39 @@ public:
   /// Spring forces (N, #V × 3, resized) of the current device state: spring_forces_serial().
   void spring_forces(std::vector<float>& forces);
   /// Blocks until every enqueued command has finished (for timing).
+  void finish();
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+/// The implicit Euler system's matrix–vector product on an OpenCL device: out = filtered A·p of
+/// kernels/cloth_implicit.h (implicit_system_multiply(), same order of operations, the
+/// kernel cloth_implicit_multiply of cloth.cl), the product a conjugate-gradient iteration
+/// spends most of its time in. Precompute/solve object: the constructor uploads the CSR
+/// adjacency once; set_system() uploads one step's blocks (#V × 6 diagonal, #entries × 6
+/// off-diagonal floats and #V filter flags: 24 bytes per adjacency entry plus 25 per particle);
+/// multiply() runs on vectors that stay on the device; the host entry uploads p and reads the
+/// product back (12 bytes per particle each way).
+class OpenClImplicitMultiply {
+public:
+  /// adjacency: the springs' CSR adjacency the systems are assembled over (#V particles).
+  OpenClImplicitMultiply(OpenClContext& context, const SpringAdjacency& adjacency);
+  ~OpenClImplicitMultiply();
+  OpenClImplicitMultiply(const OpenClImplicitMultiply&) = delete;
+  OpenClImplicitMultiply& operator=(const OpenClImplicitMultiply&) = delete;
+
+  /// Uploads a system assembled by assemble_implicit_system() over the same adjacency.
+  void set_system(const ImplicitSystem& system);
+  /// out = filtered A·p: p is #V × 3; out is resized to #V × 3. Blocks until read back.
+  void multiply(std::span<const float> p, std::vector<float>& out);
+  /// Uploads p (#V × 3) to the device vector the device-resident product reads.
+  void set_vector(std::span<const float> p);
+  /// The product of the uploaded vector into the device's output vector, `count` times (for
+  /// timing the kernel alone; read nothing back).
+  void multiply_on_device(int count = 1);
+  /// Blocks until every enqueued command has finished.
   void finish();
 
 private:

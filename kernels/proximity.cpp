@@ -17,6 +17,7 @@ namespace vfit {
 namespace {
 using std::sqrt; // the shared math headers call sqrt(float) as OpenCL C does.
 #include "closest_point_math.h"
+#include "closest_hit_row.h"
 
 static_assert(static_cast<int>(TriangleFeature::NONE) == VFIT_FEATURE_NONE);
 static_assert(static_cast<int>(TriangleFeature::FACE) == VFIT_FEATURE_FACE);
@@ -35,7 +36,6 @@ bool improves(float distance2, std::uint32_t triangle, float best_distance2, std
   return distance2 < best_distance2 || (distance2 == best_distance2 && triangle < best_triangle);
 }
 
-constexpr std::uint32_t NO_TRIANGLE = std::numeric_limits<std::uint32_t>::max();
 
 // Everything the index owns; ProximityIndex::Impl is this under the name the header declares.
 struct IndexData {
@@ -135,34 +135,8 @@ bool closest_triangle_callback(RTCPointQueryFunctionArguments* args) {
 }
 
 void write_hit(const IndexData& index, const QueryState& s, std::size_t i, ClosestHits& hits) {
-  if (s.best_triangle == NO_TRIANGLE) {
-    hits.points[3 * i] = s.query.x;
-    hits.points[3 * i + 1] = s.query.y;
-    hits.points[3 * i + 2] = s.query.z;
-    hits.triangles[i] = -1;
-    hits.barycentrics[2 * i] = 0.0f;
-    hits.barycentrics[2 * i + 1] = 0.0f;
-    hits.signed_distances[i] = std::numeric_limits<float>::infinity();
-    hits.features[i] = static_cast<std::int8_t>(TriangleFeature::NONE);
-    return;
-  }
-  const vfit_closest_point& c = s.best;
-  hits.points[3 * i] = c.point.x;
-  hits.points[3 * i + 1] = c.point.y;
-  hits.points[3 * i + 2] = c.point.z;
-  hits.triangles[i] = static_cast<std::int32_t>(s.best_triangle);
-  hits.barycentrics[2 * i] = c.u;
-  hits.barycentrics[2 * i + 1] = c.v;
-  hits.features[i] = static_cast<std::int8_t>(c.feature);
-  // seed 000 eq. 18: f = (g − h)·n_h < 0 ⇒ inside, with n_h the closest feature's pseudo-normal
-  // on the capped mesh: a cap closer than the mesh (a query near an open hole) decides instead.
-  const bool cap_decides = s.best_cap_triangle != NO_TRIANGLE && s.best_cap.distance2 < c.distance2;
-  const vfit_closest_point& side_point = cap_decides ? s.best_cap : c;
-  const float* n = index.feature_normal(cap_decides ? s.best_cap_triangle : s.best_triangle, side_point.feature);
-  const vfit_vec3 d = vfit_v3_sub(s.query, side_point.point);
-  const float side = d.x * n[0] + d.y * n[1] + d.z * n[2];
-  const float distance = std::sqrt(c.distance2);
-  hits.signed_distances[i] = side < 0.0f ? -distance : distance;
+  write_closest_hit(s.query, s.best, s.best_triangle, s.best_cap, s.best_cap_triangle,
+                    [&](std::uint32_t t, int feature) { return index.feature_normal(t, feature); }, i, hits);
 }
 
 // `radii` empty: every query searches within max_distance; otherwise query i within radii[i].

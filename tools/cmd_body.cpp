@@ -2,12 +2,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cmath>
+#include <cstdlib>
 #include <iostream>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
 #include "body_args.h"
 #include "commands.h"
+#include "geometry/body/keypoint_fit.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/mesh/atomic_write.h"
@@ -23,6 +27,37 @@ std::string joints_json(const JointPositions& joints) {
   return j.dump(2) + "\n";
 }
 
+namespace {
+
+double to_number(const std::string& flag, const std::string& v) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (end == v.c_str() || *end != '\0' || !std::isfinite(x) || x <= 0) throw Error(flag, 0, "expected a positive number, got '" + v + "'");
+  return x;
+}
+
+Eigen::Vector2d parse_image_size(const std::string& value, const std::vector<std::string>& rest) {
+  const std::size_t sep = value.find_first_of("x,");
+  if (sep != std::string::npos) {
+    if (!rest.empty()) throw Error("--image-size", 0, "unexpected argument '" + rest[0] + "'");
+    return {to_number("--image-size", value.substr(0, sep)), to_number("--image-size", value.substr(sep + 1))};
+  }
+  if (rest.empty()) throw Error("--image-size", 0, "expected W H (pixels)");
+  return {to_number("--image-size", value), to_number("--image-size", rest[0])};
+}
+
+void print_fit(const Keypoints& kp, const KeypointFit& fit) {
+  std::printf("keypoints: %zu confident (%s), image %.0f x %.0f px, focal %.0f px%s\n", kp.points.size(),
+              std::string(keypoint_layout_name(kp.layout)).c_str(), kp.image_size.x(), kp.image_size.y(), kp.focal,
+              kp.focal_given ? "" : " (default: 1.2 x the longer side)");
+  std::printf("%-12s %10s %10s %12s\n", "stage", "iterations", "ms", "cost");
+  for (const KeypointFitStage& s : fit.stages) std::printf("%-12s %10d %10.1f %12.4g\n", s.name.c_str(), s.iterations, s.ms, s.cost);
+  std::printf("keypoint fit: %.1f ms, mean reprojection error %.2f px, camera distance %.2f m, height %.3f m\n", fit.total_ms,
+              fit.mean_reprojection_px, -fit.pose.translation.z(), fit.measurements.height);
+}
+
+} // namespace
+
 int run_body(Args& args) {
   const bool quiet = args.flag("quiet");
   const std::string source = args.value("from").value_or("mannequin");
@@ -31,13 +66,42 @@ int run_body(Args& args) {
   const auto joints_out = args.value("joints");
   const auto pose_arg = args.value("pose");
   const auto rigged = args.value("rigged");
+  const auto keypoints_file = args.value("keypoints");
+  const auto pose_out = args.value("pose-out");
+  KeypointOptions kp_options;
+  const auto image_size = args.value("image-size");
+  if (auto f = args.value("focal")) kp_options.focal = to_number("--focal", *f);
+  if (auto l = args.value("keypoint-layout")) {
+    const auto layout = keypoint_layout_from_name(*l);
+    if (!layout) throw Error("--keypoint-layout", 0, "expected auto, body25, coco18, lsp or named, got '" + *l + "'");
+    kp_options.layout = *layout;
+  }
+  if (keypoints_file && pose_arg) throw Error("--keypoints", 0, "the pose comes from the keypoints; drop --pose");
+  if (keypoints_file && source != "mannequin") throw Error("--keypoints", 0, "fits the built-in mannequin; drop --from");
+  if (pose_out && std::filesystem::path(*pose_out).extension() != ".json") throw Error(*pose_out, 0, "--pose-out writes a .json file");
   if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB) throw Error(*rigged, 0, "--rigged writes a .glb file");
   if (out) mesh_format_from_path(*out);
-  args.positionals(0, 0);
+  // --image-size W H (two tokens), or WxH / W,H in one.
+  const auto rest_tokens = args.positionals(0, image_size ? 1 : 0);
+  if (image_size) kp_options.image_size = parse_image_size(*image_size, rest_tokens);
+  std::optional<KeypointFit> fit;
+  if (keypoints_file) {
+    const Keypoints kp = read_keypoints(*keypoints_file, kp_options);
+    if (!quiet)
+      for (const auto& w : kp.warnings) std::cerr << "vfit: warning: " << w << "\n";
+    fit = fit_keypoints(kp);
+    request.mannequin.measurements = fit->measurements;
+    if (!quiet) print_fit(kp, *fit);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const LoadedBody loaded = load_body(request);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   Pose pose;
+  if (fit) {
+    // The body in its own frame (the camera's translation dropped), ready for `vfit fit`.
+    pose = pose_for_rest(fit->pose, loaded.rest.rest_pose);
+    pose.translation.setZero();
+  }
   if (pose_arg) {
     std::error_code ec;
     pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg) : named_pose(*pose_arg, loaded.rest.rest_pose);
@@ -47,6 +111,7 @@ int run_body(Args& args) {
     for (const auto& w : loaded.warnings) std::cerr << "vfit: warning: " << w << "\n";
   if (out) write_mesh(*out, body.mesh, "body");
   if (joints_out) write_file_atomically(*joints_out, joints_json(body.joints));
+  if (pose_out) write_file_atomically(*pose_out, pose_json(pose));
   if (rigged) {
     const MeshSkin skin = body_skin(loaded.rest);
     const NamedMesh named{"body", &loaded.rest.mesh, &skin};

@@ -1,11 +1,15 @@
 // `vfit fit`: fits garments onto a body (the pipeline of engine/fit_pipeline.h) and writes the
 // fitted meshes, a JSON report and pictures. Everything is computed before anything is
-// written, and every file is written atomically, so bad input leaves no partial output.
+// written, and every file is written atomically, so bad input leaves no partial output. The
+// one exception, --debug DIR, writes each stage's meshes as the stage finishes, and only once
+// every garment has been recognised as one. Progress lines go to stderr when it is a terminal.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+
+#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
@@ -198,10 +202,24 @@ void print_table(const FitReport& report, double body_ms) {
   std::printf("verdict: %s\n", size_verdict_name(report.verdict).c_str());
 }
 
+// One line per finished stage: "vfit: tee.obj: segmentation 1.2 ms (tee)".
+void print_progress(const FitProgress& p) {
+  std::string detail = p.detail;
+  constexpr std::size_t MAX_DETAIL = 100; // keep a progress line on one terminal line or two
+  if (detail.size() > MAX_DETAIL) detail = detail.substr(0, MAX_DETAIL - 3) + "...";
+  std::fprintf(stderr, "vfit: %s: %s %.1f ms%s%s%s\n", std::filesystem::path(p.name).filename().string().c_str(),
+               p.stage.c_str(), p.ms, detail.empty() ? "" : " (", detail.c_str(), detail.empty() ? "" : ")");
+  std::fflush(stderr);
+}
+
 } // namespace
 
 int run_fit(Args& args) {
   const bool quiet = args.flag("quiet");
+  // Progress on stderr when a person is watching it (a terminal), or when asked for.
+  const bool progress_asked = args.flag("progress");
+  const bool progress = !quiet && (progress_asked || isatty(STDERR_FILENO) == 1);
+  const auto debug_dir = args.value("debug");
   const std::string source = args.value("body").value_or("mannequin");
   BodyRequest request = body_request_from_args(args, source);
   const auto pose_arg = args.value("pose");
@@ -220,6 +238,11 @@ int run_fit(Args& args) {
   if (auto c = args.value("clearance")) options.clearance = to_double("--clearance", *c, 0, 0.05);
   if (auto s = args.value("max-sim-seconds")) options.max_simulated_seconds = to_double("--max-sim-seconds", *s, 0, 600);
   if (auto u = args.value("garment-units")) options.garment_units = parse_units(*u);
+  if (debug_dir) {
+    if (debug_dir->empty()) throw Error("--debug", 0, "expected a folder");
+    options.debug_dir = *debug_dir;
+  }
+  if (progress) options.progress = print_progress;
   int render_size = 512;
   if (auto s = args.value("render-size")) render_size = Args::to_int("--render-size", *s, 16, 8192);
   args.positionals(0, 0);
@@ -253,6 +276,8 @@ int run_fit(Args& args) {
   }
   const Body body = loaded.posed(pose);
   const double body_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  if (progress)
+    std::fprintf(stderr, "vfit: body: %s, %zu vertices, %.1f ms\n", loaded.kind.c_str(), body.mesh.vertex_count(), body_ms);
   if (!quiet)
     for (const auto& w : loaded.warnings)
       std::cerr << "vfit: warning: " << w << "\n";

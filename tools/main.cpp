@@ -96,6 +96,12 @@ compares requested and measured values.
                   walking, knee_bent, legs_apart, demo, contrapposto, tpose, apose
   --out FILE      the body mesh (.obj, .ply, .glb, ...)
   --joints FILE   the 24 canonical joints (posed) as {"joints": {"pelvis": [x, y, z], ...}}
+  --keypoints F   fit the mannequin's pose and shape to a photo's 2D keypoints (OpenPose BODY_25
+                  or COCO-18 JSON, LSP {"layout": "lsp", "keypoints": [...]}, or {"joints":
+                  {name: [x, y, c]}}); prints the fit's stages, iterations, ms and reprojection error
+  --image-size W H  the photo's size in px (OpenPose files carry none); --focal F in px
+                  (default 1.2 x the longer side); --keypoint-layout auto|body25|coco18|lsp|named
+  --pose-out FILE the pose written (pose JSON), e.g. for `vfit fit --body B.glb --pose FILE`
   --rigged FILE   the rigged rest-pose body as glTF binary (.glb): 24 joint nodes with SMPL
                   names, a skin with inverse bind matrices, JOINTS_0/WEIGHTS_0
 )";
@@ -152,6 +158,7 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U] [--quiet]
+                [--debug DIR] [--progress]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
@@ -171,6 +178,12 @@ length unit (detected, or --garment-units) but must be upright (Y up) and face +
   --render FILE     front, side and back views of body and garments (N x N px each, default 512)
   --fabric NAME     cotton_jersey (default), denim, silk, wool
   --clearance M     gap left between garment and body in metres (default 0.003)
+  --debug DIR       write each garment after each stage into DIR (created when absent):
+                    <garment>_NN_<stage>.ply with segmentation labels as vertex colours,
+                    part skeletons as OBJ polylines, the posed body, legend.txt; written as
+                    the stages finish, once every garment has been recognised
+  --progress        one line per stage per garment on stderr (the default when stderr is a
+                    terminal; --quiet turns it off)
 A table of stage times goes to stdout (not with --quiet). Nothing is written on error.
 )";
 

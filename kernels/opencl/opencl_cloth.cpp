@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "../cloth_implicit.h"
 #include "../cloth_rk4.h"
 #include "../cloth_springs.h"
 #include "opencl_impl.h"
@@ -155,6 +156,111 @@ void OpenClClothRk4::finish() {
     m_impl->cl->queue.finish();
   } catch (const cl::Error& e) {
     throw_opencl_error(e, "waiting for the cloth RK4");
+  }
+}
+
+struct OpenClImplicitMultiply::Impl {
+  OpenClContext::Impl* cl = nullptr;
+  std::size_t count = 0, entries = 0;
+  cl::Buffer offsets, neighbors, diagonal, off_diagonal, free_rows, p, out;
+  cl::Kernel kernel;
+};
+
+OpenClImplicitMultiply::OpenClImplicitMultiply(OpenClContext& context, const SpringAdjacency& adjacency)
+    : m_impl(std::make_unique<Impl>()) {
+  Impl& m = *m_impl;
+  m.cl = &context.impl();
+  m.count = adjacency.particle_count();
+  m.entries = adjacency.neighbors.size();
+  try {
+    cl::Context& ctx = m.cl->context;
+    const auto buffer = [&](cl_mem_flags flags, std::size_t bytes) {
+      return cl::Buffer(ctx, flags, std::max<std::size_t>(1, bytes));
+    };
+    m.offsets = buffer(CL_MEM_READ_ONLY, adjacency.offsets.size() * sizeof(std::int32_t));
+    m.neighbors = buffer(CL_MEM_READ_ONLY, m.entries * sizeof(std::int32_t));
+    if (!adjacency.offsets.empty())
+      m.cl->queue.enqueueWriteBuffer(m.offsets, CL_TRUE, 0, adjacency.offsets.size() * sizeof(std::int32_t),
+                                     adjacency.offsets.data());
+    if (m.entries > 0)
+      m.cl->queue.enqueueWriteBuffer(m.neighbors, CL_TRUE, 0, m.entries * sizeof(std::int32_t),
+                                     adjacency.neighbors.data());
+    m.diagonal = buffer(CL_MEM_READ_ONLY, 6 * m.count * sizeof(float));
+    m.off_diagonal = buffer(CL_MEM_READ_ONLY, 6 * m.entries * sizeof(float));
+    m.free_rows = buffer(CL_MEM_READ_ONLY, m.count);
+    m.p = buffer(CL_MEM_READ_WRITE, 3 * m.count * sizeof(float));
+    m.out = buffer(CL_MEM_READ_WRITE, 3 * m.count * sizeof(float));
+    cl::Program& prog = m.cl->program("cloth", vfit_cl_cloth);
+    m.kernel = cl::Kernel(prog, "cloth_implicit_multiply");
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "setting up the implicit cloth product");
+  }
+}
+
+OpenClImplicitMultiply::~OpenClImplicitMultiply() = default;
+
+void OpenClImplicitMultiply::set_system(const ImplicitSystem& system) {
+  Impl& m = *m_impl;
+  if (m.count == 0) return;
+  try {
+    cl::CommandQueue& q = m.cl->queue;
+    q.enqueueWriteBuffer(m.diagonal, CL_FALSE, 0, 6 * m.count * sizeof(float), system.diagonal.data());
+    if (m.entries > 0)
+      q.enqueueWriteBuffer(m.off_diagonal, CL_FALSE, 0, 6 * m.entries * sizeof(float), system.off_diagonal.data());
+    q.enqueueWriteBuffer(m.free_rows, CL_TRUE, 0, m.count, system.free.data());
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "uploading the implicit cloth system");
+  }
+}
+
+void OpenClImplicitMultiply::set_vector(std::span<const float> p) {
+  Impl& m = *m_impl;
+  if (m.count == 0) return;
+  try {
+    m.cl->queue.enqueueWriteBuffer(m.p, CL_TRUE, 0, 3 * m.count * sizeof(float), p.data());
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "uploading the implicit product's vector");
+  }
+}
+
+void OpenClImplicitMultiply::multiply_on_device(int count) {
+  Impl& m = *m_impl;
+  if (m.count == 0) return;
+  try {
+    cl::Kernel& k = m.kernel;
+    k.setArg(0, m.diagonal);
+    k.setArg(1, m.off_diagonal);
+    k.setArg(2, m.offsets);
+    k.setArg(3, m.neighbors);
+    k.setArg(4, m.free_rows);
+    k.setArg(5, m.p);
+    k.setArg(6, m.out);
+    k.setArg(7, static_cast<cl_int>(m.count));
+    for (int s = 0; s < count; ++s)
+      m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(m.count)), cl::NDRange(LOCAL_SIZE));
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "running the implicit cloth product");
+  }
+}
+
+void OpenClImplicitMultiply::multiply(std::span<const float> p, std::vector<float>& out) {
+  Impl& m = *m_impl;
+  out.resize(3 * m.count);
+  if (m.count == 0) return;
+  set_vector(p);
+  multiply_on_device(1);
+  try {
+    m.cl->queue.enqueueReadBuffer(m.out, CL_TRUE, 0, 3 * m.count * sizeof(float), out.data());
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "reading the implicit cloth product");
+  }
+}
+
+void OpenClImplicitMultiply::finish() {
+  try {
+    m_impl->cl->queue.finish();
+  } catch (const cl::Error& e) {
+    throw_opencl_error(e, "waiting for the implicit cloth product");
   }
 }
 

@@ -2,17 +2,23 @@
 // without simulation. Quality bars of issue 7: nothing inside the body by more than 1 mm, no
 // NaN, a report that agrees with the returned meshes, every stage timed.
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <fstream>
+#include <map>
 #include <set>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
 #include "test_support.h"
 
+#include "engine/fit_debug.h"
 #include "engine/fit_pipeline.h"
 #include "engine/layering.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/garment/catalogue.h"
+#include "geometry/mesh/mesh_io.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
 #include "kernels/proximity.h"
@@ -163,6 +169,154 @@ TEST(FitPipeline, RejectsAMeshThatIsNotAGarment) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("closed.obj"), std::string::npos) << e.what();
   }
+}
+
+// The stages FitOptions::progress reports for one garment, in order.
+const std::vector<std::string> PROGRESS_STAGES = {"units",       "segmentation", "skeletons",  "driving", "coarse_move",
+                                                  "penetration", "simulation",   "feedback", "total"};
+
+TEST(FitPipeline, ReportsEveryStageOfEveryGarmentOnceInOrder) {
+  std::vector<FitProgress> calls;
+  FitOptions o;
+  o.simulate = false;
+  o.progress = [&](const FitProgress& p) { calls.push_back(p); };
+  const FitResult r = fit_garments(mannequin(), tee_and_trousers(), o);
+  ASSERT_EQ(calls.size(), 2 * PROGRESS_STAGES.size());
+  std::map<std::size_t, std::vector<std::string>> per_garment;
+  for (const FitProgress& p : calls) {
+    ASSERT_LT(p.garment, 2u);
+    EXPECT_EQ(p.name, tee_and_trousers()[p.garment].name);
+    EXPECT_TRUE(std::isfinite(p.ms) && p.ms >= 0) << p.stage;
+    per_garment[p.garment].push_back(p.stage);
+  }
+  for (const auto& [g, stages] : per_garment)
+    EXPECT_EQ(stages, PROGRESS_STAGES) << "garment " << g;
+  // Both garments are segmented first, in input order; then the trousers (a bottom) are dressed
+  // before the tee.
+  EXPECT_EQ(calls[0].garment, 0u);
+  EXPECT_EQ(calls[2].garment, 1u);
+  EXPECT_EQ(calls[4].garment, 1u);
+  EXPECT_EQ(calls[4].stage, "skeletons");
+  EXPECT_EQ(calls.back().garment, 0u);
+  EXPECT_EQ(calls.back().stage, "total");
+  // The details say what happened; the times agree with the report where nothing is added later.
+  for (const FitProgress& p : calls) {
+    const GarmentFitReport& g = r.report.garments[p.garment];
+    if (p.stage == "segmentation") {
+      EXPECT_EQ(p.detail, garment_type_name(g.type));
+      EXPECT_DOUBLE_EQ(p.ms, g.timings.segmentation_ms);
+    }
+    if (p.stage == "simulation") {
+      EXPECT_EQ(p.detail, "skipped");
+    }
+    if (p.stage == "total") {
+      EXPECT_DOUBLE_EQ(p.ms, g.timings.total_ms);
+    }
+  }
+}
+
+// The vertices of an ASCII PLY written by FitDebugWriter: positions and colours.
+struct ColouredVertices {
+  std::vector<std::array<float, 3>> positions;
+  std::vector<std::array<int, 3>> colours;
+};
+
+ColouredVertices read_coloured_ply(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::size_t count = 0;
+  bool colours = false;
+  while (std::getline(in, line) && line != "end_header") {
+    if (line.rfind("element vertex ", 0) == 0) count = std::stoul(line.substr(15));
+    if (line == "property uchar red") colours = true;
+  }
+  EXPECT_TRUE(colours) << path;
+  ColouredVertices v;
+  for (std::size_t i = 0; i < count && std::getline(in, line); ++i) {
+    std::istringstream row(line);
+    std::array<float, 3> p{};
+    std::array<int, 3> c{};
+    row >> p[0] >> p[1] >> p[2] >> c[0] >> c[1] >> c[2];
+    v.positions.push_back(p);
+    v.colours.push_back(c);
+  }
+  return v;
+}
+
+TEST(FitPipeline, WritesEveryStageOfEveryGarmentForDebugging) {
+  test::TempDir dir;
+  FitOptions o;
+  o.max_simulated_seconds = 0.01; // one step: the simulation stage runs and writes its mesh
+  o.debug_dir = (dir / "debug").string(); // created by the pipeline
+  const FitResult r = fit_garments(mannequin(), tee_and_trousers(), o);
+  const auto d = dir / "debug";
+  EXPECT_TRUE(std::filesystem::is_regular_file(d / "legend.txt"));
+  EXPECT_EQ(read_mesh(d / "body.ply").mesh.vertex_count(), mannequin().mesh.vertex_count());
+  for (std::size_t g = 0; g < 2; ++g) {
+    const std::string stem = r.garments[g].name;
+    SCOPED_TRACE(stem);
+    const std::size_t nv = tee_and_trousers()[g].mesh.vertex_count();
+    std::vector<ColouredVertices> stages;
+    for (const char* stage : {"01_segmentation", "02_skeleton_nodes", "03_driving", "04_coarse_move", "05_penetration",
+                              "06_simulation"}) {
+      const auto path = d / (stem + "_" + stage + ".ply");
+      ASSERT_TRUE(std::filesystem::is_regular_file(path)) << path;
+      const ParsedMesh back = read_mesh(path);
+      EXPECT_EQ(back.mesh.vertex_count(), nv) << stage;
+      EXPECT_EQ(back.mesh.triangles, tee_and_trousers()[g].mesh.triangles) << stage;
+      stages.push_back(read_coloured_ply(path));
+      ASSERT_EQ(stages.back().positions.size(), nv) << stage;
+    }
+    // Label colours: the segmentation's label of each vertex, one colour per part, parts apart.
+    const std::vector<GarmentPart>& parts = r.garments[g].segmentation.vertex_parts;
+    std::set<std::array<int, 3>> distinct;
+    for (std::size_t v = 0; v < nv; ++v) {
+      const auto want = garment_part_colour(parts[v]);
+      ASSERT_EQ(stages[0].colours[v], (std::array<int, 3>{want[0], want[1], want[2]})) << "vertex " << v;
+      distinct.insert(stages[0].colours[v]);
+    }
+    std::set<GarmentPart> present(parts.begin(), parts.end());
+    EXPECT_EQ(distinct.size(), present.size());
+    EXPECT_GE(present.size(), 3u); // torso and two limbs
+    // The last stage's file is the returned mesh (to the float text precision of the file).
+    for (std::size_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c)
+        ASSERT_FLOAT_EQ(stages.back().positions[v][c], r.garments[g].mesh.positions[3 * v + c]);
+    // The skeletons: one polyline object per limb, with the nodes the report counted.
+    std::ifstream obj(d / (stem + "_02_skeletons.obj"));
+    ASSERT_TRUE(obj.good());
+    std::string line;
+    std::size_t objects = 0, polylines = 0;
+    while (std::getline(obj, line)) {
+      objects += line.rfind("o ", 0) == 0;
+      polylines += line.rfind("l ", 0) == 0;
+    }
+    EXPECT_EQ(objects, r.report.garments[g].skeleton_parts);
+    EXPECT_EQ(polylines, r.report.garments[g].skeleton_parts);
+  }
+}
+
+TEST(FitPipeline, WritesNoSimulationFileWhenNotSimulating) {
+  test::TempDir dir;
+  FitOptions o;
+  o.simulate = false;
+  o.debug_dir = dir.path().string();
+  (void)fit_garments(mannequin(), {tee_and_trousers()[1]}, o);
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir / "trousers_05_penetration.ply"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "trousers_06_simulation.ply"));
+}
+
+TEST(FitDebug, FileStemsAreSafeNames) {
+  EXPECT_EQ(debug_file_stem("in/dir/tee shirt.obj"), "tee_shirt");
+  EXPECT_EQ(debug_file_stem("trousers"), "trousers");
+  EXPECT_EQ(debug_file_stem(""), "garment");
+}
+
+TEST(FitDebug, PartColoursAreDistinct) {
+  std::set<std::array<std::uint8_t, 3>> colours;
+  for (int p = 0; p < GARMENT_PART_COUNT; ++p)
+    colours.insert(garment_part_colour(static_cast<GarmentPart>(p)));
+  EXPECT_EQ(colours.size(), static_cast<std::size_t>(GARMENT_PART_COUNT));
 }
 
 TEST(FitPipeline, RejectsAnUnknownFabricBeforeAnyWork) {

@@ -1,6 +1,8 @@
 // `vfit fit`: a catalogue tee and trousers from OBJ files onto the mannequin → fitted mesh,
 // JSON report, PNG; bad input → exit 2 and nothing written.
+#include <algorithm>
 #include <filesystem>
+#include <cmath>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -110,6 +112,147 @@ TEST(FitCli, AMeshThatIsNotAGarmentExits2AndWritesNothing) {
   EXPECT_NE(r.err.find("ball.obj"), std::string::npos) << r.err;
   EXPECT_EQ(file_count(dir.path()), 1u); // only the input
 }
+
+std::size_t count_of(const std::string& text, const std::string& word) {
+  std::size_t n = 0;
+  for (auto at = text.find(word); at != std::string::npos; at = text.find(word, at + word.size()))
+    ++n;
+  return n;
+}
+
+// Stderr is a file here, not a terminal: no progress unless --progress asks for it, and
+// --quiet silences it even then.
+TEST(FitCli, PrintsProgressOnlyToATerminalOrWhenAsked) {
+  test::TempDir dir;
+  write_catalogue(dir / "trousers.obj", GarmentType::TROUSERS);
+  const std::vector<std::string> base = {"fit",        "--body",    "mannequin", "--pose-rest",
+                                         "apose",      "--vertices", "3000",     "--garment",
+                                         (dir / "trousers.obj").string(), "--no-simulation"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = base;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return test::run_cli(a);
+  };
+  const auto silent = with({});
+  ASSERT_EQ(silent.exit_code, 0) << silent.err;
+  EXPECT_EQ(silent.err.find("trousers.obj: segmentation"), std::string::npos) << silent.err;
+  EXPECT_EQ(count_of(silent.err, " ms ("), 0u) << silent.err;
+
+  const auto asked = with({"--progress"});
+  ASSERT_EQ(asked.exit_code, 0) << asked.err;
+  std::size_t at = 0;
+  for (const char* stage : {"units", "segmentation", "skeletons", "driving", "coarse_move", "penetration", "simulation",
+                            "feedback", "total"}) {
+    const std::string line = "vfit: trousers.obj: " + std::string(stage) + " ";
+    EXPECT_EQ(count_of(asked.err, line), 1u) << stage << "\n" << asked.err;
+    const auto found = asked.err.find(line);
+    EXPECT_TRUE(found != std::string::npos && found >= at) << stage << " out of order\n" << asked.err;
+    if (found != std::string::npos) at = found;
+  }
+  EXPECT_NE(asked.err.find("segmentation"), std::string::npos);
+  EXPECT_NE(asked.err.find("(trousers)"), std::string::npos) << asked.err;
+
+  const auto quiet = with({"--progress", "--quiet"});
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_TRUE(quiet.err.empty()) << quiet.err;
+  EXPECT_TRUE(quiet.out.empty()) << quiet.out;
+}
+
+TEST(FitCli, WritesEachStageIntoTheDebugFolder) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const auto debug = dir / "stages";
+  const auto r = test::run_cli({"fit", "--body", "mannequin", "--pose-rest", "apose", "--vertices", "3000", "--garment",
+                                (dir / "tee.obj").string(), "--no-simulation", "--quiet", "--debug", debug.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::is_regular_file(debug / "legend.txt"));
+  EXPECT_GT(read_mesh(debug / "body.ply").mesh.vertex_count(), 1000u);
+  for (const char* stage : {"01_segmentation", "02_skeleton_nodes", "03_driving", "04_coarse_move", "05_penetration"})
+    EXPECT_EQ(read_mesh(debug / ("tee_" + std::string(stage) + ".ply")).mesh.vertex_count(), 2000u) << stage;
+  EXPECT_TRUE(std::filesystem::is_regular_file(debug / "tee_02_skeletons.obj"));
+  EXPECT_FALSE(std::filesystem::exists(debug / "tee_06_simulation.ply")); // --no-simulation
+  EXPECT_EQ(file_count(debug), 8u);
+}
+
+// Bad input to `vfit fit` (issue 7): a body with no recognisable skeleton, a garment that is
+// not a garment, a missing file. Each gives one line `vfit: error: <file>: ...`, exit code 2,
+// and no output file (mesh, report, picture, debug folder).
+struct BadFit {
+  const char* name;
+  const char* body;    // "mannequin" or a file written by make(); "missing.obj" is never written
+  const char* garment; // a file written by make(), or "tee.obj" (a catalogue tee), or missing
+  const char* expect;  // a substring of the error line
+};
+
+void PrintTo(const BadFit& b, std::ostream* os) { *os << b.name; }
+
+Mesh scaled(Mesh m, float sx, float sy, float sz, float lift) {
+  for (std::size_t v = 0; v < m.vertex_count(); ++v) {
+    m.positions[3 * v] *= sx;
+    m.positions[3 * v + 1] = m.positions[3 * v + 1] * sy + lift;
+    m.positions[3 * v + 2] *= sz;
+  }
+  return m;
+}
+
+// A closed, box-shaped mesh: a sphere pushed out onto the cube of half-size `half`.
+Mesh closed_box(float half, float lift) {
+  Mesh m = make_uv_sphere(16, 32, 1.0f);
+  for (std::size_t v = 0; v < m.vertex_count(); ++v) {
+    float* p = &m.positions[3 * v];
+    const float s = half / std::max({std::fabs(p[0]), std::fabs(p[1]), std::fabs(p[2])});
+    p[0] *= s;
+    p[1] = p[1] * s + lift;
+    p[2] *= s;
+  }
+  return m;
+}
+
+void make(const std::filesystem::path& dir, const std::string& file) {
+  const auto path = dir / file;
+  if (file == "tee.obj") write_catalogue(path, GarmentType::TEE);
+  else if (file == "triangle.obj") test::write_file(path, "v 0 1 0\nv 0.4 1 0\nv 0 1.4 0\nf 1 2 3\n");
+  else if (file == "box.obj") write_mesh(path, closed_box(0.25f, 1.1f));
+  else if (file == "ball.obj") write_mesh(path, scaled(make_uv_sphere(12, 24, 0.3f), 1, 1, 1, 1.1f));
+  else if (file == "sheet.obj") write_mesh(path, scaled(make_grid(20, 20, 0.6f, 0.6f), 1, 1, 1, 1.1f));
+  else if (file == "sphere_body.obj") write_mesh(path, scaled(make_uv_sphere(24, 48, 0.8f), 1, 1, 1, 0.8f));
+  else if (file == "cube_body.obj") write_mesh(path, closed_box(0.8f, 0.8f));
+  else if (file == "pillar_body.obj") // upright and human-sized, but no limbs: no crotch, no arms
+    write_mesh(path, scaled(make_uv_sphere(32, 64, 1.0f), 0.22f, 0.85f, 0.14f, 0.85f));
+}
+
+class FitCliBadInput : public ::testing::TestWithParam<BadFit> {};
+
+TEST_P(FitCliBadInput, OneLineExit2AndNoOutput) {
+  const BadFit& b = GetParam();
+  test::TempDir dir;
+  if (std::string(b.body) != "mannequin") make(dir.path(), b.body);
+  make(dir.path(), b.garment);
+  const std::size_t inputs = file_count(dir.path());
+  const std::string body = std::string(b.body) == "mannequin" ? "mannequin" : (dir / b.body).string();
+  const auto r = test::run_cli({"fit", "--body", body, "--vertices", "3000", "--garment", (dir / b.garment).string(),
+                                "--out", (dir / "out.glb").string(), "--report", (dir / "r.json").string(), "--render",
+                                (dir / "r.png").string(), "--render-size", "32", "--debug", (dir / "debug").string()});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(r.err.rfind("vfit: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find(b.expect), std::string::npos) << "expected '" << b.expect << "' in: " << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  EXPECT_EQ(file_count(dir.path()), inputs) << "an output file was written";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, FitCliBadInput,
+    ::testing::Values(BadFit{"missing_garment", "mannequin", "missing.obj", "missing.obj: cannot open"},
+                      BadFit{"missing_body", "missing.obj", "tee.obj", "missing.obj: cannot open"},
+                      BadFit{"single_triangle", "mannequin", "triangle.obj", "triangle.obj: not a recognisable garment"},
+                      BadFit{"closed_box", "mannequin", "box.obj", "box.obj: not a recognisable garment"},
+                      BadFit{"sphere", "mannequin", "ball.obj", "ball.obj: not a recognisable garment"},
+                      BadFit{"flat_sheet", "mannequin", "sheet.obj", "sheet.obj: not a recognisable garment"},
+                      BadFit{"sphere_body", "sphere_body.obj", "tee.obj", "sphere_body.obj: "},
+                      BadFit{"cube_body", "cube_body.obj", "tee.obj", "cube_body.obj: "},
+                      BadFit{"limbless_body", "pillar_body.obj", "tee.obj", "pillar_body.obj: "}),
+    [](const auto& param) { return std::string(param.param.name); });
 
 } // namespace
 } // namespace vfit

@@ -1,0 +1,119 @@
+// Penetration removal (issue 5's speed bars): remove_penetration() on the state the pipeline
+// hands it, i.e. each garment after segmentation, skeleton driving and the coarse move onto the
+// posed body (fit_garments() with no removal rounds and no simulation), with the pipeline's
+// options (κ = 3 mm, λ2/λ1 = 1, edge crossings on).
+//  - BM_RemoveTable1/r: the nine Table-1 twins (geometry/garment/table1.h) on their posed
+//    mannequins. Counters: the paper's penetration ms, `speedup` = paper ms / our ms, vertices
+//    inside and crossing edges before and after, rounds. Issue 5's bar: ≤ 10 ms per row.
+//  - BM_RemoveScaled/N: the catalogue T-pose tee of N vertices (10^4 … 10^6) driven onto the
+//    arms-down mannequin; `vertices_per_s` is the throughput. Bar: 10^6 vertices under 2 s.
+//    The 10^6 tee takes ~40 s to generate; filter it out with --benchmark_filter when in a hurry.
+// Each iteration copies the pre-removal mesh (a copy of 10^6 × 3 floats is ~1 ms, inside the
+// timing; negligible at the bar's scale).
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <memory>
+#include <string>
+
+#include "engine/fit_pipeline.h"
+#include "engine/penetration.h"
+#include "geometry/body/mannequin.h"
+#include "geometry/body/pose_io.h"
+#include "geometry/garment/catalogue.h"
+#include "geometry/garment/table1.h"
+#include "kernels/edge_crossings.h"
+#include "kernels/proximity.h"
+
+namespace {
+
+// A posed body with its indices and one garment as the pipeline hands it to removal.
+struct Case {
+  vfit::Body body;
+  std::unique_ptr<vfit::ProximityIndex> index;
+  std::unique_ptr<vfit::EdgeCrossingIndex> crossings;
+  vfit::Mesh garment;
+};
+
+const vfit::Body& rest_mannequin() {
+  static const vfit::Body body = [] {
+    vfit::MannequinOptions mo;
+    mo.pose = vfit::RestPose::APOSE;
+    return vfit::make_mannequin(mo);
+  }();
+  return body;
+}
+
+std::unique_ptr<Case> make_case(const std::string& pose, const vfit::Garment& garment, const std::string& name) {
+  auto c = std::make_unique<Case>();
+  const vfit::Body& rest = rest_mannequin();
+  c->body = vfit::pose_body(rest, vfit::named_pose(pose, rest.rest_pose));
+  vfit::FitOptions options;
+  options.simulate = false;
+  options.penetration_iterations = 0; // detection only: the mesh comes back as removal gets it
+  options.garment_units = vfit::Units::M;
+  vfit::FitResult fitted = vfit::fit_garments(c->body, {vfit::FitGarmentInput{name, garment.mesh}}, options);
+  c->garment = std::move(fitted.garments.front().mesh);
+  c->index = std::make_unique<vfit::ProximityIndex>(c->body.mesh.positions, c->body.mesh.triangles);
+  c->crossings = std::make_unique<vfit::EdgeCrossingIndex>(c->body.mesh.positions, c->body.mesh.triangles);
+  return c;
+}
+
+vfit::PenetrationOptions pipeline_options() {
+  const vfit::FitOptions defaults;
+  vfit::PenetrationOptions po;
+  po.clearance = defaults.clearance;
+  po.smoothness = defaults.smoothness;
+  po.max_iterations = defaults.penetration_iterations;
+  return po;
+}
+
+void run(benchmark::State& state, const Case& c) {
+  const vfit::PenetrationOptions po = pipeline_options();
+  vfit::PenetrationReport report;
+  for (auto _ : state) {
+    vfit::Mesh garment = c.garment;
+    report = vfit::remove_penetration(garment, *c.index, *c.crossings, po);
+    benchmark::DoNotOptimize(garment.positions.data());
+  }
+  state.counters["inside_before"] = double(report.before.inside_count);
+  state.counters["crossing_before"] = double(report.before.crossing_edges);
+  state.counters["inside_after"] = double(report.after.inside_count);
+  state.counters["crossing_after"] = double(report.after.crossing_edges);
+  state.counters["max_depth_after_mm"] = report.after.max_depth * 1e3;
+  state.counters["rounds"] = report.iterations;
+  state.counters["vertices_per_s"] =
+      benchmark::Counter(double(c.garment.vertex_count()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_RemoveTable1(benchmark::State& state) {
+  const vfit::Table1Row& row = vfit::table1_rows().at(std::size_t(state.range(0)));
+  static std::map<std::int64_t, std::unique_ptr<Case>> cache;
+  auto& c = cache[state.range(0)];
+  if (!c) c = make_case(row.body_pose, vfit::make_garment(vfit::table1_garment_options(row)), row.garment);
+  state.SetLabel(row.garment + " on " + row.body_pose);
+  run(state, *c);
+  state.counters["paper_ms"] = row.paper_penetration_ms;
+  // speedup = paper ms / our ms per iteration: kIsIterationInvariantRate gives value·iterations/s.
+  state.counters["speedup"] =
+      benchmark::Counter(row.paper_penetration_ms * 1e-3, benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_RemoveTable1)->DenseRange(0, 8)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
+
+void BM_RemoveScaled(benchmark::State& state) {
+  static std::map<std::int64_t, std::unique_ptr<Case>> cache;
+  auto& c = cache[state.range(0)];
+  if (!c) {
+    vfit::GarmentOptions go;
+    go.type = vfit::GarmentType::TEE;
+    go.pose = vfit::RestPose::TPOSE;
+    go.target_vertices = std::size_t(state.range(0));
+    c = make_case("arms_down", vfit::make_garment(go), "tee");
+  }
+  run(state, *c);
+}
+BENCHMARK(BM_RemoveScaled)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+} // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,623 @@
+#include "keypoint_fit.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include "kernels/error.h"
+#include "mannequin_shape.h"
+
+namespace vfit {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double PI = std::numbers::pi;
+constexpr int BODY_POSE = 3 * (JOINT_COUNT - 1); // the 69 non-root axis-angle numbers
+constexpr double SHAPE_LIMIT = 3.0;              // |β_k| ≤ 3 σ: beyond that, not an adult body
+constexpr double HIP_TRUST = 0.5;
+
+template <typename T> using V3 = Eigen::Matrix<T, 3, 1>;
+template <typename T> using M3 = Eigen::Matrix<T, 3, 3>;
+
+int L(Landmark l) { return static_cast<int>(l); }
+
+// ---------------------------------------------------------------------------------------------
+// The linear body model.
+
+KeypointBodyModel::Points points_of(const BodyMeasurements& m) {
+  const MannequinShape shape(m, RestPose::TPOSE);
+  KeypointBodyModel::Points P = KeypointBodyModel::Points::Zero();
+  P.topRows<JOINT_COUNT>() = shape.joints();
+  auto J = [&](Joint j) -> Eigen::Vector3d { return shape.joints().row(idx(j)).transpose(); };
+  auto set = [&](Landmark l, const Eigen::Vector3d& p) { P.row(L(l)) = p.transpose(); };
+  const Ellipsoid* head = nullptr;
+  const Ellipsoid* foot[2] = {nullptr, nullptr};
+  for (const Ellipsoid& e : shape.ellipsoids()) {
+    if (e.joint == idx(Joint::HEAD)) head = &e;
+    if (e.joint == idx(Joint::LEFT_FOOT)) foot[0] = &e;
+    if (e.joint == idx(Joint::RIGHT_FOOT)) foot[1] = &e;
+  }
+  if (!head || !foot[0] || !foot[1]) throw Error("keypoint model", 0, "the mannequin has no head or foot shape");
+  // Face landmarks on the head ellipsoid (radii rx, ry, rz): eyes a little above its centre
+  // (eye height ≈ 93.6 % of stature), the nose tip 1 cm proud of the ellipsoid, ears at its sides.
+  const Eigen::Vector3d c = head->centre, r = head->radii;
+  set(Landmark::NOSE, c + Eigen::Vector3d(0, -0.26 * r.y(), 1.07 * r.z()));
+  set(Landmark::LEFT_EYE, c + Eigen::Vector3d(0.41 * r.x(), 0.04 * r.y(), 0.87 * r.z()));
+  set(Landmark::RIGHT_EYE, c + Eigen::Vector3d(-0.41 * r.x(), 0.04 * r.y(), 0.87 * r.z()));
+  set(Landmark::LEFT_EAR, c + Eigen::Vector3d(r.x(), -0.09 * r.y(), -0.05 * r.z()));
+  set(Landmark::RIGHT_EAR, c + Eigen::Vector3d(-r.x(), -0.09 * r.y(), -0.05 * r.z()));
+  set(Landmark::HEAD_TOP, c + Eigen::Vector3d(0, r.y(), 0));
+  set(Landmark::NECK_BASE, 0.5 * (J(Joint::LEFT_SHOULDER) + J(Joint::RIGHT_SHOULDER)));
+  // Annotated hips: 3.5 % of stature below and 1 % wider than the hip joint centres.
+  const double H = m.height;
+  const Eigen::Vector3d hip_offset(0.010 * H, -0.035 * H, 0.0);
+  set(Landmark::LEFT_HIP_SURFACE, J(Joint::LEFT_HIP) + hip_offset);
+  set(Landmark::RIGHT_HIP_SURFACE, J(Joint::RIGHT_HIP) + Eigen::Vector3d(-hip_offset.x(), hip_offset.y(), 0));
+  set(Landmark::MID_HIP, 0.5 * (P.row(L(Landmark::LEFT_HIP_SURFACE)) + P.row(L(Landmark::RIGHT_HIP_SURFACE))).transpose());
+  // Feet: the foot ellipsoid runs from the heel to the toes; the big toe is on the inner side.
+  for (int side = 0; side < 2; ++side) {
+    const Eigen::Vector3d fc = foot[side]->centre, fr = foot[side]->radii;
+    const double inward = side == 0 ? -1.0 : 1.0; // towards the body's mid-line
+    const Landmark toe = side == 0 ? Landmark::LEFT_BIG_TOE : Landmark::RIGHT_BIG_TOE;
+    const Landmark small = side == 0 ? Landmark::LEFT_SMALL_TOE : Landmark::RIGHT_SMALL_TOE;
+    const Landmark heel = side == 0 ? Landmark::LEFT_HEEL : Landmark::RIGHT_HEEL;
+    set(toe, fc + Eigen::Vector3d(0.45 * inward * fr.x(), -0.3 * fr.y(), 0.92 * fr.z()));
+    set(small, fc + Eigen::Vector3d(-0.65 * inward * fr.x(), -0.4 * fr.y(), 0.62 * fr.z()));
+    set(heel, fc + Eigen::Vector3d(0, -0.3 * fr.y(), -0.95 * fr.z()));
+  }
+  return P;
+}
+
+KeypointBodyModel build_mannequin_model() {
+  KeypointBodyModel model;
+  model.mean = points_of(KeypointBodyModel::measurements({}));
+  for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) {
+    KeypointShape plus{}, minus{};
+    plus[static_cast<std::size_t>(k)] = 1.0;
+    minus[static_cast<std::size_t>(k)] = -1.0;
+    model.basis[static_cast<std::size_t>(k)] =
+        0.5 * (points_of(KeypointBodyModel::measurements(plus)) - points_of(KeypointBodyModel::measurements(minus)));
+  }
+  for (int j = 0; j < JOINT_COUNT; ++j) model.joint[static_cast<std::size_t>(j)] = j;
+  auto attach = [&](Landmark l, Joint j) { model.joint[static_cast<std::size_t>(L(l))] = idx(j); };
+  for (Landmark l : {Landmark::NOSE, Landmark::LEFT_EYE, Landmark::RIGHT_EYE, Landmark::LEFT_EAR, Landmark::RIGHT_EAR, Landmark::HEAD_TOP})
+    attach(l, Joint::HEAD);
+  attach(Landmark::NECK_BASE, Joint::SPINE3);
+  for (Landmark l : {Landmark::MID_HIP, Landmark::LEFT_HIP_SURFACE, Landmark::RIGHT_HIP_SURFACE}) attach(l, Joint::PELVIS);
+  attach(Landmark::LEFT_BIG_TOE, Joint::LEFT_FOOT);
+  attach(Landmark::LEFT_SMALL_TOE, Joint::LEFT_FOOT);
+  attach(Landmark::LEFT_HEEL, Joint::LEFT_ANKLE);
+  attach(Landmark::RIGHT_BIG_TOE, Joint::RIGHT_FOOT);
+  attach(Landmark::RIGHT_SMALL_TOE, Joint::RIGHT_FOOT);
+  attach(Landmark::RIGHT_HEEL, Joint::RIGHT_ANKLE);
+  model.trust.fill(1.0);
+  for (Landmark l : {Landmark::MID_HIP, Landmark::LEFT_HIP_SURFACE, Landmark::RIGHT_HIP_SURFACE})
+    model.trust[static_cast<std::size_t>(L(l))] = HIP_TRUST;
+  return model;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Forward kinematics of the body points, templated for Ceres' automatic differentiation.
+
+template <typename T>
+void posed_body_points(const KeypointBodyModel& model, const T* global, const T* body, const T* trans, const T* beta,
+                       const std::vector<int>& points, V3<T>* out) {
+  std::array<V3<T>, JOINT_COUNT> J, t;
+  std::array<M3<T>, JOINT_COUNT> R;
+  auto rest = [&](int i) {
+    V3<T> p = model.mean.row(i).transpose().template cast<T>();
+    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k)
+      p += model.basis[static_cast<std::size_t>(k)].row(i).transpose().template cast<T>() * beta[k];
+    return p;
+  };
+  for (int j = 0; j < JOINT_COUNT; ++j) J[static_cast<std::size_t>(j)] = rest(j);
+  for (int j = 0; j < JOINT_COUNT; ++j) {
+    const auto uj = static_cast<std::size_t>(j);
+    M3<T> local;
+    ceres::AngleAxisToRotationMatrix(j == 0 ? global : body + 3 * (j - 1), local.data()); // column-major, as Eigen
+    if (j == 0) {
+      R[0] = local;
+      t[0] = J[0] + V3<T>(trans[0], trans[1], trans[2]);
+    } else {
+      const auto p = static_cast<std::size_t>(joint_parent(j));
+      R[uj] = R[p] * local;
+      t[uj] = R[p] * (J[uj] - J[p]) + t[p];
+    }
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const int pt = points[i];
+    if (pt < JOINT_COUNT) {
+      out[i] = t[static_cast<std::size_t>(pt)];
+    } else {
+      const auto a = static_cast<std::size_t>(model.joint[static_cast<std::size_t>(pt)]);
+      out[i] = R[a] * (rest(pt) - J[a]) + t[a];
+    }
+  }
+}
+
+struct Observations {
+  std::vector<int> points;
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<double> sqrt_weight; // sqrt(confidence × trust)
+  double sigma = 100;              // Geman–McClure scale (px)
+};
+
+// Robust reprojection residual of every observation: r_i = √w_i · e_i · σ / √(σ² + |e_i|²), so
+// |r_i|² = w_i ρ_GM(e_i) exactly, smooth, in one residual block (one FK per evaluation).
+template <typename T>
+void reprojection(const KeypointBodyModel& model, const Observations& obs, const PinholeCamera& cam, const T* global,
+                  const T* body, const T* trans, const T* beta, T* residuals) {
+  std::vector<V3<T>> X(obs.points.size());
+  posed_body_points(model, global, body, trans, beta, obs.points, X.data());
+  using std::sqrt;
+  const T sigma2(obs.sigma * obs.sigma);
+  for (std::size_t i = 0; i < X.size(); ++i) {
+    // Points behind or at the camera are held at 5 cm in front of it (the optimiser steps back).
+    T depth = -X[i].z();
+    if (depth < T(0.05)) depth = T(0.05);
+    const T u = cam.principal_point.x() + cam.focal * X[i].x() / depth;
+    const T v = cam.principal_point.y() - cam.focal * X[i].y() / depth;
+    const T eu = u - obs.pixels[i].x(), ev = v - obs.pixels[i].y();
+    const T s = obs.sqrt_weight[i] * obs.sigma / sqrt(sigma2 + eu * eu + ev * ev);
+    residuals[2 * i] = s * eu;
+    residuals[2 * i + 1] = s * ev;
+  }
+}
+
+struct FullReprojection {
+  const KeypointBodyModel* model;
+  const Observations* obs;
+  PinholeCamera camera;
+  template <typename T> bool operator()(const T* global, const T* body, const T* trans, const T* beta, T* r) const {
+    reprojection(*model, *obs, camera, global, body, trans, beta, r);
+    return true;
+  }
+};
+
+// Stage 1: only the global orientation and translation vary; pose and shape are constants.
+struct TorsoReprojection {
+  const KeypointBodyModel* model;
+  const Observations* obs;
+  PinholeCamera camera;
+  std::array<double, BODY_POSE> body;
+  KeypointShape beta;
+  template <typename T> bool operator()(const T* global, const T* trans, T* r) const {
+    std::array<T, BODY_POSE> b;
+    std::array<T, KEYPOINT_SHAPE_PARAMS> s;
+    for (std::size_t i = 0; i < b.size(); ++i) b[i] = T(body[i]);
+    for (std::size_t i = 0; i < s.size(); ++i) s[i] = T(beta[i]);
+    reprojection(*model, *obs, camera, global, b.data(), trans, s.data(), r);
+    return true;
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Pose prior: anatomical limits and an L2 toward a relaxed pose (T-pose-relative axis-angle;
+// body faces +Z, +X is its left, so e.g. a knee bends about +X and the left elbow about −Y).
+
+struct BoxLimit {
+  int joint, axis;
+  double lo, hi;
+};
+
+const std::vector<BoxLimit>& box_limits() {
+  static const std::vector<BoxLimit> limits = [] {
+    std::vector<BoxLimit> v;
+    auto box = [&](Joint j, double xl, double xh, double yl, double yh, double zl, double zh) {
+      v.push_back({idx(j), 0, xl, xh});
+      v.push_back({idx(j), 1, yl, yh});
+      v.push_back({idx(j), 2, zl, zh});
+    };
+    for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3}) box(j, -0.35, 0.60, -0.45, 0.45, -0.35, 0.35);
+    box(Joint::NECK, -0.50, 0.60, -0.70, 0.70, -0.40, 0.40);
+    box(Joint::HEAD, -0.45, 0.45, -0.60, 0.60, -0.35, 0.35);
+    for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR}) box(j, -0.30, 0.30, -0.30, 0.30, -0.35, 0.35);
+    // Knees hinge forward only: flexion about +X up to ~150°, a little twist, no side bend.
+    for (Joint j : {Joint::LEFT_KNEE, Joint::RIGHT_KNEE}) box(j, 0.0, 2.6, -0.30, 0.30, -0.10, 0.10);
+    // Elbows hinge forward only (left about −Y, right about +Y); forearm twist is free-ish.
+    box(Joint::LEFT_ELBOW, -1.5, 1.5, -2.6, 0.0, -0.10, 0.10);
+    box(Joint::RIGHT_ELBOW, -1.5, 1.5, 0.0, 2.6, -0.10, 0.10);
+    for (Joint j : {Joint::LEFT_ANKLE, Joint::RIGHT_ANKLE}) box(j, -0.80, 0.60, -0.40, 0.40, -0.40, 0.40);
+    // Ball joints: twist about the bone (x for arms, y for thighs) within a range; direction
+    // limits below.
+    for (Joint j : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) v.push_back({idx(j), 0, -1.3, 1.3});
+    for (Joint j : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) v.push_back({idx(j), 1, -0.7, 0.7});
+    return v;
+  }();
+  return limits;
+}
+
+constexpr int DIRECTION_LIMITS = 6; // per hip: extension, crossing; per shoulder: far behind
+constexpr double LIMIT_WEIGHT = 400.0;    // px-equivalent per rad (or per unit of direction)
+
+// The relaxed pose (arms ~60° down, elbows and knees slightly bent) and per-number L2 weights
+// (px-equivalent per rad): strong on what 2D joints barely see.
+struct PoseMean {
+  std::array<double, BODY_POSE> mean{};
+  std::array<double, BODY_POSE> weight{};
+};
+
+const PoseMean& pose_mean() {
+  static const PoseMean m = [] {
+    PoseMean p;
+    auto at = [](Joint j, int axis) { return static_cast<std::size_t>(3 * (idx(j) - 1) + axis); };
+    p.mean[at(Joint::LEFT_SHOULDER, 2)] = -1.05;
+    p.mean[at(Joint::RIGHT_SHOULDER, 2)] = 1.05;
+    p.mean[at(Joint::LEFT_ELBOW, 1)] = -0.15;
+    p.mean[at(Joint::RIGHT_ELBOW, 1)] = 0.15;
+    p.mean[at(Joint::LEFT_KNEE, 0)] = 0.08;
+    p.mean[at(Joint::RIGHT_KNEE, 0)] = 0.08;
+    p.weight.fill(10.0);
+    for (Joint j : {Joint::LEFT_WRIST, Joint::RIGHT_WRIST, Joint::LEFT_HAND, Joint::RIGHT_HAND, Joint::LEFT_FOOT, Joint::RIGHT_FOOT})
+      for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 200.0;
+    // The torso and neck stay near upright unless the keypoints insist: 2D joints cannot tell a
+    // spine bent towards the camera from one bent away.
+    for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR, Joint::SPINE1, Joint::SPINE2, Joint::SPINE3, Joint::NECK})
+      for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 40.0;
+    // Twists about the bone: invisible in 2D joints.
+    p.weight[at(Joint::LEFT_ELBOW, 0)] = p.weight[at(Joint::RIGHT_ELBOW, 0)] = 60.0;
+    p.weight[at(Joint::LEFT_SHOULDER, 0)] = p.weight[at(Joint::RIGHT_SHOULDER, 0)] = 20.0;
+    p.weight[at(Joint::LEFT_KNEE, 1)] = p.weight[at(Joint::RIGHT_KNEE, 1)] = 60.0;
+    return p;
+  }();
+  return m;
+}
+
+struct PosePrior {
+  const double* scale; // stage weight, read at each evaluation
+  static int residual_count() { return BODY_POSE + static_cast<int>(box_limits().size()) + DIRECTION_LIMITS; }
+
+  template <typename T> bool operator()(const T* body, T* r) const {
+    const PoseMean& m = pose_mean();
+    const T s(*scale);
+    int k = 0;
+    for (int i = 0; i < BODY_POSE; ++i) r[k++] = s * m.weight[static_cast<std::size_t>(i)] * (body[i] - m.mean[static_cast<std::size_t>(i)]);
+    auto excess = [](const T& x, double lo, double hi) { return x > T(hi) ? x - T(hi) : (x < T(lo) ? x - T(lo) : T(0)); };
+    for (const BoxLimit& b : box_limits()) r[k++] = T(LIMIT_WEIGHT) * excess(body[3 * (b.joint - 1) + b.axis], b.lo, b.hi);
+    // Thighs: not more than 30° behind the body, not crossing far over the mid-line.
+    for (Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
+      const V3<T> down(T(0), T(-1), T(0));
+      V3<T> d;
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(hip) - 1), down.data(), d.data());
+      const double side = hip == Joint::LEFT_HIP ? 1.0 : -1.0;
+      r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.5, 10.0);
+      r[k++] = T(LIMIT_WEIGHT) * excess(T(side) * d.x(), -0.35, 10.0);
+    }
+    // Upper arms: not far behind the body.
+    for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
+      const V3<T> out(T(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0), T(0), T(0));
+      V3<T> d;
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), out.data(), d.data());
+      r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.6, 10.0);
+    }
+    return true;
+  }
+};
+
+constexpr double SHAPE_WEIGHT = 3.0;  // px-equivalent per population σ
+constexpr double DEPTH_WEIGHT = 200.0; // px-equivalent per metre of depth change in stage 1
+
+struct ShapePrior {
+  template <typename T> bool operator()(const T* beta, T* r) const {
+    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) r[k] = T(SHAPE_WEIGHT) * beta[k];
+    return true;
+  }
+};
+
+struct DepthPrior {
+  double z0;
+  template <typename T> bool operator()(const T* trans, T* r) const {
+    r[0] = T(DEPTH_WEIGHT) * (trans[2] - T(z0));
+    return true;
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+
+struct State {
+  std::array<double, 3> global{};
+  std::array<double, BODY_POSE> body{};
+  std::array<double, 3> trans{};
+  KeypointShape beta{};
+  double cost = 0;
+};
+
+ceres::Solver::Options solver_options(const KeypointFitOptions& o) {
+  ceres::Solver::Options s;
+  // One dense residual block over ~80 parameters: no Schur structure to exploit (there are no
+  // point blocks to eliminate), so a dense Cholesky of the small normal equations is fastest.
+  s.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  s.max_num_iterations = std::max(1, o.max_iterations);
+  s.num_threads = std::clamp(o.threads, 1, 2);
+  s.logging_type = ceres::SILENT;
+  s.minimizer_progress_to_stdout = false;
+  s.function_tolerance = 1e-7;
+  return s;
+}
+
+Eigen::Vector3d to_vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+
+// Pose start for stage 2: each upper arm and thigh turned towards its keypoint, lifted from the
+// image as if the bone lay in the plane of its joint, leaning towards the body's front by what
+// the bone's length leaves over (foreshortening; a limb in front of the body is the common case).
+// Without this, an arm raised overhead is reached from the relaxed start by swinging it through
+// the front, a local minimum that the 2D keypoints cannot tell apart.
+void lift_limbs(const KeypointBodyModel& model, const PinholeCamera& cam, const Observations& obs, State& s) {
+  Pose pose;
+  pose.axis_angle.row(0) = to_vec(s.global).transpose();
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    for (int a = 0; a < 3; ++a) pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+  pose.translation = to_vec(s.trans);
+  const JointPositions rest = model.rest_joints(s.beta);
+  const auto G = joint_world_transforms(rest, pose);
+  const Eigen::Vector3d front = G[0].linear() * Eigen::Vector3d::UnitZ();
+  for (const auto& [upper, lower] : {std::pair{Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW}, std::pair{Joint::RIGHT_SHOULDER, Joint::RIGHT_ELBOW},
+                                     std::pair{Joint::LEFT_HIP, Joint::LEFT_KNEE}, std::pair{Joint::RIGHT_HIP, Joint::RIGHT_KNEE}}) {
+    const auto it = std::find(obs.points.begin(), obs.points.end(), idx(lower));
+    if (it == obs.points.end()) continue;
+    const Eigen::Vector2d px = obs.pixels[static_cast<std::size_t>(it - obs.points.begin())];
+    const Eigen::Vector3d P = G[static_cast<std::size_t>(idx(upper))].translation();
+    const double D = std::max(-P.z(), 0.1);
+    Eigen::Vector3d d((px.x() - cam.principal_point.x()) * D / cam.focal - P.x(), -(px.y() - cam.principal_point.y()) * D / cam.focal - P.y(), 0);
+    const Eigen::Vector3d bone = (rest.row(idx(lower)) - rest.row(idx(upper))).transpose();
+    const double L = bone.norm(), planar = d.norm();
+    if (planar < 1e-6 || L < 1e-6) continue;
+    if (planar < L) d.z() = (front.z() >= 0 ? 1.0 : -1.0) * std::sqrt(L * L - planar * planar);
+    const Eigen::Matrix3d parent = G[static_cast<std::size_t>(joint_parent(idx(upper)))].linear();
+    const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(bone.normalized(), parent.transpose() * d.normalized());
+    const Eigen::Vector3d aa = matrix_to_axis_angle(q.toRotationMatrix());
+    for (int a = 0; a < 3; ++a) s.body[static_cast<std::size_t>(3 * (idx(upper) - 1) + a)] = aa[a];
+  }
+}
+
+int iterations_of(const ceres::Solver::Summary& s) { return s.num_successful_steps + s.num_unsuccessful_steps; }
+
+double elapsed_ms(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+
+} // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+BodyMeasurements KeypointBodyModel::measurements(const KeypointShape& beta) {
+  BodyMeasurements m;
+  const double k = 1.0 + beta[0] * 0.07 / m.height;
+  for (std::string_view n : BodyMeasurements::names()) m[n] *= k;
+  const double crotch = m.crotch_height, arm = m.arm_length;
+  m.crotch_height += beta[1] * 0.025 * k;
+  m.knee_height *= m.crotch_height / crotch;
+  m.arm_length += beta[2] * 0.020 * k;
+  m.forearm_length *= m.arm_length / arm;
+  m.shoulder_width += beta[3] * 0.020 * k;
+  return m;
+}
+
+KeypointBodyModel::Points KeypointBodyModel::rest_points(const KeypointShape& beta) const {
+  Points P = mean;
+  for (std::size_t k = 0; k < beta.size(); ++k) P += beta[k] * basis[k];
+  return P;
+}
+
+JointPositions KeypointBodyModel::rest_joints(const KeypointShape& beta) const {
+  return rest_points(beta).topRows<JOINT_COUNT>();
+}
+
+KeypointBodyModel::Points KeypointBodyModel::posed_points(const KeypointShape& beta, const Pose& pose) const {
+  const Points rest = rest_points(beta);
+  const JointPositions J = rest.topRows<JOINT_COUNT>();
+  const auto G = joint_world_transforms(J, pose);
+  Points out;
+  for (int i = 0; i < BODY_POINT_COUNT; ++i) {
+    const int a = joint[static_cast<std::size_t>(i)];
+    out.row(i) = (G[static_cast<std::size_t>(a)] * (rest.row(i) - J.row(a)).transpose()).transpose();
+  }
+  return out;
+}
+
+const KeypointBodyModel& mannequin_keypoint_model() {
+  static const KeypointBodyModel model = build_mannequin_model();
+  return model;
+}
+
+Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& p) const {
+  const double depth = std::max(-p.z(), 1e-9);
+  return {principal_point.x() + focal * p.x() / depth, principal_point.y() - focal * p.y() / depth};
+}
+
+KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& options) {
+  const auto t_start = Clock::now();
+  const KeypointBodyModel& model = mannequin_keypoint_model();
+  KeypointFit fit;
+  fit.camera.focal = keypoints.focal;
+  fit.camera.principal_point = 0.5 * keypoints.image_size;
+  const PinholeCamera& cam = fit.camera;
+  const ceres::Solver::Options solver = solver_options(options);
+
+  Observations all, torso;
+  Eigen::Vector2d top_px = Eigen::Vector2d::Zero(), bottom_px = Eigen::Vector2d::Zero();
+  Eigen::Vector3d top_rest = Eigen::Vector3d::Zero(), bottom_rest = Eigen::Vector3d::Zero();
+  int n_top = 0, n_bottom = 0;
+  for (const Keypoint2D& k : keypoints.points) {
+    const auto p = static_cast<std::size_t>(k.point);
+    all.points.push_back(k.point);
+    all.pixels.push_back(k.pixel);
+    all.sqrt_weight.push_back(std::sqrt(k.confidence * model.trust[p]));
+    const bool shoulder = k.point == idx(Joint::LEFT_SHOULDER) || k.point == idx(Joint::RIGHT_SHOULDER);
+    const bool hip = k.point == L(Landmark::LEFT_HIP_SURFACE) || k.point == L(Landmark::RIGHT_HIP_SURFACE) ||
+                     k.point == idx(Joint::LEFT_HIP) || k.point == idx(Joint::RIGHT_HIP);
+    if (shoulder || hip) {
+      torso.points.push_back(k.point);
+      torso.pixels.push_back(k.pixel);
+      torso.sqrt_weight.push_back(std::sqrt(k.confidence));
+      (shoulder ? top_px : bottom_px) += k.pixel;
+      (shoulder ? top_rest : bottom_rest) += model.mean.row(k.point).transpose();
+      ++(shoulder ? n_top : n_bottom);
+    }
+  }
+  // Keypoints guarantees 3 of the 4 torso points; the guard keeps a hand-built input safe.
+  if (n_top == 0 || n_bottom == 0) throw Error(keypoints.source, 0, "too few torso keypoints for a fit (need a shoulder and a hip)");
+  top_px /= n_top;
+  bottom_px /= n_bottom;
+  top_rest /= n_top;
+  bottom_rest /= n_bottom;
+
+  // Similar triangles: the torso's length in pixels over its length in metres gives f / depth.
+  const double torso_px = std::max((top_px - bottom_px).norm(), 1.0);
+  // SMPLify's Geman–McClure scale is 100 px for its images; here it scales with the person: one
+  // torso length, so limbs a torso length off still pull while outliers far beyond are damped.
+  all.sigma = torso.sigma = torso_px;
+  const double depth = cam.focal * (top_rest - bottom_rest).norm() / torso_px;
+  const Eigen::Vector2d centre_px = 0.5 * (top_px + bottom_px);
+  const Eigen::Vector3d centre_cam((centre_px.x() - cam.principal_point.x()) * depth / cam.focal,
+                                   -(centre_px.y() - cam.principal_point.y()) * depth / cam.focal, -depth);
+  const Eigen::Vector3d centre_rest = 0.5 * (top_rest + bottom_rest);
+  const Eigen::Vector3d pelvis_rest = model.mean.row(0).transpose();
+
+  State start;
+  start.body = pose_mean().mean;
+
+  // Stage 1: camera translation and global orientation on the torso, front- and back-facing.
+  KeypointFitStage stage1{"camera", 0, 0, 0};
+  auto t0 = Clock::now();
+  State best;
+  bool have_best = false;
+  for (int facing = 0; facing < 2; ++facing) {
+    State s = start;
+    const Eigen::Matrix3d R0 = facing == 0 ? Eigen::Matrix3d::Identity() : axis_angle_to_matrix({0, PI, 0});
+    const Eigen::Vector3d g = matrix_to_axis_angle(R0);
+    s.global = {g.x(), g.y(), g.z()};
+    // Root transform: X = R0 (P − J0) + J0 + t; put the torso centre at centre_cam.
+    const Eigen::Vector3d t = centre_cam - R0 * (centre_rest - pelvis_rest) - pelvis_rest;
+    s.trans = {t.x(), t.y(), t.z()};
+    ceres::Problem problem;
+    auto* torso_cost = new ceres::AutoDiffCostFunction<TorsoReprojection, ceres::DYNAMIC, 3, 3>(
+        new TorsoReprojection{&model, &torso, cam, s.body, s.beta}, 2 * static_cast<int>(torso.points.size()));
+    problem.AddResidualBlock(torso_cost, nullptr, s.global.data(), s.trans.data());
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DepthPrior, 1, 3>(new DepthPrior{t.z()}), nullptr, s.trans.data());
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    stage1.iterations += iterations_of(summary);
+    s.cost = summary.final_cost;
+    if (!have_best || s.cost < best.cost) {
+      best = s;
+      have_best = true;
+      fit.facing_away = facing == 1;
+    }
+  }
+  stage1.ms = elapsed_ms(t0);
+  stage1.cost = best.cost;
+  fit.stages.push_back(stage1);
+
+  // Stages 2 and 3 share one problem; the shape block is held constant in stage 2.
+  double prior_scale = 1.0;
+  auto solve_full = [&](State& s, bool with_shape, int& iterations) {
+    ceres::Problem problem;
+    auto* cost = new ceres::AutoDiffCostFunction<FullReprojection, ceres::DYNAMIC, 3, BODY_POSE, 3, KEYPOINT_SHAPE_PARAMS>(
+        new FullReprojection{&model, &all, cam}, 2 * static_cast<int>(all.points.size()));
+    problem.AddResidualBlock(cost, nullptr, s.global.data(), s.body.data(), s.trans.data(), s.beta.data());
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, ceres::DYNAMIC, BODY_POSE>(new PosePrior{&prior_scale},
+                                                                                                  PosePrior::residual_count()),
+                             nullptr, s.body.data());
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ShapePrior, KEYPOINT_SHAPE_PARAMS, KEYPOINT_SHAPE_PARAMS>(new ShapePrior),
+                             nullptr, s.beta.data());
+    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) {
+      problem.SetParameterLowerBound(s.beta.data(), k, -SHAPE_LIMIT);
+      problem.SetParameterUpperBound(s.beta.data(), k, SHAPE_LIMIT);
+    }
+    if (!with_shape) problem.SetParameterBlockConstant(s.beta.data());
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    iterations += iterations_of(summary);
+    s.cost = summary.final_cost;
+  };
+
+  // Stage 2: pose. A turned torso's 2D keypoints look the same turned the other way (mirror
+  // about the viewing axis); fit from both turns and keep the better.
+  KeypointFitStage stage2{"pose", 0, 0, 0};
+  t0 = Clock::now();
+  prior_scale = 2.0;
+  std::vector<State> starts = {best};
+  {
+    const Eigen::Matrix3d R = axis_angle_to_matrix(to_vec(best.global));
+    const Eigen::Vector3d forward = R * Eigen::Vector3d::UnitZ();
+    const double yaw = std::atan2(forward.x(), forward.z());
+    if (std::abs(std::sin(yaw)) > std::sin(15.0 * PI / 180.0)) {
+      State mirrored = best;
+      const Eigen::Vector3d g = matrix_to_axis_angle(axis_angle_to_matrix({0, -2.0 * yaw, 0}) * R);
+      mirrored.global = {g.x(), g.y(), g.z()};
+      starts.push_back(mirrored);
+    }
+  }
+  // Each turn from the relaxed pose and from the lifted limbs: the lifting guesses the sign of
+  // each limb's depth, the relaxed start does not.
+  for (std::size_t i = 0, n = starts.size(); i < n; ++i) {
+    State lifted = starts[i];
+    lift_limbs(model, cam, all, lifted);
+    starts.push_back(lifted);
+  }
+  State chosen;
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    solve_full(starts[i], false, stage2.iterations);
+    if (i == 0 || starts[i].cost < chosen.cost) chosen = starts[i];
+  }
+  stage2.ms = elapsed_ms(t0);
+  stage2.cost = chosen.cost;
+  fit.stages.push_back(stage2);
+
+  // Stage 3: shape and pose, the pose prior relaxed.
+  if (options.fit_shape) {
+    KeypointFitStage stage3{"shape+pose", 0, 0, 0};
+    t0 = Clock::now();
+    prior_scale = 1.0;
+    solve_full(chosen, true, stage3.iterations);
+    stage3.ms = elapsed_ms(t0);
+    stage3.cost = chosen.cost;
+    fit.stages.push_back(stage3);
+  }
+
+  // Results.
+  fit.shape = chosen.beta;
+  fit.measurements = KeypointBodyModel::measurements(chosen.beta);
+  fit.pose.axis_angle.row(0) = to_vec(chosen.global).transpose();
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    for (int a = 0; a < 3; ++a) fit.pose.axis_angle(j, a) = chosen.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+  fit.pose.translation = to_vec(chosen.trans);
+  fit.rest_joints = model.rest_joints(chosen.beta);
+  fit.joints = posed_joints(fit.rest_joints, fit.pose);
+  const KeypointBodyModel::Points posed = model.posed_points(chosen.beta, fit.pose);
+  double sum = 0;
+  for (const Keypoint2D& k : keypoints.points) {
+    const Eigen::Vector2d px = cam.project(posed.row(k.point).transpose());
+    fit.projected.push_back(px);
+    sum += (px - k.pixel).norm();
+  }
+  fit.mean_reprojection_px = keypoints.points.empty() ? 0.0 : sum / static_cast<double>(keypoints.points.size());
+  fit.total_ms = elapsed_ms(t_start);
+  return fit;
+}
+
+Pose pose_for_rest(const Pose& pose, RestPose rest) {
+  if (rest != RestPose::APOSE) return pose;
+  // The A-pose lowers each arm by 45° about ∓Z at the shoulder (mannequin_shape.h).
+  constexpr double DROP = 45.0 * PI / 180.0;
+  Pose out = pose;
+  for (int side : {1, -1}) {
+    const Eigen::Matrix3d D = axis_angle_to_matrix({0, 0, -side * DROP});
+    const int shoulder = idx(side > 0 ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER);
+    // Shoulder: G' = G · D⁻¹ so that G' (D a) = G a for the arm's rest offsets a; below it,
+    // R' = D R D⁻¹ keeps every lower joint's world rotation (times D⁻¹) in step.
+    const Eigen::Matrix3d Rs = axis_angle_to_matrix(pose.axis_angle.row(shoulder).transpose());
+    out.axis_angle.row(shoulder) = matrix_to_axis_angle(Rs * D.transpose()).transpose();
+    for (int j : {shoulder + 2, shoulder + 4, shoulder + 6}) {
+      const Eigen::Matrix3d R = axis_angle_to_matrix(pose.axis_angle.row(j).transpose());
+      out.axis_angle.row(j) = matrix_to_axis_angle(D * R * D.transpose()).transpose();
+    }
+  }
+  return out;
+}
+
+} // namespace vfit

@@ -1,0 +1,111 @@
+#pragma once
+/// \file
+/// Pose and shape of a body from a photo's 2D keypoints (seed 000 §3, which uses SMPLify):
+/// SMPLify's objective with our own priors, solved with Ceres (automatic differentiation):
+///   E(θ, β, t) = Σ_i w_i c_i ρ(Π(X_i(θ, β) + t) − x_i) + E_pose(θ) + E_shape(β)
+/// with ρ Geman–McClure (σ = the torso's length in px), Π a pinhole camera, X_i the posed body point that
+/// keypoint i observes, c_i its confidence and w_i its trust (0.5 for hips, whose annotations
+/// sit off the joint centres; keypoints.h). SMPLify's learned pose prior cannot ship, so E_pose
+/// is anatomical: joint limits (elbows and knees hinge one way only, spine, neck and collars
+/// within ranges, thighs and upper arms not far behind the body), a mild L2 toward a relaxed
+/// pose (arms ~60° down), stronger on what 2D joints cannot see (twists, hands, feet).
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "body.h"
+#include "keypoints.h"
+#include "measurements.h"
+
+namespace vfit {
+
+/// Shape parameters of the keypoint model, each in standard deviations of an adult population:
+/// 0 stature (every measurement scaled; σ = 7 cm of height), 1 leg length (crotch and knee
+/// heights at fixed stature; σ = 2.5 cm), 2 arm length (arm and forearm; σ = 2 cm), 3 shoulder
+/// width (σ = 2 cm). Other measurements keep the average body's proportions.
+inline constexpr int KEYPOINT_SHAPE_PARAMS = 4;
+using KeypointShape = std::array<double, KEYPOINT_SHAPE_PARAMS>;
+
+/// The body seen by the keypoint fit: T-pose rest positions of every body point (24 joints and
+/// the landmarks of keypoints.h), linear in the shape: P(β) = mean + Σ_k β_k basis[k]
+/// (#BODY_POINT_COUNT × 3, m). Built by central finite differences (±1 σ) of the built-in
+/// mannequin's skeleton (MannequinShape::joints(); no meshing) around the average body; the
+/// landmarks are placed on the mannequin's head and foot shapes. Each point moves rigidly with
+/// its joint.
+struct KeypointBodyModel {
+  using Points = Eigen::Matrix<double, BODY_POINT_COUNT, 3, Eigen::RowMajor>;
+  Points mean = Points::Zero();
+  std::array<Points, KEYPOINT_SHAPE_PARAMS> basis{};
+  std::array<int, BODY_POINT_COUNT> joint{};   ///< the joint each point moves with
+  std::array<double, BODY_POINT_COUNT> trust{}; ///< fit weight of a keypoint on that point
+
+  /// The measurements of shape β (the average body for β = 0).
+  static BodyMeasurements measurements(const KeypointShape& beta);
+  /// Rest (T-pose) points of shape β.
+  Points rest_points(const KeypointShape& beta) const;
+  /// Rest (T-pose) joints of shape β.
+  JointPositions rest_joints(const KeypointShape& beta) const;
+  /// Posed points (m): each point carried by its joint's world transform (skeleton.h FK).
+  Points posed_points(const KeypointShape& beta, const Pose& pose) const;
+};
+
+/// The mannequin's keypoint model, built on first use (a few ms) and cached; thread-safe.
+const KeypointBodyModel& mannequin_keypoint_model();
+
+/// A pinhole camera at the origin looking along −Z with Y up (our world convention, so a body
+/// facing +Z faces the camera): u = cx + f X / (−Z), v = cy − f Y / (−Z), pixels with v down.
+struct PinholeCamera {
+  double focal = 1000;                                     ///< px
+  Eigen::Vector2d principal_point = Eigen::Vector2d::Zero(); ///< px (the image centre)
+  /// Pixel of a point in front of the camera (Z < 0).
+  Eigen::Vector2d project(const Eigen::Vector3d& p) const;
+};
+
+struct KeypointFitOptions {
+  int max_iterations = 60;   ///< per stage and start (Levenberg–Marquardt iterations)
+  /// Ceres threads, at most 2. One residual block holds every keypoint, so a second thread
+  /// has nothing to share and measured slower (keypoint_fit_bench); default 1.
+  int threads = 1;
+  bool fit_shape = true;     ///< stage 3 (shape + pose); false: the average body's shape
+};
+
+/// One stage of the fit, as Ceres reported it.
+struct KeypointFitStage {
+  std::string name;    ///< "camera", "pose", "shape+pose"
+  int iterations = 0;  ///< Ceres iterations (all starts of the stage together)
+  double ms = 0;       ///< wall time
+  double cost = 0;     ///< final cost of the kept start
+};
+
+struct KeypointFit {
+  /// T-pose-relative pose (SMPL layout; convert with pose_for_rest()); translation places the
+  /// body in the camera's frame (m), so joints = posed_joints(rest_joints, pose).
+  Pose pose;
+  KeypointShape shape{};          ///< in population standard deviations
+  BodyMeasurements measurements;  ///< of that shape
+  PinholeCamera camera;
+  JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the shape
+  JointPositions joints = JointPositions::Zero();      ///< posed joints, camera frame (m)
+  std::vector<Eigen::Vector2d> projected;  ///< the fitted body's pixel for each input keypoint
+  double mean_reprojection_px = 0;         ///< mean |projected − keypoint| over the keypoints
+  bool facing_away = false;                ///< the back-facing start won stage 1
+  std::vector<KeypointFitStage> stages;
+  double total_ms = 0;
+};
+
+/// Fits the mannequin's pose, shape and position to `keypoints` in three stages (SMPLify):
+/// 1 camera translation and global orientation on the torso keypoints, from the front- and the
+/// back-facing start (translation from the torso's pixel length by similar triangles, depth held
+/// near it by a prior), keeping the better; 2 pose (shape fixed), from that start and from its
+/// mirror turn when the torso is turned (2D torso keypoints cannot tell a turn to the left from
+/// one to the right), keeping the better; 3 shape and pose. Robust to a few wrong keypoints
+/// (Geman–McClure). Never throws for valid Keypoints.
+KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& options = {});
+
+/// `pose` (relative to the T-pose rest skeleton) re-expressed for a skeleton whose rest pose is
+/// `rest`, so that both give the same posed joints: for APOSE the shoulders' rotations lose the
+/// A-pose's 45° arm drop and the arm's lower joints are conjugated by it. TPOSE/OTHER: unchanged.
+Pose pose_for_rest(const Pose& pose, RestPose rest);
+
+} // namespace vfit
