@@ -1,7 +1,10 @@
 #include "body_args.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <string>
+#include <vector>
 
 #include "kernels/error.h"
 
@@ -52,6 +55,46 @@ BodyRequest body_request_from_args(Args& args, const std::string& source) {
   if (auto u = args.value("units")) r.units = parse_units(*u);
   if (auto m = args.value("rig-mapping")) r.rig_mapping_file = *m;
   return r;
+}
+
+namespace {
+
+double positive_number(const std::string& flag, const std::string& v) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (end == v.c_str() || *end != '\0' || !std::isfinite(x) || x <= 0)
+    throw Error(flag, 0, "expected a positive number, got '" + v + "'");
+  return x;
+}
+
+} // namespace
+
+KeypointOptions keypoint_options_from_args(Args& args, bool& image_size_needs_token) {
+  KeypointOptions o;
+  if (auto f = args.value("focal")) o.focal = positive_number("--focal", *f);
+  if (auto l = args.value("keypoint-layout")) {
+    const auto layout = keypoint_layout_from_name(*l);
+    if (!layout) throw Error("--keypoint-layout", 0, "expected auto, body25, coco18, lsp or named, got '" + *l + "'");
+    o.layout = *layout;
+  }
+  image_size_needs_token = false;
+  if (auto size = args.value("image-size")) {
+    const std::size_t sep = size->find_first_of("x,");
+    if (sep != std::string::npos)
+      o.image_size = Eigen::Vector2d(positive_number("--image-size", size->substr(0, sep)),
+                                     positive_number("--image-size", size->substr(sep + 1)));
+    else {
+      o.image_size = Eigen::Vector2d(positive_number("--image-size", *size), 0.0); // height: the next token
+      image_size_needs_token = true;
+    }
+  }
+  return o;
+}
+
+void finish_image_size(Args&, const std::vector<std::string>& rest, KeypointOptions& options) {
+  if (!options.image_size || options.image_size->y() != 0.0) return;
+  if (rest.empty()) throw Error("--image-size", 0, "expected W H (pixels)");
+  options.image_size->y() = positive_number("--image-size", rest[0]);
 }
 
 } // namespace vfit::cli

@@ -3,6 +3,7 @@
 
 #include "args.h"
 #include "geometry/body/body_loader.h"
+#include "geometry/body/keypoints.h"
 
 namespace vfit::cli {
 
@@ -13,5 +14,13 @@ BodyRequest body_request_from_args(Args& args, const std::string& source);
 
 BodyMeasurements measurements_from_args(Args& args);
 RestPose parse_rest_pose(const std::string& flag, const std::string& value);
+
+/// The keypoint flags shared by `vfit body` and `vfit fit`: --focal F (px), --keypoint-layout
+/// auto|body25|coco18|lsp|named, and --image-size W H | WxH | W,H (px; the two-token form takes
+/// the next positional). Call before Args::positionals(); `image_size_needs_token` says whether
+/// the command must accept one more positional for it, handed back to finish_image_size().
+KeypointOptions keypoint_options_from_args(Args& args, bool& image_size_needs_token);
+/// Completes --image-size from the positionals left over (see keypoint_options_from_args()).
+void finish_image_size(Args& args, const std::vector<std::string>& rest, KeypointOptions& options);
 
 } // namespace vfit::cli

@@ -1,8 +1,8 @@
 // `vfit body`: builds a body and writes its mesh, joints and rigged glTF.
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <optional>
@@ -14,8 +14,11 @@
 #include "geometry/body/keypoint_fit.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
+#include "geometry/body/scan_fit.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
+#include "geometry/mesh/mesh_stats.h"
+#include "geometry/mesh/units.h"
 #include "kernels/error.h"
 
 namespace vfit::cli {
@@ -29,36 +32,86 @@ std::string joints_json(const JointPositions& joints) {
 
 namespace {
 
-double to_number(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (end == v.c_str() || *end != '\0' || !std::isfinite(x) || x <= 0) throw Error(flag, 0, "expected a positive number, got '" + v + "'");
-  return x;
-}
-
-Eigen::Vector2d parse_image_size(const std::string& value, const std::vector<std::string>& rest) {
-  const std::size_t sep = value.find_first_of("x,");
-  if (sep != std::string::npos) {
-    if (!rest.empty()) throw Error("--image-size", 0, "unexpected argument '" + rest[0] + "'");
-    return {to_number("--image-size", value.substr(0, sep)), to_number("--image-size", value.substr(sep + 1))};
-  }
-  if (rest.empty()) throw Error("--image-size", 0, "expected W H (pixels)");
-  return {to_number("--image-size", value), to_number("--image-size", rest[0])};
-}
-
 void print_fit(const Keypoints& kp, const KeypointFit& fit) {
   std::printf("keypoints: %zu confident (%s), image %.0f x %.0f px, focal %.0f px%s\n", kp.points.size(),
               std::string(keypoint_layout_name(kp.layout)).c_str(), kp.image_size.x(), kp.image_size.y(), kp.focal,
               kp.focal_given ? "" : " (default: 1.2 x the longer side)");
   std::printf("%-12s %10s %10s %12s\n", "stage", "iterations", "ms", "cost");
-  for (const KeypointFitStage& s : fit.stages) std::printf("%-12s %10d %10.1f %12.4g\n", s.name.c_str(), s.iterations, s.ms, s.cost);
-  std::printf("keypoint fit: %.1f ms, mean reprojection error %.2f px, camera distance %.2f m, height %.3f m\n", fit.total_ms,
-              fit.mean_reprojection_px, -fit.pose.translation.z(), fit.measurements.height);
+  for (const KeypointFitStage& s : fit.stages)
+    std::printf("%-12s %10d %10.1f %12.4g\n", s.name.c_str(), s.iterations, s.ms, s.cost);
+  std::printf("keypoint fit: %.1f ms, mean reprojection error %.2f px, camera distance %.2f m, height %.3f m\n",
+              fit.total_ms, fit.mean_reprojection_px, -fit.pose.translation.z(), fit.measurements.height);
+}
+
+// `vfit body --scan FILE`: a bare scan fitted (pose, shape) and rigged by the fit (seed 001 §5.2).
+int run_scan(Args& args, const std::string& path) {
+  const bool quiet = args.flag("quiet");
+  const auto out = args.value("out");
+  const auto joints_out = args.value("joints");
+  const auto pose_arg = args.value("pose");
+  const auto rigged = args.value("rigged");
+  const auto pose_out = args.value("pose-out");
+  const auto units_arg = args.value("units");
+  for (const char* other : {"from", "keypoints", "joints-in", "betas"})
+    if (args.value(other)) throw Error(std::string("--") + other, 0, "cannot be combined with --scan");
+  args.positionals(0, 0);
+  if (pose_out && std::filesystem::path(*pose_out).extension() != ".json")
+    throw Error(*pose_out, 0, "--pose-out writes a .json file");
+  if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB)
+    throw Error(*rigged, 0, "--rigged writes a .glb file");
+  if (out) mesh_format_from_path(*out);
+
+  ParsedMesh parsed = read_mesh(path);
+  std::optional<Units> units = units_arg ? std::optional<Units>(parse_units(*units_arg)) : std::nullopt;
+  if (!units) {
+    const MeshStats stats = mesh_stats(parsed.mesh);
+    units = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+    if (!units) throw Error(path, 0, "cannot detect the scan's units; state them with --units");
+    if (*units != Units::M)
+      parsed.warnings.push_back(path + ": units detected as " + units_name(*units) + "; converted to metres");
+  }
+  scale_positions(parsed.mesh.positions, metres_per_unit(*units));
+  const ScanFit fit = fit_scan(parsed.mesh, path);
+  if (!quiet) {
+    for (const auto& w : parsed.warnings)
+      std::cerr << "vfit: warning: " << w << "\n";
+    for (const auto& w : fit.warnings)
+      std::cerr << "vfit: warning: " << w << "\n";
+    std::printf("scan: %zu vertices, %zu faces; start from %s\n", parsed.mesh.vertex_count(), parsed.mesh.face_count(),
+                fit.initialised_from_joints ? "the joints estimated on the scan"
+                                            : "the A-pose (joint estimation failed)");
+    std::printf("%-8s %10s %10s %12s %12s\n", "stage", "iterations", "ms", "mean (mm)", "95% (mm)");
+    for (const ScanFitStage& s : fit.stages)
+      std::printf("%-8s %10d %10.1f %12.2f %12.2f\n", s.name.c_str(), s.iterations, s.ms, 1000 * s.mean_distance,
+                  1000 * s.p95_distance);
+    std::printf("scan fit: %.1f ms; scale %.3f, height %.3f m, arm length %.3f m, shoulder width %.3f m\n",
+                fit.total_ms, fit.scale, fit.measurements.height, fit.measurements.arm_length,
+                fit.measurements.shoulder_width);
+  }
+  // --pose: the rigged scan driven to that pose (T-pose-relative, the scan staying where it is).
+  Body body = fit.rigged;
+  if (pose_arg) {
+    std::error_code ec;
+    Pose to = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg)
+                                                              : named_pose(*pose_arg, RestPose::TPOSE);
+    to.translation += fit.pose.translation;
+    body = pose_body(fit.rigged, relative_pose(fit.rest_joints, fit.pose, to, fit.rigged.joints));
+  }
+  if (out) write_mesh(*out, body.mesh, "body");
+  if (joints_out) write_file_atomically(*joints_out, joints_json(body.joints));
+  if (pose_out) write_file_atomically(*pose_out, pose_json(fit.pose));
+  if (rigged) {
+    const MeshSkin skin = body_skin(fit.rigged);
+    const NamedMesh named{"body", &fit.rigged.mesh, &skin};
+    write_meshes_glb(*rigged, std::span<const NamedMesh>(&named, 1));
+  }
+  return 0;
 }
 
 } // namespace
 
 int run_body(Args& args) {
+  if (const auto scan = args.value("scan")) return run_scan(args, *scan);
   const bool quiet = args.flag("quiet");
   const std::string source = args.value("from").value_or("mannequin");
   BodyRequest request = body_request_from_args(args, source);
@@ -68,27 +121,24 @@ int run_body(Args& args) {
   const auto rigged = args.value("rigged");
   const auto keypoints_file = args.value("keypoints");
   const auto pose_out = args.value("pose-out");
-  KeypointOptions kp_options;
-  const auto image_size = args.value("image-size");
-  if (auto f = args.value("focal")) kp_options.focal = to_number("--focal", *f);
-  if (auto l = args.value("keypoint-layout")) {
-    const auto layout = keypoint_layout_from_name(*l);
-    if (!layout) throw Error("--keypoint-layout", 0, "expected auto, body25, coco18, lsp or named, got '" + *l + "'");
-    kp_options.layout = *layout;
-  }
+  bool image_size_token = false;
+  KeypointOptions kp_options = keypoint_options_from_args(args, image_size_token);
   if (keypoints_file && pose_arg) throw Error("--keypoints", 0, "the pose comes from the keypoints; drop --pose");
-  if (keypoints_file && source != "mannequin") throw Error("--keypoints", 0, "fits the built-in mannequin; drop --from");
-  if (pose_out && std::filesystem::path(*pose_out).extension() != ".json") throw Error(*pose_out, 0, "--pose-out writes a .json file");
-  if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB) throw Error(*rigged, 0, "--rigged writes a .glb file");
+  if (keypoints_file && source != "mannequin")
+    throw Error("--keypoints", 0, "fits the built-in mannequin; drop --from");
+  if (pose_out && std::filesystem::path(*pose_out).extension() != ".json")
+    throw Error(*pose_out, 0, "--pose-out writes a .json file");
+  if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB)
+    throw Error(*rigged, 0, "--rigged writes a .glb file");
   if (out) mesh_format_from_path(*out);
   // --image-size W H (two tokens), or WxH / W,H in one.
-  const auto rest_tokens = args.positionals(0, image_size ? 1 : 0);
-  if (image_size) kp_options.image_size = parse_image_size(*image_size, rest_tokens);
+  finish_image_size(args, args.positionals(0, image_size_token ? 1 : 0), kp_options);
   std::optional<KeypointFit> fit;
   if (keypoints_file) {
     const Keypoints kp = read_keypoints(*keypoints_file, kp_options);
     if (!quiet)
-      for (const auto& w : kp.warnings) std::cerr << "vfit: warning: " << w << "\n";
+      for (const auto& w : kp.warnings)
+        std::cerr << "vfit: warning: " << w << "\n";
     fit = fit_keypoints(kp);
     request.mannequin.measurements = fit->measurements;
     if (!quiet) print_fit(kp, *fit);
@@ -104,11 +154,13 @@ int run_body(Args& args) {
   }
   if (pose_arg) {
     std::error_code ec;
-    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg) : named_pose(*pose_arg, loaded.rest.rest_pose);
+    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg)
+                                                           : named_pose(*pose_arg, loaded.rest.rest_pose);
   }
   const Body body = loaded.posed(pose);
   if (!quiet)
-    for (const auto& w : loaded.warnings) std::cerr << "vfit: warning: " << w << "\n";
+    for (const auto& w : loaded.warnings)
+      std::cerr << "vfit: warning: " << w << "\n";
   if (out) write_mesh(*out, body.mesh, "body");
   if (joints_out) write_file_atomically(*joints_out, joints_json(body.joints));
   if (pose_out) write_file_atomically(*pose_out, pose_json(pose));
@@ -122,11 +174,12 @@ int run_body(Args& args) {
                 body.mesh.face_count(), ms);
     const MeasuredBody got = measure_body(loaded.rest.mesh, loaded.rest.joints);
     const bool requested = source == "mannequin";
-    std::printf("%-16s %10s %10s %8s\n", "measurement", requested ? "requested" : "", "measured", requested ? "error" : "");
+    std::printf("%-16s %10s %10s %8s\n", "measurement", requested ? "requested" : "", "measured",
+                requested ? "error" : "");
     for (std::string_view n : BodyMeasurements::names()) {
       if (requested)
-        std::printf("%-16s %9.4f m %9.4f m %7.2f%%\n", std::string(n).c_str(), request.mannequin.measurements[n], got.values[n],
-                    100.0 * (got.values[n] / request.mannequin.measurements[n] - 1.0));
+        std::printf("%-16s %9.4f m %9.4f m %7.2f%%\n", std::string(n).c_str(), request.mannequin.measurements[n],
+                    got.values[n], 100.0 * (got.values[n] / request.mannequin.measurements[n] - 1.0));
       else
         std::printf("%-16s %10s %9.4f m\n", std::string(n).c_str(), "", got.values[n]);
     }

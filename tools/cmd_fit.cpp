@@ -17,6 +17,7 @@
 #include "commands.h"
 #include "engine/fit_pipeline.h"
 #include "engine/render.h"
+#include "geometry/body/keypoint_fit.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
@@ -223,6 +224,11 @@ int run_fit(Args& args) {
   const std::string source = args.value("body").value_or("mannequin");
   BodyRequest request = body_request_from_args(args, source);
   const auto pose_arg = args.value("pose");
+  const auto keypoints_file = args.value("keypoints");
+  bool image_size_token = false;
+  KeypointOptions kp_options = keypoint_options_from_args(args, image_size_token);
+  if (keypoints_file && pose_arg) throw Error("--keypoints", 0, "the pose comes from the keypoints; drop --pose");
+  if (keypoints_file && source != "mannequin") throw Error("--keypoints", 0, "fits the built-in mannequin; drop --body");
   const auto garment_files = args.values("garment");
   const auto out = args.value("out");
   const auto report_file = args.value("report");
@@ -245,7 +251,7 @@ int run_fit(Args& args) {
   if (progress) options.progress = print_progress;
   int render_size = 512;
   if (auto s = args.value("render-size")) render_size = Args::to_int("--render-size", *s, 16, 8192);
-  args.positionals(0, 0);
+  finish_image_size(args, args.positionals(0, image_size_token ? 1 : 0), kp_options);
 
   if (garment_files.empty()) throw Error("vfit fit", 0, "at least one --garment FILE is required");
   if (out) {
@@ -267,8 +273,25 @@ int run_fit(Args& args) {
   }
 
   auto t0 = Clock::now();
+  // A photo's keypoints give the mannequin its measurements and pose (the camera's translation
+  // dropped: the body stands in its own frame).
+  std::optional<KeypointFit> keypoint_fit;
+  if (keypoints_file) {
+    const Keypoints kp = read_keypoints(*keypoints_file, kp_options);
+    if (!quiet)
+      for (const auto& w : kp.warnings) std::cerr << "vfit: warning: " << w << "\n";
+    keypoint_fit = fit_keypoints(kp);
+    request.mannequin.measurements = keypoint_fit->measurements;
+    if (progress)
+      std::fprintf(stderr, "vfit: keypoints: %zu, fitted in %.1f ms, mean reprojection error %.2f px\n", kp.points.size(),
+                   keypoint_fit->total_ms, keypoint_fit->mean_reprojection_px);
+  }
   const LoadedBody loaded = load_body(request);
   Pose pose;
+  if (keypoint_fit) {
+    pose = pose_for_rest(keypoint_fit->pose, loaded.rest.rest_pose);
+    pose.translation.setZero();
+  }
   if (pose_arg) {
     std::error_code ec;
     pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg)

@@ -77,6 +77,8 @@ constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height 
                  [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
                  [--rigged FILE.glb] [--quiet]
+       vfit body --scan FILE [--units U] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
+                 [--pose NAME|FILE.json] [--pose-out FILE.json] [--quiet]
 
 Builds a body and writes it, posed. --from takes a body you bring instead of the mannequin: an
 SMPL-format model (.npz: v_template, shapedirs, posedirs, J_regressor, weights, kintree_table,
@@ -104,6 +106,12 @@ compares requested and measured values.
   --pose-out FILE the pose written (pose JSON), e.g. for `vfit fit --body B.glb --pose FILE`
   --rigged FILE   the rigged rest-pose body as glTF binary (.glb): 24 joint nodes with SMPL
                   names, a skin with inverse bind matrices, JOINTS_0/WEIGHTS_0
+  --scan FILE     fit the mannequin's pose and shape to a body scan (mesh or point cloud, any
+                  units detected or --units, Y up, facing +Z; seed 001 eq. 3-4) and rig the scan
+                  with weights interpolated from the fitted body; prints stages, iterations, ms
+                  and the scan-to-body distance. --rigged writes the rigged scan in its own pose,
+                  --joints the fitted joints, --pose-out the fitted pose (relative to the T-pose),
+                  --out the scan, or with --pose P the rigged scan driven to P (T-pose-relative)
 )";
 
 constexpr const char* GARMENT_HELP = R"(usage: vfit garment TYPE --out FILE [--size S] [--vertices N] [--pose tpose|apose]
@@ -158,7 +166,7 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U] [--quiet]
-                [--debug DIR] [--progress]
+                [--debug DIR] [--progress] [--keypoints FILE.json [--image-size W H] [--focal F]]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
@@ -170,6 +178,8 @@ Bottoms are dressed before tops.
 --body takes the same sources and flags as `vfit body --from` (default: the mannequin; use
 --pose-rest apose|tpose and the measurement flags); --pose poses it. Garments may be in any
 length unit (detected, or --garment-units) but must be upright (Y up) and face +Z.
+  --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the
+                    photo's 2D keypoints (as `vfit body --keypoints`; instead of --pose)
   --out FILE        .glb: the body and each garment as named meshes; .obj/.ply: the garments,
                     one group per garment
   --report FILE     JSON: timings_ms per stage, penetration before/after (inside_count,

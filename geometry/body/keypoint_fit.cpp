@@ -378,6 +378,60 @@ int iterations_of(const ceres::Solver::Summary& s) { return s.num_successful_ste
 
 double elapsed_ms(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
+// The observations of a fit and the first guesses that similar triangles give.
+struct Setup {
+  PinholeCamera camera;
+  Observations all, torso;
+  double depth = 0;                 // torso centre's distance from the camera (m)
+  Eigen::Vector3d centre_cam, centre_rest, pelvis_rest;
+};
+
+Setup set_up(const KeypointBodyModel& model, const Keypoints& keypoints) {
+  Setup su;
+  su.camera.focal = keypoints.focal;
+  su.camera.principal_point = 0.5 * keypoints.image_size;
+  const PinholeCamera& cam = su.camera;
+  Observations &all = su.all, &torso = su.torso;
+  Eigen::Vector2d top_px = Eigen::Vector2d::Zero(), bottom_px = Eigen::Vector2d::Zero();
+  Eigen::Vector3d top_rest = Eigen::Vector3d::Zero(), bottom_rest = Eigen::Vector3d::Zero();
+  int n_top = 0, n_bottom = 0;
+  for (const Keypoint2D& k : keypoints.points) {
+    const auto p = static_cast<std::size_t>(k.point);
+    all.points.push_back(k.point);
+    all.pixels.push_back(k.pixel);
+    all.sqrt_weight.push_back(std::sqrt(k.confidence * model.trust[p]));
+    const bool shoulder = k.point == idx(Joint::LEFT_SHOULDER) || k.point == idx(Joint::RIGHT_SHOULDER);
+    const bool hip = k.point == L(Landmark::LEFT_HIP_SURFACE) || k.point == L(Landmark::RIGHT_HIP_SURFACE) ||
+                     k.point == idx(Joint::LEFT_HIP) || k.point == idx(Joint::RIGHT_HIP);
+    if (shoulder || hip) {
+      torso.points.push_back(k.point);
+      torso.pixels.push_back(k.pixel);
+      torso.sqrt_weight.push_back(std::sqrt(k.confidence));
+      (shoulder ? top_px : bottom_px) += k.pixel;
+      (shoulder ? top_rest : bottom_rest) += model.mean.row(k.point).transpose();
+      ++(shoulder ? n_top : n_bottom);
+    }
+  }
+  // Keypoints guarantees 3 of the 4 torso points; the guard keeps a hand-built input safe.
+  if (n_top == 0 || n_bottom == 0) throw Error(keypoints.source, 0, "too few torso keypoints for a fit (need a shoulder and a hip)");
+  top_px /= n_top;
+  bottom_px /= n_bottom;
+  top_rest /= n_top;
+  bottom_rest /= n_bottom;
+
+  // Similar triangles: the torso's length in pixels over its length in metres gives f / depth.
+  const double torso_px = std::max((top_px - bottom_px).norm(), 1.0);
+  // SMPLify's Geman–McClure scale is 100 px for its images; here it scales with the person: one
+  // torso length, so limbs a torso length off still pull while outliers far beyond are damped.
+  all.sigma = torso.sigma = torso_px;
+  su.depth = cam.focal * (top_rest - bottom_rest).norm() / torso_px;
+  const Eigen::Vector2d centre_px = 0.5 * (top_px + bottom_px);
+  su.centre_cam = Eigen::Vector3d((centre_px.x() - cam.principal_point.x()) * su.depth / cam.focal,
+                                  -(centre_px.y() - cam.principal_point.y()) * su.depth / cam.focal, -su.depth);
+  su.centre_rest = 0.5 * (top_rest + bottom_rest);
+  su.pelvis_rest = model.mean.row(0).transpose();
+  return su;
+}
 
 } // namespace
 
@@ -431,51 +485,13 @@ Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& p) const {
 KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& options) {
   const auto t_start = Clock::now();
   const KeypointBodyModel& model = mannequin_keypoint_model();
+  const Setup su = set_up(model, keypoints);
   KeypointFit fit;
-  fit.camera.focal = keypoints.focal;
-  fit.camera.principal_point = 0.5 * keypoints.image_size;
+  fit.camera = su.camera;
   const PinholeCamera& cam = fit.camera;
   const ceres::Solver::Options solver = solver_options(options);
-
-  Observations all, torso;
-  Eigen::Vector2d top_px = Eigen::Vector2d::Zero(), bottom_px = Eigen::Vector2d::Zero();
-  Eigen::Vector3d top_rest = Eigen::Vector3d::Zero(), bottom_rest = Eigen::Vector3d::Zero();
-  int n_top = 0, n_bottom = 0;
-  for (const Keypoint2D& k : keypoints.points) {
-    const auto p = static_cast<std::size_t>(k.point);
-    all.points.push_back(k.point);
-    all.pixels.push_back(k.pixel);
-    all.sqrt_weight.push_back(std::sqrt(k.confidence * model.trust[p]));
-    const bool shoulder = k.point == idx(Joint::LEFT_SHOULDER) || k.point == idx(Joint::RIGHT_SHOULDER);
-    const bool hip = k.point == L(Landmark::LEFT_HIP_SURFACE) || k.point == L(Landmark::RIGHT_HIP_SURFACE) ||
-                     k.point == idx(Joint::LEFT_HIP) || k.point == idx(Joint::RIGHT_HIP);
-    if (shoulder || hip) {
-      torso.points.push_back(k.point);
-      torso.pixels.push_back(k.pixel);
-      torso.sqrt_weight.push_back(std::sqrt(k.confidence));
-      (shoulder ? top_px : bottom_px) += k.pixel;
-      (shoulder ? top_rest : bottom_rest) += model.mean.row(k.point).transpose();
-      ++(shoulder ? n_top : n_bottom);
-    }
-  }
-  // Keypoints guarantees 3 of the 4 torso points; the guard keeps a hand-built input safe.
-  if (n_top == 0 || n_bottom == 0) throw Error(keypoints.source, 0, "too few torso keypoints for a fit (need a shoulder and a hip)");
-  top_px /= n_top;
-  bottom_px /= n_bottom;
-  top_rest /= n_top;
-  bottom_rest /= n_bottom;
-
-  // Similar triangles: the torso's length in pixels over its length in metres gives f / depth.
-  const double torso_px = std::max((top_px - bottom_px).norm(), 1.0);
-  // SMPLify's Geman–McClure scale is 100 px for its images; here it scales with the person: one
-  // torso length, so limbs a torso length off still pull while outliers far beyond are damped.
-  all.sigma = torso.sigma = torso_px;
-  const double depth = cam.focal * (top_rest - bottom_rest).norm() / torso_px;
-  const Eigen::Vector2d centre_px = 0.5 * (top_px + bottom_px);
-  const Eigen::Vector3d centre_cam((centre_px.x() - cam.principal_point.x()) * depth / cam.focal,
-                                   -(centre_px.y() - cam.principal_point.y()) * depth / cam.focal, -depth);
-  const Eigen::Vector3d centre_rest = 0.5 * (top_rest + bottom_rest);
-  const Eigen::Vector3d pelvis_rest = model.mean.row(0).transpose();
+  const Observations &all = su.all, &torso = su.torso;
+  const Eigen::Vector3d &centre_cam = su.centre_cam, &centre_rest = su.centre_rest, &pelvis_rest = su.pelvis_rest;
 
   State start;
   start.body = pose_mean().mean;
@@ -598,6 +614,31 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   fit.mean_reprojection_px = keypoints.points.empty() ? 0.0 : sum / static_cast<double>(keypoints.points.size());
   fit.total_ms = elapsed_ms(t_start);
   return fit;
+}
+
+double keypoint_fit_objective(const Keypoints& keypoints, const Pose& pose, const KeypointShape& shape) {
+  const KeypointBodyModel& model = mannequin_keypoint_model();
+  const Setup su = set_up(model, keypoints);
+  std::array<double, 3> global{}, trans{};
+  std::array<double, BODY_POSE> body{};
+  for (int a = 0; a < 3; ++a) {
+    global[static_cast<std::size_t>(a)] = pose.axis_angle(0, a);
+    trans[static_cast<std::size_t>(a)] = pose.translation[a];
+  }
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    for (int a = 0; a < 3; ++a) body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
+  std::vector<double> r(2 * su.all.points.size());
+  FullReprojection{&model, &su.all, su.camera}(global.data(), body.data(), trans.data(), shape.data(), r.data());
+  double sum = 0;
+  for (double x : r) sum += x * x;
+  const double scale = 1.0;
+  r.assign(static_cast<std::size_t>(PosePrior::residual_count()), 0.0);
+  PosePrior{&scale}(body.data(), r.data());
+  for (double x : r) sum += x * x;
+  std::array<double, KEYPOINT_SHAPE_PARAMS> rs{};
+  ShapePrior{}(shape.data(), rs.data());
+  for (double x : rs) sum += x * x;
+  return 0.5 * sum;
 }
 
 Pose pose_for_rest(const Pose& pose, RestPose rest) {

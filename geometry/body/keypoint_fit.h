@@ -103,6 +103,13 @@ struct KeypointFit {
 /// (Geman–McClure). Never throws for valid Keypoints.
 KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& options = {});
 
+/// The objective E(θ, β, t) above, with the last stage's weights and Ceres' convention (½ Σ r²,
+/// px²-equivalent), of `pose` (T-pose-relative, translation in the camera frame of
+/// fit_keypoints()) and `shape` against `keypoints`. A diagnostic: a fit that ends above the
+/// objective of the true pose was stuck in a local minimum; one that ends below it lost to the
+/// priors' preference (monocular ambiguity). Throws like fit_keypoints().
+double keypoint_fit_objective(const Keypoints& keypoints, const Pose& pose, const KeypointShape& shape);
+
 /// `pose` (relative to the T-pose rest skeleton) re-expressed for a skeleton whose rest pose is
 /// `rest`, so that both give the same posed joints: for APOSE the shoulders' rotations lose the
 /// A-pose's 45° arm drop and the arm's lower joints are conjugated by it. TPOSE/OTHER: unchanged.

@@ -14,11 +14,25 @@ namespace {
 constexpr double DEG = std::numbers::pi / 180.0;
 
 // Rotation that lowers a rest-pose arm by `degrees` below horizontal (left arm: about −Z).
+// Share of an arm's raising or lowering taken by the collar (the shoulder girdle), the rest by
+// the shoulder: the scapulohumeral rhythm of about 2:1 (Inman et al. 1944). With all of it on
+// the shoulder, linear blend skinning folds the armpit and the top of the shoulder: lowering
+// the mannequin's arms from A-pose to 75° made 84 of its 13,996 triangles sink inside the torso
+// and left a web thinner than 4 mm at 31 vertices; a third on the collar leaves none of either
+// (measured with a winding-number and a ray-thickness count), at the same arm angle. Only
+// lowering below the rest pose takes the share: raising (arms_raised) keeps it all on the
+// shoulder, where the share left a corpus tee (male_casualsuit04) with 10 edges through the
+// shoulders after the fit and none without it.
+constexpr double COLLAR_SHARE = 1.0 / 3.0;
+
 void lower_arms(Pose& p, double degrees, RestPose rest) {
   const double already = rest == RestPose::APOSE ? 45.0 : 0.0;
   const double a = (degrees - already) * DEG;
-  p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) << 0, 0, -a;
-  p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) << 0, 0, a;
+  const double share = a > 0 ? COLLAR_SHARE : 0.0; // lowering only, see COLLAR_SHARE
+  p.axis_angle.row(idx(Joint::LEFT_COLLAR)) << 0, 0, -a * share;
+  p.axis_angle.row(idx(Joint::RIGHT_COLLAR)) << 0, 0, a * share;
+  p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) << 0, 0, -a * (1 - share);
+  p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) << 0, 0, a * (1 - share);
 }
 
 } // namespace

@@ -1,6 +1,12 @@
 #include "coarse_move.h"
 
+#include <cmath>
 #include <optional>
+#include <vector>
+
+#include <Eigen/Cholesky>
+
+#include "kernels/proximity.h"
 
 namespace vfit {
 namespace {
@@ -60,6 +66,45 @@ CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& ke
   }
   move.translation = move.body_anchor - move.garment_anchor;
   return move;
+}
+
+Eigen::Vector3d contact_translation(std::span<const float> points, const ProximityIndex& body,
+                                    const ContactMoveOptions& options) {
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  const std::size_t n = points.size() / 3;
+  if (n == 0 || body.face_count() == 0) return total;
+  std::vector<float> moved(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(3 * n));
+  ClosestHits hits;
+  for (int round = 0; round < options.max_iterations; ++round) {
+    body.closest_points(moved, INFINITY, hits);
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    std::size_t inside = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double sd = hits.signed_distances[i];
+      if (hits.triangles[i] < 0 || sd >= options.clearance) continue;
+      const Eigen::Vector3d x(moved[3 * i], moved[3 * i + 1], moved[3 * i + 2]);
+      const Eigen::Vector3d c(hits.points[3 * i], hits.points[3 * i + 1], hits.points[3 * i + 2]);
+      Eigen::Vector3d normal = x - c;
+      const double d = normal.norm();
+      if (d < 1e-9) continue; // on the surface: no direction, and nothing to push with κ = 0
+      normal /= sd < 0 ? -d : d;
+      // n·(x + Δ − c) = κ  ⇔  n·Δ = κ − sd.
+      A += normal * normal.transpose();
+      b += normal * (options.clearance - sd);
+      ++inside;
+    }
+    if (inside == 0) break;
+    A += 1e-3 * A.trace() * Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d step = A.ldlt().solve(b);
+    total += step;
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c)
+        moved[3 * i + static_cast<std::size_t>(c)] =
+            points[3 * i + static_cast<std::size_t>(c)] + static_cast<float>(total[c]);
+    if (step.norm() < options.tolerance) break;
+  }
+  return total;
 }
 
 void translate_positions(std::span<float> positions, const Eigen::Vector3d& translation) {

@@ -19,11 +19,13 @@
 #include <Eigen/Core>
 
 #include "garment.h"
+#include "geometry/body/skeleton.h"
 #include "segment.h"
 #include "skeleton_parts.h"
-#include "geometry/body/skeleton.h"
 
 namespace vfit {
+
+class ProximityIndex;
 
 /// Which key joints decided a coarse move.
 enum class CoarseMoveRule {
@@ -52,6 +54,31 @@ struct CoarseMove {
 /// skeletons nor a usable key point falls back to its source opening, which always exists.
 CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& key_points,
                                std::span<const PartSkeleton> skeletons, const JointPositions& joints);
+
+/// Options of contact_translation().
+struct ContactMoveOptions {
+  /// Distance (m) each point is to keep outside the body: 0 lets the garment touch it, as a
+  /// garment modelled on the body does; penetration removal adds its own clearance later.
+  double clearance = 0.0;
+  /// Rounds of closest-point queries and least-squares updates at most.
+  int max_iterations = 12;
+  /// A round moving the garment by less than this (m) ends the iteration.
+  double tolerance = 1e-4;
+};
+
+/// The rigid translation that takes `points` (#Q × 3, m: a garment's torso, already oriented
+/// and coarsely placed by its key joints, eq. 16–17) out of the body indexed by `body`: the
+/// key joints of a garment are estimates (a boundary plane's point, a hip height), wrong by
+/// centimetres in ways that depend on the garment's cut, while the garment's own surface says
+/// where it sat on the body it was modelled on. Each round queries the closest body points and
+/// solves the point-to-plane least squares min_Δ Σ_{i inside} (n_iᵀ(x_i + Δ − c_i) − κ)² over
+/// the points inside (or within κ of) the body, n_i the outward direction at the closest point
+/// c_i, with a Tikhonov term 10⁻³·trace so that directions no inside point constrains do not
+/// move. Points pressed in from opposite sides balance (a garment too small for the body
+/// stays centred on it). Ends when no point is inside, after max_iterations, or when a round
+/// moves less than options.tolerance. Returns Δ (zero for no point inside, or no point).
+Eigen::Vector3d contact_translation(std::span<const float> points, const ProximityIndex& body,
+                                    const ContactMoveOptions& options = {});
 
 /// Adds `translation` (m) to every vertex of `positions` (#V × 3, flat).
 void translate_positions(std::span<float> positions, const Eigen::Vector3d& translation);

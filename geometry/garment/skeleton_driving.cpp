@@ -6,10 +6,13 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <queue>
 #include <string>
 
+#include "coarse_move.h"
 #include "kernels/error.h"
+#include "kernels/proximity.h"
 
 namespace vfit {
 namespace {
@@ -36,6 +39,23 @@ std::array<Joint, 3> limb_bones(GarmentPart p) {
   case GarmentPart::LEFT_LEG: return {Joint::LEFT_HIP, Joint::LEFT_KNEE, Joint::LEFT_ANKLE};
   default: return {Joint::RIGHT_HIP, Joint::RIGHT_KNEE, Joint::RIGHT_ANKLE};
   }
+}
+
+// Makes the key joints mirror images of each other about the garment's mid-plane (x = their
+// mean x): an input garment is left/right symmetric (segment.h), but its boundary planes and
+// thigh axes are estimated on each side separately, and differ by a centimetre or more front
+// to back or in height (a slanted armhole's plane, a skeleton's wobble), which would turn the
+// whole garment by degrees about its vertical or its depth axis.
+void symmetrise(GarmentKeyJoints& g) {
+  const Eigen::Vector3d mirror(-1, 1, 1);
+  const double mid = 0.5 * (g.j1.x() + g.j2.x()), half = 0.5 * std::abs(g.j2.x() - g.j1.x());
+  const double y = 0.5 * (g.j1.y() + g.j2.y()), z = 0.5 * (g.j1.z() + g.j2.z());
+  g.j1 = {mid - half, y, z};
+  g.j2 = {mid + half, y, z};
+  Eigen::Vector3d right = g.right_axis + g.left_axis.cwiseProduct(mirror);
+  if (right.norm() < 1e-9) right = g.right_axis; // opposite estimates: keep the right side's
+  g.right_axis = right.normalized();
+  g.left_axis = g.right_axis.cwiseProduct(mirror);
 }
 
 // Arc length along the chain from node 0 (eq. 8).
@@ -124,6 +144,64 @@ void edge_adjacency(const Mesh& mesh, std::vector<std::int32_t>& offsets, std::v
   }
 }
 
+// Unit principal direction of points through their centroid (sign arbitrary); +Y for fewer than 2.
+Eigen::Vector3d principal_direction(std::span<const Eigen::Vector3d> points) {
+  if (points.size() < 2) return Eigen::Vector3d::UnitY();
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points)
+    c += p;
+  c /= double(points.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points)
+    cov += (p - c) * (p - c).transpose();
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(2);
+}
+
+// The direction of the chain's nodes past `upper_length` along `axis` (principal direction
+// through their centroid, pointing along the chain), or `axis` when fewer than two nodes lie
+// there or they span less than a tenth of the upper length (a short sleeve, shorts).
+Eigen::Vector3d lower_direction(std::span<const Eigen::Vector3d> nodes, std::span<const double> along,
+                                double upper_length, const Eigen::Vector3d& axis) {
+  std::vector<Eigen::Vector3d> past;
+  double lo = INFINITY, hi = -INFINITY;
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    if (along[k] > upper_length) {
+      past.push_back(nodes[k]);
+      lo = std::min(lo, along[k]);
+      hi = std::max(hi, along[k]);
+    }
+  if (past.size() < 2 || hi - lo < 0.1 * upper_length) return axis;
+  const Eigen::Vector3d d = principal_direction(past);
+  return d.dot(past.back() - past.front()) < 0 ? Eigen::Vector3d(-d) : d;
+}
+
+// Samples along the line down the trunk from the hips' midpoint, over one thigh's length.
+constexpr int CROTCH_SAMPLES = 256;
+
+// The body's crotch: where the line from `hips` (the hips' midpoint, inside the body) along
+// −`up` first leaves the body, within `length` of it (m); nullopt when `hips` is outside the
+// body or the line stays inside (no crotch found).
+std::optional<Eigen::Vector3d> body_crotch(const ProximityIndex& body, const Eigen::Vector3d& hips,
+                                           const Eigen::Vector3d& up, double length) {
+  std::vector<float> line(3 * CROTCH_SAMPLES);
+  for (int i = 0; i < CROTCH_SAMPLES; ++i) {
+    const Eigen::Vector3d p = hips - (length * i / (CROTCH_SAMPLES - 1)) * up;
+    for (int c = 0; c < 3; ++c)
+      line[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(c)] = static_cast<float>(p[c]);
+  }
+  ClosestHits hits;
+  body.closest_points(line, INFINITY, hits);
+  if (hits.triangles[0] < 0 || hits.signed_distances[0] >= 0) return std::nullopt;
+  for (std::size_t i = 1; i < CROTCH_SAMPLES; ++i) {
+    const double d0 = hits.signed_distances[i - 1], d1 = hits.signed_distances[i];
+    if (hits.triangles[i] < 0 || d1 < 0) continue;
+    // Between the last sample inside and the first outside, where the signed distance is 0.
+    const double s = (double(i) - 1 + (-d0) / (d1 - d0)) * length / (CROTCH_SAMPLES - 1);
+    return hips - s * up;
+  }
+  return std::nullopt;
+}
+
 Eigen::Matrix3d slerp(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b, double w) {
   return Eigen::Quaterniond(a).slerp(w, Eigen::Quaterniond(b)).toRotationMatrix();
 }
@@ -166,6 +244,7 @@ GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std
     out.j2 = kp.s2->point;
     out.right_axis = kp.s1->normal.normalized();
     out.left_axis = kp.s2->normal.normalized();
+    symmetrise(out);
     return out;
   }
   const PartSkeleton* left = find_skeleton(skeletons, GarmentPart::LEFT_LEG);
@@ -174,12 +253,8 @@ GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std
     const double height = kp.crotch->y() + HIP_HEIGHT_FRACTION * (kp.source.y() - kp.crotch->y());
     leg_axis(*right, height, out.j1, out.right_axis);
     leg_axis(*left, height, out.j2, out.left_axis);
-    // The thigh axes wobble with their skeletons by about a centimetre front to back, which
-    // would turn the garment by degrees about Y; an input garment is left/right symmetric
-    // (segment.h), so its hips are too.
-    const double z = 0.5 * (out.j1.z() + out.j2.z());
-    out.j1.z() = z;
-    out.j2.z() = z;
+    symmetrise(out);
+    out.crotch = *kp.crotch;
     out.legs = true;
     return out;
   }
@@ -267,7 +342,7 @@ SkeletonDriver::~SkeletonDriver() = default;
 SkeletonDriver::SkeletonDriver(SkeletonDriver&&) noexcept = default;
 SkeletonDriver& SkeletonDriver::operator=(SkeletonDriver&&) noexcept = default;
 
-SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints) const {
+SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const ProximityIndex* body_surface) const {
   SkeletonDriving out;
   const auto t0 = Clock::now();
   const std::size_t nv = m_garment.vertex_count();
@@ -289,16 +364,37 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints) const {
   const Eigen::Vector3d vv_body = normal_part(joint(Joint::NECK) - joint(Joint::PELVIS));
   const Eigen::Matrix3d R = rotation_between(vv_cloth, vv_body) * Rh;
   // Eq. 16–17: the key joints' midpoints coincide.
-  const Eigen::Vector3d t = 0.5 * (h1 + h2) - R * (0.5 * (g.j1 + g.j2));
+  Eigen::Vector3d t = 0.5 * (h1 + h2) - R * (0.5 * (g.j1 + g.j2));
+  if (body_surface && g.legs) {
+    const Eigen::Vector3d up = (joint(Joint::NECK) - joint(Joint::PELVIS)).normalized();
+    const double thigh = 0.5 * ((joint(Joint::LEFT_KNEE) - h2).norm() + (joint(Joint::RIGHT_KNEE) - h1).norm());
+    if (const auto crotch = body_crotch(*body_surface, 0.5 * (h1 + h2), up, thigh))
+      t += up * (*crotch - (R * g.crotch + t)).dot(up);
+  }
+  if (body_surface) {
+    // The key joints are estimates from the garment's cut; its torso, away from the seams,
+    // says where it sat on its body: the least translation taking it out of this one.
+    std::vector<float> torso;
+    for (std::size_t v = 0; v < nv; ++v)
+      if (m_vertex_limb[v] < 0 && m_seam_distance[v] > m_options.seam_radius) {
+        const Eigen::Vector3d p = R * point(x, v) + t;
+        torso.insert(torso.end(), {float(p.x()), float(p.y()), float(p.z())});
+      }
+    out.contact_translation = contact_translation(torso, *body_surface);
+    t += out.contact_translation;
+  }
   out.torso_rotation = R;
   out.torso_translation = t;
   out.timings.orientation_ms = ms_since(t0);
 
-  // Skeleton driving (eq. 8–11) and node rotations (eq. 13–15).
+  // Skeleton driving (eq. 8–11) and node rotations (eq. 13–15). With a body surface, limbs are
+  // measured from the body's joints; with joints alone, from the garment's own key joints.
+  const bool refined = body_surface != nullptr;
   const auto t1 = Clock::now();
   std::vector<std::vector<Eigen::Vector3d>> moved(m_skeletons.size());
   std::vector<std::vector<double>> along_axis;
-  std::vector<Eigen::Vector3d> axes, own_joints;
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<std::vector<Eigen::Vector3d>> node_feet;
   for (std::size_t i = 0; i < m_skeletons.size(); ++i) {
     const PartSkeleton& s = m_skeletons[i];
     std::vector<Eigen::Vector3d>& l = moved[i];
@@ -307,27 +403,67 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints) const {
     const std::array<Joint, 3> jb = limb_bones(s.part);
     const std::array<Eigen::Vector3d, 3> bones{joint(jb[0]), joint(jb[1]), joint(jb[2])};
     const bool left = s.part == GarmentPart::LEFT_SLEEVE || s.part == GarmentPart::LEFT_LEG;
-    const Eigen::Vector3d own_joint = R * (left ? g.j2 : g.j1) + t;
     const Eigen::Vector3d axis_g = R * (left ? g.left_axis : g.right_axis);
-    // Each node's distance from the garment's own joint along the limb's axis: the part covers
-    // the same stretch of the limb from that joint as it did on the garment (eq. 9–11).
+    const std::array<Eigen::Vector3d, 2> bone_dir{(bones[1] - bones[0]).normalized(),
+                                                  (bones[2] - bones[1]).normalized()};
+    const double upper_length = (bones[1] - bones[0]).norm();
+    // Each node's distance from the body's joint along the limb's axis, the torso placed: the
+    // part covers the stretch of the limb it covered on its own body (eq. 9–11, with l_1's
+    // offset the first node's projection onto the limb's line; nodes inboard of the joint
+    // stay on that line, before the joint). Measured from the garment's own key joint
+    // instead, a shoulder or hip estimated a few centimetres off would slide the whole sleeve
+    // or leg along the limb by as much.
     std::vector<double> along(l.size());
     for (std::size_t k = 0; k < l.size(); ++k)
-      along[k] = std::max(0.0, (l[k] - own_joint).dot(axis_g));
+      along[k] = (l[k] - bones[0]).dot(axis_g);
+    if (!refined) {
+      // Joints alone: eq. 8–11 as the paper has it, each node at its distance from the
+      // garment's own key joint along the limb's axis, on the bones, turned by the bones.
+      const Eigen::Vector3d own = R * (left ? g.j2 : g.j1) + t;
+      DrivenLimb limb;
+      limb.part = s.part;
+      limb.segment.assign(l.size(), 0);
+      std::vector<Eigen::Vector3d> feet;
+      for (std::size_t k = 0; k < l.size(); ++k) {
+        along[k] = std::max(0.0, (l[k] - own).dot(axis_g));
+        limb.targets.push_back(point_at_arc_length(bones, along[k], limb.segment[k]));
+        feet.push_back(own + along[k] * axis_g);
+      }
+      const Eigen::Matrix3d upper = rotation_between(axis_g, bones[1] - bones[0]);
+      const Eigen::Matrix3d lower = rotation_between(bones[1] - bones[0], bones[2] - bones[1]) * upper;
+      for (std::size_t k = 0; k < l.size(); ++k)
+        limb.rotations.push_back(limb.segment[k] == 0 ? upper : lower);
+      along_axis.push_back(std::move(along));
+      axes.push_back(axis_g);
+      node_feet.push_back(std::move(feet));
+      out.limbs.push_back(std::move(limb));
+      continue;
+    }
+    // The garment's own bend: the direction of its nodes past the upper limb's length.
+    const Eigen::Vector3d lower_g = lower_direction(l, along, upper_length, axis_g);
+    const Eigen::Vector3d elbow_g = bones[0] + upper_length * axis_g;
+    const Eigen::Vector3d elbow_b = bones[0] + upper_length * bone_dir[0];
+    // Twist-free frames (eq. 13–15): the limb's axis turned onto the upper limb, and its
+    // lower part further onto the lower limb.
+    const Eigen::Matrix3d upper = rotation_between(axis_g, bone_dir[0]);
+    const Eigen::Matrix3d lower = rotation_between(upper * lower_g, bone_dir[1]) * upper;
     DrivenLimb limb;
     limb.part = s.part;
-    limb.segment.assign(l.size(), 0);
-    for (std::size_t k = 0; k < l.size(); ++k)
-      limb.targets.push_back(point_at_arc_length(bones, along[k], limb.segment[k]));
-    // Twist-free frames (eq. 13–15): the limb's axis turned onto the upper bone, and on the
-    // lower bone further through the joint's bend.
-    const Eigen::Matrix3d upper = rotation_between(axis_g, bones[1] - bones[0]);
-    const Eigen::Matrix3d lower = rotation_between(bones[1] - bones[0], bones[2] - bones[1]) * upper;
-    for (std::size_t k = 0; k < l.size(); ++k)
-      limb.rotations.push_back(limb.segment[k] == 0 ? upper : lower);
+    std::vector<Eigen::Vector3d> feet;
+    for (std::size_t k = 0; k < l.size(); ++k) {
+      const bool on_upper = along[k] <= upper_length;
+      if (!on_upper) along[k] = upper_length + (l[k] - elbow_g).dot(lower_g);
+      const double past = along[k] - upper_length;
+      limb.segment.push_back(on_upper ? 0 : 1);
+      limb.targets.push_back(on_upper ? Eigen::Vector3d(bones[0] + along[k] * bone_dir[0])
+                                      : Eigen::Vector3d(elbow_b + past * bone_dir[1]));
+      limb.rotations.push_back(on_upper ? upper : lower);
+      feet.push_back(on_upper ? Eigen::Vector3d(bones[0] + along[k] * axis_g)
+                              : Eigen::Vector3d(elbow_g + past * lower_g));
+    }
     along_axis.push_back(std::move(along));
     axes.push_back(axis_g);
-    own_joints.push_back(own_joint);
+    node_feet.push_back(std::move(feet));
     out.limbs.push_back(std::move(limb));
   }
 
@@ -349,8 +485,7 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints) const {
       // T2·Q'·T1 of eq. 13–15 about the node's foot on the limb's axis rather than the node
       // itself: the node keeps its offset from the axis, so a skeleton that wobbles about the
       // axis (short, wide sleeves) shears nothing.
-      const auto i = static_cast<std::size_t>(li);
-      return Eigen::Vector3d(limb.targets[n] + limb.rotations[n] * (xv - own_joints[i] - along_axis[i][n] * axes[i]));
+      return Eigen::Vector3d(limb.targets[n] + limb.rotations[n] * (xv - node_feet[static_cast<std::size_t>(li)][n]));
     };
     Eigen::Vector3d p = apply(k);
     Eigen::Matrix3d Q = limb.rotations[k] * R;
@@ -402,9 +537,9 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints) const {
 
 SkeletonDriving drive_garment(const Mesh& garment, const GarmentSegmentation& segmentation,
                               std::span<const PartSkeleton> skeletons, const JointPositions& body_joints,
-                              const SkeletonDrivingOptions& options) {
+                              const SkeletonDrivingOptions& options, const ProximityIndex* body_surface) {
   const SkeletonDriver driver(garment, segmentation, skeletons, options);
-  SkeletonDriving out = driver.drive(body_joints);
+  SkeletonDriving out = driver.drive(body_joints, body_surface);
   out.timings.setup_ms = driver.setup_ms();
   out.timings.total_ms += driver.setup_ms();
   return out;

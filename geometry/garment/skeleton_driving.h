@@ -24,6 +24,8 @@
 
 namespace vfit {
 
+class ProximityIndex;
+
 struct SkeletonDrivingOptions {
   /// Vertices closer than this to a limb's seam (the ring where a sleeve or leg meets the
   /// torso), in metres, are left free for the Laplacian solve; all others are handles.
@@ -60,8 +62,10 @@ struct DrivenLimb {
 struct SkeletonDriving {
   std::vector<float> positions;                                 ///< #V × 3 deformed positions (m)
   Eigen::Matrix3d torso_rotation = Eigen::Matrix3d::Identity(); ///< R = R_v R_h of eq. 5–7
-  Eigen::Vector3d torso_translation = Eigen::Vector3d::Zero();  ///< after the rotation (eq. 16–17)
-  std::vector<DrivenLimb> limbs;                                ///< in the skeletons' order
+  Eigen::Vector3d torso_translation = Eigen::Vector3d::Zero();  ///< after the rotation (eq. 16–17), contact included
+  Eigen::Vector3d contact_translation =
+      Eigen::Vector3d::Zero();   ///< the part of it from contact with the body surface (m)
+  std::vector<DrivenLimb> limbs; ///< in the skeletons' order
   SkeletonDrivingTimings timings;
 };
 
@@ -71,8 +75,10 @@ struct SkeletonDriving {
 /// are the right and left hip joints and the legs' axes: each leg's axis is the principal
 /// direction of its skeleton's nodes through their centroid, and the hip is the axis's point at
 /// a height calibrated on the catalogue's mannequin between the crotch key point and the
-/// waistband's centre, both hips then at their mean depth (the garment is left/right
-/// symmetric, as segment_garment() requires). The garment's vertical is +Y, as segment_garment() requires. Throws
+/// waistband's centre. Either pair is then made mirror-symmetric about the garment's mid-plane
+/// x = (j1.x + j2.x) / 2 (mean height and depth; each axis the mean of its own and the other
+/// side's mirrored), since segment_garment() requires a left/right symmetric garment and the
+/// two sides' estimates differ by their noise alone. The garment's vertical is +Y. Throws
 /// vfit::Error("skeleton driving", …) when the segmentation lacks the key points or skeletons
 /// needed.
 struct GarmentKeyJoints {
@@ -81,6 +87,7 @@ struct GarmentKeyJoints {
   Eigen::Vector3d right_axis = -Eigen::Vector3d::UnitX(); ///< unit, from j1 towards the right limb's open end
   Eigen::Vector3d left_axis = Eigen::Vector3d::UnitX();   ///< unit, from j2 towards the left limb's open end
   bool legs = false;                                      ///< true: hips (trousers, shorts); false: shoulders (tops)
+  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();       ///< legs: the crotch key point (segment.h), m
 };
 GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons);
 
@@ -117,8 +124,19 @@ public:
   SkeletonDriver& operator=(SkeletonDriver&&) noexcept;
 
   /// Deforms the garment onto a body with joints `body_joints` (24 × 3, m, posed).
-  SkeletonDriving drive(const JointPositions& body_joints) const;
-
+  /// With `body_surface` (an index of the body's closed mesh in the same pose), the torso's
+  /// translation is refined by contact_translation() (coarse_move.h) over the torso's handle
+  /// vertices, and each limb node is then measured from the body's joint (its projection on
+  /// the limb's line) rather than from the garment's own key joint; for trousers and shorts the
+  /// torso is first moved along the body's trunk so that the garment's crotch key point meets
+  /// the body's crotch (where a line down the trunk from the hips' midpoint leaves the body),
+  /// since the hips' height is estimated from the cut and contact can only push the garment
+  /// out, not pull a garment placed too high down. Without it, eq. 8–11 as DrivenLimb describes.
+  /// Opt-in: engine/fit_pipeline.cpp does not pass a surface, because on posed bodies the
+  /// contact translation picks up flesh that is not the garment's (lowered arms lift a tee by
+  /// ~4 cm), costs 20–60 ms per top, and left the corpus fit with more crossing edges (848
+  /// against 798 over 63 garment × pose cases).
+  SkeletonDriving drive(const JointPositions& body_joints, const ProximityIndex* body_surface = nullptr) const;
   /// Vertex ids held as handles in the Laplacian solve, ascending.
   const std::vector<std::int32_t>& handles() const { return m_handles; }
   /// #V distances (m) from each vertex to the nearest limb seam vertex (+∞ with no limb).
@@ -145,6 +163,6 @@ private:
 /// the setup time in the timings.
 SkeletonDriving drive_garment(const Mesh& garment, const GarmentSegmentation& segmentation,
                               std::span<const PartSkeleton> skeletons, const JointPositions& body_joints,
-                              const SkeletonDrivingOptions& options = {});
+                              const SkeletonDrivingOptions& options = {}, const ProximityIndex* body_surface = nullptr);
 
 } // namespace vfit

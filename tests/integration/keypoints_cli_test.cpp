@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "geometry/body/keypoint_fit.h"
+#include "geometry/garment/catalogue.h"
+#include "geometry/mesh/mesh_io.h"
 #include "test_support.h"
 
 namespace vfit {
@@ -49,6 +51,29 @@ TEST(KeypointsCli, FitsWritesTheBodyJointsAndPoseAndPrintsTheStages) {
   // The written pose plugs into `vfit body --pose` (and so `vfit fit --pose`).
   const auto again = test::run_cli({"body", "--vertices", "1000", "--pose", pose.string(), "--quiet"});
   EXPECT_EQ(again.exit_code, 0) << again.err;
+}
+
+TEST(KeypointsCli, FitTakesTheBodyFromKeypoints) {
+  // `vfit fit --keypoints`: the body's measurements and pose come from the photo, and the
+  // garment is fitted onto it in one call (no simulation, to stay fast).
+  test::TempDir tmp;
+  const auto kp = tmp / "kp.json", tee = tmp / "tee.obj", report = tmp / "report.json";
+  test::write_file(kp, openpose_file());
+  GarmentOptions o;
+  o.type = GarmentType::TEE;
+  o.target_vertices = 2000;
+  write_mesh(tee.string(), make_garment(o).mesh);
+  const auto r = test::run_cli({"fit", "--keypoints", kp.string(), "--image-size", "1000x1000", "--vertices", "3000",
+                                "--garment", tee.string(), "--no-simulation", "--report", report.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(test::read_file(report));
+  EXPECT_EQ(j["garments"].size(), 1u);
+  EXPECT_EQ(j["penetration"]["after"]["inside_count"].get<std::size_t>(), 0u) << j["penetration"].dump();
+  // --keypoints and --pose both set the pose: one line, exit 2.
+  const auto both = test::run_cli({"fit", "--keypoints", kp.string(), "--image-size", "1000x1000", "--pose", "arms_down",
+                                   "--garment", tee.string(), "--quiet"});
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("--keypoints"), std::string::npos) << both.err;
 }
 
 TEST(KeypointsCli, BadKeypointFilesExit2WithOneLine) {

@@ -1,5 +1,8 @@
 // Coarse move (seed 000 §6.1, eq. 16–17): a catalogue garment made for the mannequin lands on
 // it, wherever it starts; the move is a pure translation.
+#include <cmath>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "test_support.h"
@@ -9,6 +12,8 @@
 #include "geometry/garment/coarse_move.h"
 #include "geometry/garment/segment.h"
 #include "geometry/garment/skeleton_parts.h"
+#include "geometry/mesh/primitives.h"
+#include "kernels/proximity.h"
 
 namespace vfit {
 namespace {
@@ -71,8 +76,7 @@ TEST(CoarseMove, FallsBackToTheSourceOpeningWithoutSkeletons) {
   EXPECT_TRUE(top.translation.isApprox(j.row(idx(Joint::NECK)).transpose() - kp.source));
   const CoarseMove skirt = compute_coarse_move(GarmentType::SKIRT, kp, {}, j);
   EXPECT_EQ(skirt.rule, CoarseMoveRule::WAISTBAND_TO_PELVIS);
-  const Eigen::Vector3d waist =
-      0.5 * (j.row(idx(Joint::PELVIS)) + j.row(idx(Joint::SPINE1))).transpose();
+  const Eigen::Vector3d waist = 0.5 * (j.row(idx(Joint::PELVIS)) + j.row(idx(Joint::SPINE1))).transpose();
   EXPECT_TRUE(skirt.translation.isApprox(waist - kp.source));
 }
 
@@ -98,6 +102,59 @@ TEST(CoarseMove, TranslatesEveryVertex) {
   std::vector<float> p = {0, 0, 0, 1, 2, 3};
   translate_positions(p, Eigen::Vector3d(0.5, -1, 2));
   EXPECT_EQ(p, (std::vector<float>{0.5f, -1, 2, 1.5f, 1, 5}));
+}
+
+// contact_translation(): a body that is a capped cylinder of radius 0.1 m along Y (0 to 1 m),
+// 64 segments, and a "garment" that is a ring of points around it, 0.3 to 0.7 m up.
+struct Cylinder {
+  Mesh mesh = make_tube(11, 64, 0.1f, 1.0f);
+  ProximityIndex index{mesh.positions, mesh.triangles};
+};
+const Cylinder& cylinder() {
+  static const Cylinder c;
+  return c;
+}
+
+std::vector<float> ring_of_points(double radius, const Eigen::Vector3d& centre) {
+  std::vector<float> p;
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 48; ++j) {
+      const double phi = 2 * 3.14159265358979 * (j + 0.5) / 48;
+      const Eigen::Vector3d x = centre + Eigen::Vector3d(radius * std::sin(phi), 0.3 + 0.1 * i, radius * std::cos(phi));
+      p.insert(p.end(), {float(x.x()), float(x.y()), float(x.z())});
+    }
+  return p;
+}
+
+// Within this of the exact answer (m): the 64-gon lies up to r(1 − cos(π/64)) = 0.12 mm inside
+// the circle, and the iteration stops once a round moves less than 0.1 mm.
+constexpr double CONTACT_TOLERANCE = 0.5e-3;
+
+TEST(ContactTranslation, TakesATubePushedInFromOneSideOut) {
+  // A ring of radius 0.12 centred 5 cm to +X: its −X side is 3 cm inside the body. Moving it
+  // 3 cm back to −X takes every point out (the ring then still holds the body).
+  const Eigen::Vector3d d = contact_translation(ring_of_points(0.12, {0.05, 0, 0}), cylinder().index);
+  EXPECT_NEAR(d.x(), -0.03, CONTACT_TOLERANCE);
+  EXPECT_NEAR(d.y(), 0.0, CONTACT_TOLERANCE);
+  EXPECT_NEAR(d.z(), 0.0, CONTACT_TOLERANCE);
+  ContactMoveOptions with_clearance;
+  with_clearance.clearance = 0.005;
+  const Eigen::Vector3d e = contact_translation(ring_of_points(0.12, {0.05, 0, 0}), cylinder().index, with_clearance);
+  EXPECT_NEAR(e.x(), -0.035, CONTACT_TOLERANCE);
+}
+
+TEST(ContactTranslation, BalancesPressesFromOppositeSides) {
+  // A ring smaller than the body, 1 cm off its axis towards +Z: inside everywhere; no
+  // translation takes it out, and the least-squares one centres it on the body.
+  const Eigen::Vector3d d = contact_translation(ring_of_points(0.09, {0, 0, 0.01}), cylinder().index);
+  EXPECT_NEAR(d.x(), 0.0, CONTACT_TOLERANCE);
+  EXPECT_NEAR(d.y(), 0.0, CONTACT_TOLERANCE); // nothing constrains the axis: it stays put
+  EXPECT_NEAR(d.z(), -0.01, CONTACT_TOLERANCE);
+}
+
+TEST(ContactTranslation, IsZeroWithNothingInside) {
+  EXPECT_TRUE(contact_translation(ring_of_points(0.15, {0.02, 0, -0.01}), cylinder().index).isZero());
+  EXPECT_TRUE(contact_translation(std::vector<float>{}, cylinder().index).isZero());
 }
 
 } // namespace

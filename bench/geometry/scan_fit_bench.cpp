@@ -1,0 +1,57 @@
+// Scan fit (geometry/body/scan_fit.h): time per scan and Ceres iterations per stage, on a
+// 15,000-vertex synthetic scan (the tall mannequin in its A-pose rest, posed: an elbow and a
+// knee bent, the head turned). The scan and the fit's template are built before timing (once per
+// process: about 4 s and 3 s on first use). Bar (issue 8): ≤ 1 s per 15k-vertex scan on 2 cores.
+#include <numbers>
+
+#include <benchmark/benchmark.h>
+
+#include "geometry/body/mannequin.h"
+#include "geometry/body/scan_fit.h"
+
+namespace {
+
+using namespace vfit;
+
+const Mesh& bench_scan() {
+  static const Mesh scan = [] {
+    MannequinOptions o;
+    o.measurements = body_preset("tall");
+    o.pose = RestPose::APOSE;
+    o.target_vertices = 15000;
+    const Body body = make_mannequin(o);
+    constexpr double DEG = std::numbers::pi / 180.0;
+    Pose p;
+    p.axis_angle.row(idx(Joint::LEFT_ELBOW)) = 40 * DEG * Eigen::RowVector3d(-1, -1, 0).normalized();
+    p.axis_angle.row(idx(Joint::RIGHT_KNEE)) << 25 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::HEAD)) << 0, 20 * DEG, 0;
+    return pose_body(body, p).mesh;
+  }();
+  return scan;
+}
+
+// Arg: Ceres threads (1 = serial, 2 = the bar's two cores).
+void BM_ScanFit(benchmark::State& state) {
+  const Mesh& scan = bench_scan();
+  scan_fit_template();        // built once per process, outside the timing
+  mannequin_keypoint_model(); // the shape basis, likewise
+  ScanFitOptions options;
+  options.threads = static_cast<int>(state.range(0));
+  ScanFit fit;
+  for (auto _ : state) {
+    fit = fit_scan(scan, "bench scan", options);
+    benchmark::DoNotOptimize(fit.joints.data());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(scan.vertex_count())); // scan vertices/s
+  for (const ScanFitStage& s : fit.stages) {
+    state.counters[s.name + "_iterations"] = s.iterations;
+    state.counters[s.name + "_ms"] = s.ms;
+  }
+  state.counters["mean_mm"] = 1000 * fit.stages.back().mean_distance;
+  state.counters["p95_mm"] = 1000 * fit.stages.back().p95_distance;
+}
+BENCHMARK(BM_ScanFit)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+} // namespace
+
+BENCHMARK_MAIN();
