@@ -42,8 +42,11 @@ enum class ClothBackend : std::int8_t {
   /// GPU's ICD), picked by ClothOptions::opencl_device. Body contacts stay on the host (the
   /// proximity core): every contact window uploads the state (#V × 6 floats) and reads it back
   /// after the window's substeps, so a contact window costs two transfers of 24 bytes per
-  /// particle; without a body, one upload and one read per step(dt). RK4 only: a ClothSim with
-  /// IMPLICIT_EULER and OPENCL throws vfit::Error. A build without OpenCL throws too.
+  /// particle; without a body, one upload and one read per step(dt). RK4 only: constructing a
+  /// ClothSim with IMPLICIT_EULER and OPENCL throws vfit::Error ("cloth: the OpenCL backend
+  /// runs the RK4 integrator only"); a build without OpenCL throws vfit::Error ("cloth: … this
+  /// build has no OpenCL"). An OpenCL call failing later (allocation, kernel launch) throws
+  /// std::runtime_error ("OpenCL: <what>: … failed with code N"), not vfit::Error.
   OPENCL = 2,
 };
 
@@ -95,10 +98,13 @@ struct ClothOptions {
   double max_substep = 2e-3; ///< s
   ClothBackend backend = ClothBackend::TBB;
   /// ClothBackend::OPENCL: the device selector of select_opencl_device() (kernels/
-  /// opencl_context.h); empty = VFIT_OPENCL_DEVICE or the first device.
+  /// opencl_context.h); empty = VFIT_OPENCL_DEVICE or the first device. The context is opened
+  /// in the ClothSim constructor, which throws vfit::Error listing the devices when none
+  /// matches or none exists. Ignored by the other backends.
   std::string opencl_device;
-  /// The broad phase of the body contacts. Both give the same closest triangle, distance and
-  /// side (so the same contacts) up to ties between equally close triangles.
+  /// The broad phase of the body contacts, built by set_body() (SPATIAL_HASH: cell side = the
+  /// body's mean edge length) and updated by move_body(). Both give the same closest triangle,
+  /// distance and side (so the same contacts) up to ties between equally close triangles.
   ClothBroadPhase broad_phase = ClothBroadPhase::BVH;
 
   float contact_thickness = 0.003f; ///< τ (m): gap kept to the body
@@ -125,9 +131,12 @@ struct ClothOptions {
   bool contacts_in_solve = false;
   float contact_margin = 0.002f; ///< m; see contacts_in_solve
 
-  /// Waistband auto-pins: when a body is set, the band of the garment within waistband_width
-  /// of its waist opening (waistband_vertices()) is attached to the body (attach_to_body()), so
-  /// a bottom garment (trousers, shorts, skirt) cannot slide down and follows the body.
+  /// Waistband auto-pins: when a body is first set, the band of the garment within
+  /// waistband_width of its waist opening (waistband_vertices() of the cloth's positions at that
+  /// moment) is attached to the body (attach_to_body()), so a bottom garment (trousers, shorts,
+  /// skirt) cannot slide down and follows the body. A cloth without a boundary pins nothing.
+  /// waistband_width is checked then: set_body() throws vfit::Error ("waistband: band_width
+  /// must be finite and ≥ 0") for a negative or non-finite one.
   bool waistband_pins = false;
   /// Width of the pinned band (m), measured along the garment's edges from the waist opening:
   /// 3 cm, the height of a typical elastic waistband (2.5–4 cm).
@@ -191,7 +200,9 @@ public:
   /// #T × 3 triangles), indexed by the broad phase of ClothOptions::broad_phase. Replaces any
   /// previous body; vertices attached to the previous body are attached to the new one (at
   /// their current positions). With ClothOptions::waistband_pins, the first body set attaches
-  /// the waistband (waistband_vertices()). Throws vfit::Error for an index out of range.
+  /// the waistband (waistband_vertices()). Throws vfit::Error ("body: face F has vertex index
+  /// …") for an index out of range; positions are not checked for finiteness here (the broad
+  /// phase's constructor checks them: "proximity mesh"/"spatial hash mesh" errors).
   void set_body(std::span<const float> positions, std::span<const std::int32_t> triangles);
   /// Moves the body (same topology) over the last `dt` seconds: refits the BVH (no rebuild) or
   /// refills the spatial hash, takes the body's velocity as (new − old)/dt for friction, and
@@ -200,16 +211,21 @@ public:
   /// the vertex count differs.
   void move_body(std::span<const float> positions, double dt);
 
-  /// Pins `vertices` (indices in [0, #V); vfit::Error otherwise, or when no body is set) to the
-  /// body: each is attached to its closest body triangle (a, b, c) by the coordinates
-  /// (s, t, h) with x = a + s·(b − a) + t·(c − a) + h·n̂, n̂ the triangle's unit normal: the
-  /// barycentrics of x's projection onto the triangle's plane and its offset along the normal.
+  /// Pins `vertices` (indices in [0, #V)) to the body. Throws vfit::Error ("cloth: attach_to_body
+  /// called before set_body" / "cloth: attached vertex N outside [0, #V)"); nothing is attached
+  /// then. Each is attached to its closest body triangle (a, b, c), searched at any distance, by
+  /// the coordinates (s, t, h) with x = a + s·(b − a) + t·(c − a) + h·n̂, n̂ the triangle's unit
+  /// normal: the barycentrics of x's projection onto the triangle's plane and its offset along
+  /// the normal.
   /// The vertex keeps its position now and follows the triangle exactly under rigid motions of
   /// the body (affinely under deformations). A degenerate closest triangle (zero area) gets its
   /// closest point's barycentrics and h = 0 (the vertex then moves onto it at the next
-  /// move_body). Attaching a vertex twice re-attaches it.
+  /// move_body). Attaching a vertex twice re-attaches it. An attached vertex gets zero inverse
+  /// mass and velocity (the integrator leaves it alone) and the stable substep is recomputed.
+  /// A body with no triangles attaches nothing.
   void attach_to_body(std::span<const std::int32_t> vertices);
-  /// The vertices attached by attach_to_body() (or the waistband pins), ascending.
+  /// The vertices attached by attach_to_body() (or the waistband pins), ascending, each once;
+  /// empty before any attachment.
   std::vector<std::int32_t> attached_vertices() const;
 
   /// Advances by dt (s, ≥ 0) in steps of at most stable_substep(): RK4 substeps with body

@@ -68,15 +68,19 @@ enum class PenetrationMethod : std::int8_t {
   SEED_004 = 1,
 };
 
-/// How each round's sparse system (c·I + w·L_RᵀL_R over the region R) is solved.
+/// How each round's sparse system (c·I + w·L_RᵀL_R over the region R: c = 1, w = λ2/λ1 for
+/// SEED_000; c = 1 + ω_d, w = ω_s for SEED_004) is solved, for the region's displacements δ
+/// (#R × 3, m). Both give the same positions up to the CG tolerance.
 enum class PenetrationSolver : std::int8_t {
   /// A sparse LDLᵀ factorisation of the region's matrix, computed once per region and reused
-  /// by every round: the default.
+  /// by every round: the default. A failed factorisation throws vfit::Error
+  /// ("remove_penetration: the region's system is not positive definite").
   CHOLESKY = 0,
-  /// Jacobi-preconditioned conjugate gradients to a relative residual of 1e-7, no
-  /// factorisation: memory linear in the region, but ~75 iterations per solve (the matrix's
-  /// condition number is ~150 for λ = 1); the cross-check of the direct solve in the tests
-  /// (positions agree within 1e-6 m).
+  /// Jacobi-preconditioned conjugate gradients, the three columns together, to ‖r‖ ≤ 1e-7·‖b‖
+  /// per column or 200 iterations at most (a solve stopped by the cap is used as it is, with no
+  /// error or status), no factorisation: memory linear in the region, but ~75 iterations per
+  /// solve (the matrix's condition number is ~150 for λ = 1); the cross-check of the direct
+  /// solve in the tests (positions agree within 1e-6 m).
   CONJUGATE_GRADIENT = 1,
 };
 
@@ -100,10 +104,14 @@ struct PenetrationOptions {
 struct PenetrationReport {
   PenetrationStats before, after;
   int iterations = 0;      ///< detection → solve rounds run
-  /// Region systems set up (factored, with CHOLESKY): 1 whenever anything was solved, one more
-  /// each time a round's pushes left the region (the region then grows to cover them).
+  /// Region systems set up (factored, with CHOLESKY): 0 when nothing needed a push, else 1 for
+  /// the first round, plus one each time a round's pushes left the region (the region then
+  /// grows to cover them), plus one each time a region of ≥ 2,000 vertices is rebuilt around
+  /// a round that pushes fewer than 1/8 of the vertices it was grown from (it then shrinks).
   int region_builds = 0;
-  long long solver_iterations = 0; ///< conjugate-gradient iterations over all rounds (0 with CHOLESKY)
+  /// Conjugate-gradient iterations summed over all rounds (one count per solve of the three
+  /// columns together); 0 with PenetrationSolver::CHOLESKY.
+  long long solver_iterations = 0;
   double milliseconds = 0; ///< wall time of the whole call
 };
 
@@ -123,8 +131,9 @@ PenetrationStats measure_penetration(const Mesh& garment, const ProximityIndex& 
 /// elsewhere). Only the vertices within 8 rings of a pushed vertex are unknowns; the rest of
 /// the garment is the fixed region and does not move. The matrix I + λ L_RᵀL_R of that region is
 /// factored once and reused every round, as seed 004 does (a later round pushing a vertex
-/// outside the region grows it and factors again; see PenetrationSolver). After a solve only
-/// the moved vertices are detected again. Returns the statistics before and after.
+/// outside the region grows it, and a large region is rebuilt around a much smaller later push
+/// set; either factors again: PenetrationReport::region_builds, PenetrationSolver). After a
+/// solve only the moved vertices are detected again. Returns the statistics before and after.
 /// Vertex tests only: edges crossing the body are neither found nor counted.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const PenetrationOptions& options = {});
 

@@ -3,7 +3,8 @@
 /// The mass-spring cloth's RK4 integration on an OpenCL device (see cloth_rk4.h for the math,
 /// shared through cloth_math.h). Agrees with rk4_step_serial() within float tolerance: the
 /// device's sqrt and division may differ from the host's by an ulp, and those differences grow
-/// with the steps (tests/opencl states the bound).
+/// with the steps (tests/opencl states the bound). Also the implicit Euler system's product
+/// (OpenClImplicitMultiply) of cloth_implicit.h, for conjugate gradients on the device.
 
 #include <cstddef>
 #include <memory>
@@ -52,23 +53,34 @@ private:
 /// adjacency once; set_system() uploads one step's blocks (#V × 6 diagonal, #entries × 6
 /// off-diagonal floats and #V filter flags: 24 bytes per adjacency entry plus 25 per particle);
 /// multiply() runs on vectors that stay on the device; the host entry uploads p and reads the
-/// product back (12 bytes per particle each way).
+/// product back (12 bytes per particle each way). Implicit Euler as seed 004 §2 uses it (Baraff &
+/// Witkin 1998); the seed gives no equation for it. Sizes are not checked: every span and
+/// system must match the adjacency's #V and #entries (shorter ones are undefined behaviour).
+/// OpenCL failures throw std::runtime_error ("OpenCL: <what>: … failed with code N"), not
+/// vfit::Error. A system of zero particles makes every call a no-op.
 class OpenClImplicitMultiply {
 public:
-  /// adjacency: the springs' CSR adjacency the systems are assembled over (#V particles).
+  /// adjacency: the springs' CSR adjacency the systems are assembled over (#V particles,
+  /// #entries = neighbors.size()); `context` must outlive the object. Allocates the device
+  /// buffers and builds the `cloth` program on first use in that context.
   OpenClImplicitMultiply(OpenClContext& context, const SpringAdjacency& adjacency);
   ~OpenClImplicitMultiply();
   OpenClImplicitMultiply(const OpenClImplicitMultiply&) = delete;
   OpenClImplicitMultiply& operator=(const OpenClImplicitMultiply&) = delete;
 
-  /// Uploads a system assembled by assemble_implicit_system() over the same adjacency.
+  /// Uploads a system assembled by assemble_implicit_system() over the same adjacency: its
+  /// diagonal (#V × 6, kg), off_diagonal (#entries × 6, kg) and free flags (#V); the
+  /// preconditioner and rhs are not used. Blocks until uploaded.
   void set_system(const ImplicitSystem& system);
-  /// out = filtered A·p: p is #V × 3; out is resized to #V × 3. Blocks until read back.
+  /// out = filtered A·p: p is #V × 3 (e.g. m/s); out is resized to #V × 3 (kg·p's units);
+  /// rows of pinned particles (free = 0) are 0 and their entries of p ignored, as in
+  /// implicit_system_multiply(). Blocks until read back. Requires set_system() first.
   void multiply(std::span<const float> p, std::vector<float>& out);
-  /// Uploads p (#V × 3) to the device vector the device-resident product reads.
+  /// Uploads p (#V × 3) to the device vector the device-resident product reads; blocks.
   void set_vector(std::span<const float> p);
   /// The product of the uploaded vector into the device's output vector, `count` times (for
-  /// timing the kernel alone; read nothing back).
+  /// timing the kernel alone; read nothing back). Enqueues only: call finish() to wait.
+  /// count ≤ 0 enqueues nothing.
   void multiply_on_device(int count = 1);
   /// Blocks until every enqueued command has finished.
   void finish();

@@ -17,6 +17,7 @@ namespace vfit {
 namespace {
 using std::sqrt; // the shared math headers call sqrt(float) as OpenCL C does.
 #include "closest_point_math.h"
+#include "capped_surface.h"
 #include "closest_hit_row.h"
 
 static_assert(static_cast<int>(TriangleFeature::NONE) == VFIT_FEATURE_NONE);
@@ -25,69 +26,17 @@ static_assert(static_cast<int>(TriangleFeature::EDGE_0) == VFIT_FEATURE_EDGE_0);
 static_assert(static_cast<int>(TriangleFeature::VERTEX_0) == VFIT_FEATURE_VERTEX_0);
 static_assert(static_cast<int>(TriangleFeature::VERTEX_2) == VFIT_FEATURE_VERTEX_2);
 
-vfit_vec3 load(const float* p, std::int32_t v) {
-  const float* q = p + 3 * static_cast<std::size_t>(v);
-  return vfit_vec3{q[0], q[1], q[2]};
-}
-
-// The tie rule shared by the BVH and brute-force paths: strictly closer, or equally close and
-// a lower triangle index.
-bool improves(float distance2, std::uint32_t triangle, float best_distance2, std::uint32_t best_triangle) {
-  return distance2 < best_distance2 || (distance2 == best_distance2 && triangle < best_triangle);
-}
 
 
 // Everything the index owns; ProximityIndex::Impl is this under the name the header declares.
-struct IndexData {
+struct IndexData : CappedSurface {
   embree::ErrorLog errors; // declared first, so it outlives the device whose callback points at it
   embree::DevicePtr device;
   embree::ScenePtr scene;
   embree::GeometryPtr geometry; // null for an empty mesh
-  // The hole caps of an open mesh (geometry id 1 of the scene); null for a closed mesh. They
-  // take part in the side decision only, never in the closest-point answer.
+  // The hole caps of an open mesh (geometry id 1 of the scene); null for a closed mesh. The
+  // capped positions are shared with Embree, with one float of padding (16-byte loads).
   embree::GeometryPtr cap_geometry;
-  HoleCaps caps;
-  // The capped mesh: #V mesh vertices then #L loop centroids, #F mesh triangles then #C cap
-  // triangles. Shared with Embree; one float of padding after the coordinates because Embree
-  // reads vertices with 16-byte loads. Edges and pseudo-normals are those of the capped mesh,
-  // which is closed where the original had holes (so the side test stays exact there).
-  std::vector<float> positions;
-  std::vector<std::int32_t> triangles; // (#F + #C) × 3, shared with Embree as UINT3
-  std::size_t vertex_count = 0, face_count = 0;
-  std::size_t capped_vertex_count = 0, capped_face_count = 0;
-  std::size_t hole_count = 0; // boundary loops found, capped or not
-  MeshEdges edges;
-  VertexFaceAdjacency vertex_faces;
-  PseudoNormals normals;
-
-  vfit_closest_point closest_on(vfit_vec3 q, std::uint32_t f) const {
-    const std::int32_t* t = triangles.data() + 3 * static_cast<std::size_t>(f);
-    const float* p = positions.data();
-    return vfit_closest_point_on_triangle(q, load(p, t[0]), load(p, t[1]), load(p, t[2]));
-  }
-
-  // Pseudo-normal of `feature` of triangle f (Bærentzen & Aanæs 2005).
-  const float* feature_normal(std::uint32_t f, int feature) const {
-    const std::size_t row = 3 * static_cast<std::size_t>(f);
-    if (feature == VFIT_FEATURE_FACE) return normals.faces.data() + row;
-    if (feature <= VFIT_FEATURE_EDGE_2) {
-      const std::size_t e = static_cast<std::size_t>(edges.triangle_edges[row + (feature - VFIT_FEATURE_EDGE_0)]);
-      return normals.edges.data() + 3 * e;
-    }
-    const std::size_t v = static_cast<std::size_t>(triangles[row + (feature - VFIT_FEATURE_VERTEX_0)]);
-    return normals.vertices.data() + 3 * v;
-  }
-
-  // Recomputes the loop centroids from the first #V × 3 of `positions`, then the pseudo-normals.
-  void update_normals() {
-    if (caps.loop_count() > 0) {
-      std::vector<float> capped;
-      capped_positions(std::span<const float>(positions.data(), 3 * vertex_count), caps, capped);
-      std::copy(capped.begin(), capped.end(), positions.begin());
-    }
-    pseudo_normals_tbb(std::span<const float>(positions.data(), 3 * capped_vertex_count), triangles, edges,
-                       vertex_faces, normals);
-  }
 };
 
 // Per-query state handed to Embree's callback through userPtr. best is the closest mesh
@@ -247,21 +196,9 @@ ProximityIndex::ProximityIndex(std::span<const float> positions, std::span<const
     : m_impl(std::make_unique<Impl>()) {
   check_mesh(positions, triangles);
   Impl& m = *m_impl;
-  m.vertex_count = positions.size() / 3;
-  m.face_count = triangles.size() / 3;
-  assert(m.vertex_count < NO_TRIANGLE / 2 && m.face_count < NO_TRIANGLE / 2 && "mesh too large for 32-bit indices");
-  m.caps = build_hole_caps(triangles, m.vertex_count);
-  m.hole_count = m.caps.loop_count();
-  if (open_side == OpenMeshSide::ONE_SIDED) m.caps = HoleCaps{{0}, {}, {}};
-  m.capped_vertex_count = m.vertex_count + m.caps.loop_count();
-  m.capped_face_count = m.face_count + m.caps.triangles.size() / 3;
-  m.positions.assign(positions.begin(), positions.end());
-  m.positions.resize(3 * m.capped_vertex_count + 1, 0.0f); // centroids filled by update_normals()
-  m.triangles.assign(triangles.begin(), triangles.end());
-  m.triangles.insert(m.triangles.end(), m.caps.triangles.begin(), m.caps.triangles.end());
-  m.edges = build_mesh_edges(m.triangles, m.capped_vertex_count);
-  m.vertex_faces = build_vertex_face_adjacency(m.triangles, m.capped_vertex_count);
-  m.update_normals();
+  assert(positions.size() / 3 < NO_TRIANGLE / 2 && triangles.size() / 3 < NO_TRIANGLE / 2 &&
+         "mesh too large for 32-bit indices");
+  m.build(positions, triangles, open_side, 1);
 
   m.device = embree::make_device(m.errors);
   m.scene.reset(rtcNewScene(m.device.get()));

@@ -17,18 +17,10 @@ namespace vfit {
 namespace {
 using std::sqrt; // the shared math headers call sqrt(float) as OpenCL C does.
 #include "closest_point_math.h"
+#include "capped_surface.h"
 #include "closest_hit_row.h"
 
 
-vfit_vec3 load(const float* p, std::int32_t v) {
-  const float* q = p + 3 * static_cast<std::size_t>(v);
-  return vfit_vec3{q[0], q[1], q[2]};
-}
-
-// proximity.cpp's tie rule: strictly closer, or equally close and a lower triangle index.
-bool improves(float distance2, std::uint32_t triangle, float best_distance2, std::uint32_t best_triangle) {
-  return distance2 < best_distance2 || (distance2 == best_distance2 && triangle < best_triangle);
-}
 
 bool is_prime(std::size_t n) {
   if (n < 2) return false;
@@ -58,17 +50,8 @@ struct Query {
 };
 } // namespace
 
-struct SpatialHash::Impl {
-  // The capped mesh, as in ProximityIndex: #V vertices then #L loop centroids, #F triangles then
-  // #C cap triangles; the pseudo-normals are the capped mesh's.
-  HoleCaps caps;
-  std::vector<float> positions;
-  std::vector<std::int32_t> triangles;
-  std::size_t vertex_count = 0, face_count = 0, capped_vertex_count = 0, capped_face_count = 0;
-  MeshEdges edges;
-  VertexFaceAdjacency vertex_faces;
-  PseudoNormals normals;
-
+// The capped mesh as ProximityIndex has it (capped_surface.h), and the table over it.
+struct SpatialHash::Impl : CappedSurface {
   float cell = 1.0f, inverse_cell = 1.0f;
   CellBox bounds{}; // cells covered by the mesh (empty when lo > hi)
   // Buckets in compressed sparse rows: the (capped) triangles of bucket b are
@@ -84,32 +67,6 @@ struct SpatialHash::Impl {
                             (static_cast<std::uint32_t>(j) * SPATIAL_HASH_PRIMES[1]) ^
                             (static_cast<std::uint32_t>(k) * SPATIAL_HASH_PRIMES[2]);
     return h % static_cast<std::uint32_t>(offsets.size() - 1);
-  }
-
-  vfit_closest_point closest_on(vfit_vec3 q, std::uint32_t f) const {
-    const std::int32_t* t = triangles.data() + 3 * static_cast<std::size_t>(f);
-    const float* p = positions.data();
-    return vfit_closest_point_on_triangle(q, load(p, t[0]), load(p, t[1]), load(p, t[2]));
-  }
-
-  const float* feature_normal(std::uint32_t f, int feature) const {
-    const std::size_t row = 3 * static_cast<std::size_t>(f);
-    if (feature == VFIT_FEATURE_FACE) return normals.faces.data() + row;
-    if (feature <= VFIT_FEATURE_EDGE_2) {
-      const auto e = static_cast<std::size_t>(edges.triangle_edges[row + (feature - VFIT_FEATURE_EDGE_0)]);
-      return normals.edges.data() + 3 * e;
-    }
-    const auto v = static_cast<std::size_t>(triangles[row + (feature - VFIT_FEATURE_VERTEX_0)]);
-    return normals.vertices.data() + 3 * v;
-  }
-
-  void update_normals() {
-    if (caps.loop_count() > 0) {
-      std::vector<float> capped;
-      capped_positions(std::span<const float>(positions.data(), 3 * vertex_count), caps, capped);
-      std::copy(capped.begin(), capped.end(), positions.begin());
-    }
-    pseudo_normals_tbb(positions, triangles, edges, vertex_faces, normals);
   }
 
   // Refills the table from the current positions (counting sort of the entries by bucket).
@@ -274,24 +231,13 @@ SpatialHash::SpatialHash(std::span<const float> positions, std::span<const std::
     if (!std::isfinite(positions[i]))
       throw Error("spatial hash mesh", 0, "vertex " + std::to_string(i / 3) + " has a non-finite coordinate");
   Impl& m = *m_impl;
-  m.vertex_count = positions.size() / 3;
-  m.face_count = triangles.size() / 3;
   for (std::size_t i = 0; i < triangles.size(); ++i)
-    if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= m.vertex_count)
+    if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= positions.size() / 3)
       throw Error("spatial hash mesh", 0,
                   "triangle " + std::to_string(i / 3) + " has vertex index " + std::to_string(triangles[i]) +
-                      " outside [0, " + std::to_string(m.vertex_count) + ")");
-  assert(m.face_count < NO_TRIANGLE / 2 && "mesh too large for 32-bit indices");
-  m.caps = open_side == OpenMeshSide::ONE_SIDED ? HoleCaps{{0}, {}, {}} : build_hole_caps(triangles, m.vertex_count);
-  m.capped_vertex_count = m.vertex_count + m.caps.loop_count();
-  m.capped_face_count = m.face_count + m.caps.triangles.size() / 3;
-  m.positions.assign(positions.begin(), positions.end());
-  m.positions.resize(3 * m.capped_vertex_count, 0.0f);
-  m.triangles.assign(triangles.begin(), triangles.end());
-  m.triangles.insert(m.triangles.end(), m.caps.triangles.begin(), m.caps.triangles.end());
-  m.edges = build_mesh_edges(m.triangles, m.capped_vertex_count);
-  m.vertex_faces = build_vertex_face_adjacency(m.triangles, m.capped_vertex_count);
-  m.update_normals();
+                      " outside [0, " + std::to_string(positions.size() / 3) + ")");
+  assert(triangles.size() / 3 < NO_TRIANGLE / 2 && "mesh too large for 32-bit indices");
+  m.build(positions, triangles, open_side, 0);
 
   if (cell_size == 0.0f) {
     // Mean length over the triangles' edges (interior edges counted twice, as Teschner's

@@ -47,26 +47,34 @@ class SpatialHash {
 public:
   /// positions: #V × 3 (m); triangles: #F × 3 indices in [0, #V), counter-clockwise from
   /// outside. cell_size (m): h, or 0 for the mean edge length (an all-degenerate mesh then gets
-  /// h = 1 m). Throws vfit::Error ("spatial hash mesh: …") for a non-finite coordinate, an
-  /// index out of range (naming the vertex or triangle) or a negative or non-finite cell_size.
-  /// An empty mesh is allowed: every query reports no hit. open_side as for ProximityIndex.
+  /// h = 1 m). Throws vfit::Error ("spatial hash mesh: …") when positions or triangles are not
+  /// rows of 3, for a non-finite coordinate (naming the vertex), an index out of range (naming
+  /// the triangle and the index) or a negative or non-finite cell_size. Degenerate (zero-area)
+  /// triangles are kept. An empty mesh is allowed: every query reports no hit. open_side as for
+  /// ProximityIndex (CAP_HOLES: boundary loops get cap triangles used for the side test only).
   SpatialHash(std::span<const float> positions, std::span<const std::int32_t> triangles, float cell_size = 0.0f,
               OpenMeshSide open_side = OpenMeshSide::CAP_HOLES);
   ~SpatialHash();
+  /// Movable, not copyable; a moved-from hash may only be destroyed or assigned to.
   SpatialHash(SpatialHash&&) noexcept;
   SpatialHash& operator=(SpatialHash&&) noexcept;
   SpatialHash(const SpatialHash&) = delete;
   SpatialHash& operator=(const SpatialHash&) = delete;
 
-  /// Moves the vertices (same topology): positions #V × 3 (m) with the #V of construction
-  /// (otherwise vfit::Error). Recomputes the pseudo-normals and hole caps and refills the
-  /// table, keeping the cell size; answers afterwards equal a fresh hash's with that cell size.
+  /// Moves the vertices (same topology): positions #V × 3 (m) with the #V of construction.
+  /// Throws vfit::Error ("spatial hash update: …") for another size or naming the first vertex
+  /// with a non-finite coordinate; the hash is unchanged then. Recomputes the pseudo-normals and
+  /// hole caps and refills the table in O(#F), keeping the cell size (and T while the entries
+  /// stay within 2T, else a new prime T); answers afterwards equal a fresh hash's with that cell
+  /// size.
   void update(std::span<const float> positions);
 
   /// Closest points of `queries` (#Q × 3, m) within max_distance (m, ≥ 0 or +∞), TBB-parallel
   /// (grain SPATIAL_HASH_QUERY_GRAIN); `hits` resized to #Q. Shapes, signs, the no-hit row and
-  /// the errors are ProximityIndex::closest_points's; ties between equally close triangles go
-  /// to the lower index among those seen.
+  /// the errors are ProximityIndex::closest_points's (check_proximity_queries(): vfit::Error
+  /// "proximity queries: …" for a size not a multiple of 3, a negative or NaN max_distance, or
+  /// naming the first non-finite query); ties between equally close triangles go to the lower
+  /// index among those seen.
   void closest_points(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
   /// Serial reference of closest_points(): the same answers, one query after another.
   void closest_points_serial(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
@@ -74,8 +82,8 @@ public:
   float cell_size() const;         ///< h (m)
   std::size_t table_size() const;  ///< T, the number of buckets
   std::size_t entry_count() const; ///< (triangle, cell) entries, caps included
-  std::size_t vertex_count() const;
-  std::size_t face_count() const;
+  std::size_t vertex_count() const; ///< #V of the input mesh (hole-cap centroids not counted)
+  std::size_t face_count() const;   ///< #F of the input mesh (cap triangles not counted)
 
 private:
   struct Impl;

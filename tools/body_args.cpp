@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <iostream>
 #include <string>
 #include <vector>
 
+#include "geometry/body/pose_io.h"
 #include "kernels/error.h"
 
 namespace vfit::cli {
@@ -95,6 +98,26 @@ void finish_image_size(Args&, const std::vector<std::string>& rest, KeypointOpti
   if (!options.image_size || options.image_size->y() != 0.0) return;
   if (rest.empty()) throw Error("--image-size", 0, "expected W H (pixels)");
   options.image_size->y() = positive_number("--image-size", rest[0]);
+}
+
+Pose pose_from_arg(const std::string& value, RestPose rest) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(value, ec) ? read_pose_json(value) : named_pose(value, rest);
+}
+
+KeypointFit fit_keypoint_file(const std::string& file, const KeypointOptions& options, bool quiet, Keypoints* read) {
+  Keypoints kp = read_keypoints(file, options);
+  if (!quiet)
+    for (const auto& w : kp.warnings) std::cerr << "vfit: warning: " << w << "\n";
+  KeypointFit fit = fit_keypoints(kp);
+  if (read) *read = std::move(kp);
+  return fit;
+}
+
+Pose pose_from_keypoint_fit(const KeypointFit& fit, RestPose rest) {
+  Pose pose = pose_for_rest(fit.pose, rest);
+  pose.translation.setZero();
+  return pose;
 }
 
 } // namespace vfit::cli

@@ -91,9 +91,7 @@ int run_scan(Args& args, const std::string& path) {
   // --pose: the rigged scan driven to that pose (T-pose-relative, the scan staying where it is).
   Body body = fit.rigged;
   if (pose_arg) {
-    std::error_code ec;
-    Pose to = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg)
-                                                              : named_pose(*pose_arg, RestPose::TPOSE);
+    Pose to = pose_from_arg(*pose_arg, RestPose::TPOSE);
     to.translation += fit.pose.translation;
     body = pose_body(fit.rigged, relative_pose(fit.rest_joints, fit.pose, to, fit.rigged.joints));
   }
@@ -135,11 +133,8 @@ int run_body(Args& args) {
   finish_image_size(args, args.positionals(0, image_size_token ? 1 : 0), kp_options);
   std::optional<KeypointFit> fit;
   if (keypoints_file) {
-    const Keypoints kp = read_keypoints(*keypoints_file, kp_options);
-    if (!quiet)
-      for (const auto& w : kp.warnings)
-        std::cerr << "vfit: warning: " << w << "\n";
-    fit = fit_keypoints(kp);
+    Keypoints kp;
+    fit = fit_keypoint_file(*keypoints_file, kp_options, quiet, &kp);
     request.mannequin.measurements = fit->measurements;
     if (!quiet) print_fit(kp, *fit);
   }
@@ -147,16 +142,9 @@ int run_body(Args& args) {
   const LoadedBody loaded = load_body(request);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   Pose pose;
-  if (fit) {
-    // The body in its own frame (the camera's translation dropped), ready for `vfit fit`.
-    pose = pose_for_rest(fit->pose, loaded.rest.rest_pose);
-    pose.translation.setZero();
-  }
-  if (pose_arg) {
-    std::error_code ec;
-    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg)
-                                                           : named_pose(*pose_arg, loaded.rest.rest_pose);
-  }
+  // The body in its own frame (the camera's translation dropped), ready for `vfit fit`.
+  if (fit) pose = pose_from_keypoint_fit(*fit, loaded.rest.rest_pose);
+  if (pose_arg) pose = pose_from_arg(*pose_arg, loaded.rest.rest_pose);
   const Body body = loaded.posed(pose);
   if (!quiet)
     for (const auto& w : loaded.warnings)

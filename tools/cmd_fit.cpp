@@ -277,10 +277,8 @@ int run_fit(Args& args) {
   // dropped: the body stands in its own frame).
   std::optional<KeypointFit> keypoint_fit;
   if (keypoints_file) {
-    const Keypoints kp = read_keypoints(*keypoints_file, kp_options);
-    if (!quiet)
-      for (const auto& w : kp.warnings) std::cerr << "vfit: warning: " << w << "\n";
-    keypoint_fit = fit_keypoints(kp);
+    Keypoints kp;
+    keypoint_fit = fit_keypoint_file(*keypoints_file, kp_options, quiet, &kp);
     request.mannequin.measurements = keypoint_fit->measurements;
     if (progress)
       std::fprintf(stderr, "vfit: keypoints: %zu, fitted in %.1f ms, mean reprojection error %.2f px\n", kp.points.size(),
@@ -288,15 +286,8 @@ int run_fit(Args& args) {
   }
   const LoadedBody loaded = load_body(request);
   Pose pose;
-  if (keypoint_fit) {
-    pose = pose_for_rest(keypoint_fit->pose, loaded.rest.rest_pose);
-    pose.translation.setZero();
-  }
-  if (pose_arg) {
-    std::error_code ec;
-    pose = std::filesystem::is_regular_file(*pose_arg, ec) ? read_pose_json(*pose_arg)
-                                                            : named_pose(*pose_arg, loaded.rest.rest_pose);
-  }
+  if (keypoint_fit) pose = pose_from_keypoint_fit(*keypoint_fit, loaded.rest.rest_pose);
+  if (pose_arg) pose = pose_from_arg(*pose_arg, loaded.rest.rest_pose);
   const Body body = loaded.posed(pose);
   const double body_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   if (progress)

@@ -25,6 +25,7 @@ namespace vfit {
 /// heights at fixed stature; σ = 2.5 cm), 2 arm length (arm and forearm; σ = 2 cm), 3 shoulder
 /// width (σ = 2 cm). Other measurements keep the average body's proportions.
 inline constexpr int KEYPOINT_SHAPE_PARAMS = 4;
+/// β: KEYPOINT_SHAPE_PARAMS shape parameters in population standard deviations (above).
 using KeypointShape = std::array<double, KEYPOINT_SHAPE_PARAMS>;
 
 /// The body seen by the keypoint fit: T-pose rest positions of every body point (24 joints and
@@ -34,19 +35,25 @@ using KeypointShape = std::array<double, KEYPOINT_SHAPE_PARAMS>;
 /// landmarks are placed on the mannequin's head and foot shapes. Each point moves rigidly with
 /// its joint.
 struct KeypointBodyModel {
+  /// BODY_POINT_COUNT × 3 positions (m), row = body point (keypoints.h).
   using Points = Eigen::Matrix<double, BODY_POINT_COUNT, 3, Eigen::RowMajor>;
-  Points mean = Points::Zero();
+  Points mean = Points::Zero(); ///< rest points of the average body, β = 0 (m)
+  /// Per shape parameter k: the rest points' change per +1 σ of β_k (m per σ).
   std::array<Points, KEYPOINT_SHAPE_PARAMS> basis{};
   std::array<int, BODY_POINT_COUNT> joint{};   ///< the joint each point moves with
-  std::array<double, BODY_POINT_COUNT> trust{}; ///< fit weight of a keypoint on that point
+  std::array<double, BODY_POINT_COUNT> trust{}; ///< fit weight w_i of a keypoint on that point (0.5 hips, else 1)
 
-  /// The measurements of shape β (the average body for β = 0).
+  /// The measurements of shape β (the average body for β = 0): stature scales every
+  /// measurement by 1 + β₀·7 cm / height; β₁ adds 2.5 cm per σ to the crotch height (knee
+  /// height in proportion), β₂ 2 cm to the arm length (forearm in proportion), β₃ 2 cm to the
+  /// shoulder width. No range check: extreme β give extreme (even negative) lengths.
   static BodyMeasurements measurements(const KeypointShape& beta);
-  /// Rest (T-pose) points of shape β.
+  /// Rest (T-pose) points of shape β: mean + Σ_k β_k basis[k] (m).
   Points rest_points(const KeypointShape& beta) const;
-  /// Rest (T-pose) joints of shape β.
+  /// Rest (T-pose) joints of shape β: the first JOINT_COUNT rows of rest_points() (m).
   JointPositions rest_joints(const KeypointShape& beta) const;
-  /// Posed points (m): each point carried by its joint's world transform (skeleton.h FK).
+  /// Posed points (m): each point carried by its joint's world transform (skeleton.h FK) of
+  /// `pose` (T-pose-relative, translation included) on the rest joints of β.
   Points posed_points(const KeypointShape& beta, const Pose& pose) const;
 };
 
@@ -58,10 +65,13 @@ const KeypointBodyModel& mannequin_keypoint_model();
 struct PinholeCamera {
   double focal = 1000;                                     ///< px
   Eigen::Vector2d principal_point = Eigen::Vector2d::Zero(); ///< px (the image centre)
-  /// Pixel of a point in front of the camera (Z < 0).
+  /// Pixel (px, v down) of a point p (m, camera frame) in front of the camera (Z < 0). A point
+  /// at or behind the camera plane is projected as if 1e-9 m in front (huge, finite pixels);
+  /// no error.
   Eigen::Vector2d project(const Eigen::Vector3d& p) const;
 };
 
+/// Settings of fit_keypoints().
 struct KeypointFitOptions {
   int max_iterations = 60;   ///< per stage and start (Levenberg–Marquardt iterations)
   /// Ceres threads, at most 2. One residual block holds every keypoint, so a second thread
@@ -78,20 +88,21 @@ struct KeypointFitStage {
   double cost = 0;     ///< final cost of the kept start
 };
 
+/// Result of fit_keypoints(): the body's pose, shape and camera, and how the fit went.
 struct KeypointFit {
   /// T-pose-relative pose (SMPL layout; convert with pose_for_rest()); translation places the
   /// body in the camera's frame (m), so joints = posed_joints(rest_joints, pose).
   Pose pose;
   KeypointShape shape{};          ///< in population standard deviations
   BodyMeasurements measurements;  ///< of that shape
-  PinholeCamera camera;
+  PinholeCamera camera;           ///< focal = Keypoints::focal, principal point = image centre (px)
   JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the shape
   JointPositions joints = JointPositions::Zero();      ///< posed joints, camera frame (m)
   std::vector<Eigen::Vector2d> projected;  ///< the fitted body's pixel for each input keypoint
   double mean_reprojection_px = 0;         ///< mean |projected − keypoint| over the keypoints
   bool facing_away = false;                ///< the back-facing start won stage 1
-  std::vector<KeypointFitStage> stages;
-  double total_ms = 0;
+  std::vector<KeypointFitStage> stages; ///< the stages run, in order
+  double total_ms = 0;                  ///< wall time of the whole fit (ms)
 };
 
 /// Fits the mannequin's pose, shape and position to `keypoints` in three stages (SMPLify):
@@ -100,19 +111,23 @@ struct KeypointFit {
 /// near it by a prior), keeping the better; 2 pose (shape fixed), from that start and from its
 /// mirror turn when the torso is turned (2D torso keypoints cannot tell a turn to the left from
 /// one to the right), keeping the better; 3 shape and pose. Robust to a few wrong keypoints
-/// (Geman–McClure). Never throws for valid Keypoints.
+/// (Geman–McClure). Never throws for Keypoints from parse_keypoints(); a hand-built Keypoints
+/// with no shoulder or no hip keypoint throws vfit::Error naming keypoints.source ("too few
+/// torso keypoints for a fit"). options.threads is clamped to [1, 2].
 KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& options = {});
 
 /// The objective E(θ, β, t) above, with the last stage's weights and Ceres' convention (½ Σ r²,
 /// px²-equivalent), of `pose` (T-pose-relative, translation in the camera frame of
 /// fit_keypoints()) and `shape` against `keypoints`. A diagnostic: a fit that ends above the
 /// objective of the true pose was stuck in a local minimum; one that ends below it lost to the
-/// priors' preference (monocular ambiguity). Throws like fit_keypoints().
+/// priors' preference (monocular ambiguity). Throws like fit_keypoints() (the same torso
+/// check).
 double keypoint_fit_objective(const Keypoints& keypoints, const Pose& pose, const KeypointShape& shape);
 
 /// `pose` (relative to the T-pose rest skeleton) re-expressed for a skeleton whose rest pose is
 /// `rest`, so that both give the same posed joints: for APOSE the shoulders' rotations lose the
-/// A-pose's 45° arm drop and the arm's lower joints are conjugated by it. TPOSE/OTHER: unchanged.
+/// A-pose's 45° arm drop and the arm's lower joints (elbow, wrist, hand) are conjugated by it.
+/// TPOSE/OTHER: returned unchanged. Never throws.
 Pose pose_for_rest(const Pose& pose, RestPose rest);
 
 } // namespace vfit

@@ -36,34 +36,41 @@ namespace vfit {
 /// (Joint); the landmarks below are surface points attached to a joint (their rest positions
 /// come from the mannequin's shape: keypoint_fit.h).
 enum class Landmark : int {
-  NOSE = JOINT_COUNT,
-  LEFT_EYE,
-  RIGHT_EYE,
-  LEFT_EAR,
-  RIGHT_EAR,
+  NOSE = JOINT_COUNT, ///< nose (OpenPose/COCO); the first landmark, = JOINT_COUNT (24)
+  LEFT_EYE,           ///< left eye
+  RIGHT_EYE,          ///< right eye
+  LEFT_EAR,           ///< left ear
+  RIGHT_EAR,          ///< right ear
   HEAD_TOP,          ///< top of the skull (LSP)
   NECK_BASE,         ///< OpenPose's "Neck": between the shoulders, below SMPL's neck joint
   MID_HIP,           ///< OpenPose's "MidHip": midway between the two hip landmarks
   LEFT_HIP_SURFACE,  ///< OpenPose/COCO/LSP hips (see keypoint_body_point())
-  RIGHT_HIP_SURFACE,
-  LEFT_BIG_TOE,
-  LEFT_SMALL_TOE,
-  LEFT_HEEL,
-  RIGHT_BIG_TOE,
-  RIGHT_SMALL_TOE,
-  RIGHT_HEEL,
-  END
+  RIGHT_HIP_SURFACE, ///< right counterpart of LEFT_HIP_SURFACE
+  LEFT_BIG_TOE,      ///< BODY_25 "LBigToe"
+  LEFT_SMALL_TOE,    ///< BODY_25 "LSmallToe"
+  LEFT_HEEL,         ///< BODY_25 "LHeel"
+  RIGHT_BIG_TOE,     ///< BODY_25 "RBigToe"
+  RIGHT_SMALL_TOE,   ///< BODY_25 "RSmallToe"
+  RIGHT_HEEL,        ///< BODY_25 "RHeel"
+  END                ///< one past the last landmark (= BODY_POINT_COUNT), not a point
 };
 
 /// Number of body points: 24 joints + the landmarks.
 inline constexpr int BODY_POINT_COUNT = static_cast<int>(Landmark::END);
 
-/// Name of body point `point`: a canonical joint name, or "nose", "left_eye", ... "right_heel".
+/// Name of body point `point`: a canonical joint name, or "nose", "left_eye", ... "right_heel";
+/// "unknown" for a point outside [0, BODY_POINT_COUNT) (never throws).
 std::string_view body_point_name(int point);
 
 /// Keypoint layouts. AUTO: OpenPose files by their count (75 → BODY_25, 54 → COCO_18), files
 /// with "layout": "lsp" as LSP_14, files with "joints" as NAMED.
-enum class KeypointLayout { AUTO, BODY_25, COCO_18, LSP_14, NAMED };
+enum class KeypointLayout {
+  AUTO,    ///< detect from the file (above)
+  BODY_25, ///< OpenPose BODY_25: 25 keypoints, 75 numbers
+  COCO_18, ///< OpenPose COCO-18: 18 keypoints, 54 numbers
+  LSP_14,  ///< Leeds Sports Pose: 14 keypoints, in LSP's order (file comment)
+  NAMED    ///< {"joints": {"<name>": [x, y(, c)]}}
+};
 
 /// "auto", "body25", "coco18", "lsp14", "named".
 std::string_view keypoint_layout_name(KeypointLayout layout);
@@ -99,8 +106,12 @@ struct Keypoint2D {
 /// A wrong focal length mostly trades against the camera distance, not the pose.
 double default_focal_length(double width, double height);
 
+/// How parse_keypoints() / read_keypoints() read a file; the defaults read any accepted file
+/// that carries its own image size.
 struct KeypointOptions {
-  KeypointLayout layout = KeypointLayout::AUTO;  ///< force a layout (OpenPose: BODY_25/COCO_18)
+  /// Force a layout (OpenPose: BODY_25/COCO_18); a file of another kind then throws
+  /// vfit::Error ("the file holds … keypoints, not …").
+  KeypointLayout layout = KeypointLayout::AUTO;
   std::optional<Eigen::Vector2d> image_size;     ///< overrides the file's (px)
   std::optional<double> focal;                   ///< overrides the file's (px)
   /// Keypoints at or below this confidence are treated as missing (OpenPose writes 0 for
@@ -112,6 +123,7 @@ struct KeypointOptions {
 /// freedom, leaving some for the pose), including at least 3 of the 4 torso keypoints
 /// (shoulders, hips), which anchor the camera's distance and the body's orientation.
 inline constexpr int MIN_CONFIDENT_KEYPOINTS = 6;
+/// Minimum confident torso keypoints (of left/right shoulder and hip) for a fit.
 inline constexpr int MIN_TORSO_KEYPOINTS = 3;
 
 /// The keypoints of one person.
@@ -127,14 +139,17 @@ struct Keypoints {
 
 /// Parses keypoints from JSON text; `source` names it in messages. Throws vfit::Error naming
 /// the source and the element for: invalid JSON, no person (empty "people"), an unknown layout
-/// (a keypoint count that is neither 75 nor 54, an unknown "layout" or joint name), a value
-/// that is not a finite number, a confidence outside [0, 1], a missing or non-positive image
-/// size or focal length, and fewer than MIN_CONFIDENT_KEYPOINTS confident keypoints (or fewer
-/// than MIN_TORSO_KEYPOINTS torso ones). With several people, keeps the one with the highest
-/// summed confidence and adds a warning.
+/// (a keypoint count that is neither 75 nor 54, an unknown "layout" or joint name), a file
+/// that does not match a forced KeypointOptions::layout, a malformed entry (not an array, a
+/// wrong length), the same body point named twice, a value that is not a finite number, a
+/// confidence outside [0, 1], a missing or non-positive image size or focal length, and fewer
+/// than MIN_CONFIDENT_KEYPOINTS confident keypoints (or fewer than MIN_TORSO_KEYPOINTS torso
+/// ones). With several people, keeps the one with the highest summed confidence and adds a
+/// warning. Keypoints at or below options.min_confidence are dropped, not errors.
 Keypoints parse_keypoints(const std::string& json_text, const std::string& source, const KeypointOptions& options = {});
 
-/// Reads a keypoints file (see parse_keypoints()).
+/// Reads a keypoints file (see parse_keypoints(); `source` is the path). Throws vfit::Error
+/// "<path>: cannot open: <reason>" for an unreadable file, else as parse_keypoints().
 Keypoints read_keypoints(const std::filesystem::path& path, const KeypointOptions& options = {});
 
 } // namespace vfit

@@ -22,6 +22,7 @@
 
 namespace vfit {
 
+/// Settings of fit_scan().
 struct ScanFitOptions {
   int icp_rounds = 10;                 ///< correspondence / solve alternations (bounded)
   int iterations_per_round = 8;        ///< Levenberg–Marquardt iterations per solve, at most
@@ -30,7 +31,7 @@ struct ScanFitOptions {
   /// Pairs farther apart than this (m) are rejected in the first round; the limit shrinks to
   /// half of it by the last round as the fit closes in.
   double reject_distance = 0.10;
-  int threads = 2; ///< Ceres threads, at most 2
+  int threads = 2; ///< Ceres threads, clamped to [1, 2]
 };
 
 /// One stage of the fit.
@@ -50,8 +51,8 @@ struct ScanFit {
   /// Shape: a global scale s of the template (stature and girths together) and the keypoint
   /// model's β (keypoint_fit.h; β[0], stature, is held at 0 since s carries it; β[1] leg, β[2]
   /// arm length, β[3] shoulder width, in population σ).
-  double scale = 1.0;
-  KeypointShape shape{};
+  double scale = 1.0;    ///< s (dimensionless; 1 = the template's size)
+  KeypointShape shape{}; ///< β (population σ; β[0] = 0, see above)
   BodyMeasurements measurements;                       ///< of the fitted shape (the mannequin's, scaled)
   JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the fitted shape (m)
   /// The joints in the scan (m): estimate_joints() run on the scan unposed into the fitted
@@ -65,9 +66,9 @@ struct ScanFit {
   /// pose_body() by rotations relative to this pose. rest_pose from classify_rest_pose().
   Body rigged;
   bool initialised_from_joints = false; ///< estimate_joints() worked on the scan (else an A-pose start)
-  std::vector<ScanFitStage> stages;
-  double total_ms = 0;
-  std::vector<std::string> warnings;
+  std::vector<ScanFitStage> stages;  ///< the stages run, in order
+  double total_ms = 0;               ///< wall time of the whole fit (ms)
+  std::vector<std::string> warnings; ///< e.g. the A-pose fallback start; one line each
 };
 
 /// The template body of the scan fit: the mannequin of average measurements in T-pose, 3,000
@@ -83,8 +84,9 @@ const Body& scan_fit_template();
 /// ICP rounds and the skin weights, the joints are re-estimated on the unposed scan (ScanFit::joints). Shape
 /// model: the template's rest vertices v = s (v₀ + Σ_k w_k ΔJ_k(β)) follow their joints'
 /// displacement ΔJ(β) from the keypoint model, so β changes limb lengths and s everything.
-/// Throws vfit::Error (naming `source`) for fewer than 100 points, non-finite coordinates, or a
-/// scan whose height is outside 0.8–2.5 m (not in metres, or not a body).
+/// Throws vfit::Error (naming `source`) for fewer than 100 points, a non-finite coordinate
+/// (naming the vertex), or a scan whose extent along Y is outside 0.8–2.5 m (not in metres,
+/// not upright, or not a body). Seed 001 eq. 4 (with eq. 3's LBS for M).
 ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptions& options = {});
 
 /// Drives a body rigged in a fitted pose to another pose: `rest` is a skeleton's rest joints,
@@ -94,13 +96,16 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
 /// has in `to` (relative to `rest`): W_j = R_j(to) R_j(from)ᵀ, local rotations W_parentᵀ W_j, and
 /// the translation that puts the rigged pelvis where `to` puts the skeleton's. Exact for any
 /// rotations; pose_body(rigged, result) then equals posing the skeleton's own body by `to`
-/// wherever the rigged body's joints and weights equal the skeleton's.
+/// wherever the rigged body's joints and weights equal the skeleton's. Joints are 24 × 3 (m);
+/// no validation, never throws.
 Pose relative_pose(const JointPositions& rest, const Pose& from, const Pose& to, const JointPositions& rigged_joints);
 
 /// Skin weights of `points` (#P × 3, m) by barycentric interpolation of `weights` (of `mesh`'s
 /// vertices) at each point's closest point on `mesh` (seed 001 §5.2), the 4 largest kept and
-/// renormalised. TBB-parallel. Throws vfit::Error when `mesh` has no faces or `weights` does not
-/// match its vertex count.
+/// renormalised; returns #P rows. TBB-parallel. Throws vfit::Error ("skin weight
+/// interpolation: …") when `mesh` has no faces or `weights` fails validate_skin_weights()
+/// against its vertex count, and vfit::Error ("proximity queries: …") when points.size() is not
+/// a multiple of 3 or a point is not finite.
 SkinWeights interpolate_skin_weights(const Mesh& mesh, const SkinWeights& weights, std::span<const float> points);
 
 } // namespace vfit

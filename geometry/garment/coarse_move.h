@@ -55,7 +55,7 @@ struct CoarseMove {
 CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& key_points,
                                std::span<const PartSkeleton> skeletons, const JointPositions& joints);
 
-/// Options of contact_translation().
+/// Options of contact_translation() (not validated: max_iterations ≤ 0 returns zero).
 struct ContactMoveOptions {
   /// Distance (m) each point is to keep outside the body: 0 lets the garment touch it, as a
   /// garment modelled on the body does; penetration removal adds its own clearance later.
@@ -76,7 +76,11 @@ struct ContactMoveOptions {
 /// c_i, with a Tikhonov term 10⁻³·trace so that directions no inside point constrains do not
 /// move. Points pressed in from opposite sides balance (a garment too small for the body
 /// stays centred on it). Ends when no point is inside, after max_iterations, or when a round
-/// moves less than options.tolerance. Returns Δ (zero for no point inside, or no point).
+/// moves less than options.tolerance. Returns Δ (m; zero for no point inside, no point, or a
+/// body without triangles). Closest points are searched at any distance; a point within 1e-9 m
+/// of the surface has no direction and is skipped; a trailing partial row of `points` is
+/// ignored. Throws vfit::Error ("proximity queries: …") naming the first non-finite point.
+/// Not in seed 000: a refinement of the eq. 16–17 placement.
 Eigen::Vector3d contact_translation(std::span<const float> points, const ProximityIndex& body,
                                     const ContactMoveOptions& options = {});
 

@@ -63,8 +63,12 @@ struct SkeletonDriving {
   std::vector<float> positions;                                 ///< #V × 3 deformed positions (m)
   Eigen::Matrix3d torso_rotation = Eigen::Matrix3d::Identity(); ///< R = R_v R_h of eq. 5–7
   Eigen::Vector3d torso_translation = Eigen::Vector3d::Zero();  ///< after the rotation (eq. 16–17), contact included
+  /// The part of torso_translation from contact with the body surface (m): contact_translation()
+  /// (coarse_move.h, default ContactMoveOptions) over the torso vertices farther than
+  /// seam_radius from every seam; zero when drive() was given no body surface. The crotch
+  /// alignment of trousers is not included.
   Eigen::Vector3d contact_translation =
-      Eigen::Vector3d::Zero();   ///< the part of it from contact with the body surface (m)
+      Eigen::Vector3d::Zero();
   std::vector<DrivenLimb> limbs; ///< in the skeletons' order
   SkeletonDrivingTimings timings;
 };
@@ -87,7 +91,9 @@ struct GarmentKeyJoints {
   Eigen::Vector3d right_axis = -Eigen::Vector3d::UnitX(); ///< unit, from j1 towards the right limb's open end
   Eigen::Vector3d left_axis = Eigen::Vector3d::UnitX();   ///< unit, from j2 towards the left limb's open end
   bool legs = false;                                      ///< true: hips (trousers, shorts); false: shoulders (tops)
-  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();       ///< legs: the crotch key point (segment.h), m
+  /// legs: the crotch key point (segment.h) in mesh units, like j1 and j2; zero for tops. Used
+  /// by SkeletonDriver::drive() with a body surface to meet the body's crotch.
+  Eigen::Vector3d crotch = Eigen::Vector3d::Zero();
 };
 GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons);
 
@@ -131,7 +137,13 @@ public:
   /// torso is first moved along the body's trunk so that the garment's crotch key point meets
   /// the body's crotch (where a line down the trunk from the hips' midpoint leaves the body),
   /// since the hips' height is estimated from the cut and contact can only push the garment
-  /// out, not pull a garment placed too high down. Without it, eq. 8–11 as DrivenLimb describes.
+  /// out, not pull a garment placed too high down. The crotch is sought along the trunk axis
+  /// (pelvis → neck) over one thigh's length below the hips' midpoint; when the midpoint is
+  /// outside the body or the line never leaves it, the crotch step is skipped silently.
+  /// Without a surface, eq. 8–11 as DrivenLimb describes. The surface must index the same posed
+  /// body as `body_joints` (m); it is queried, not modified. Throws vfit::Error ("proximity
+  /// queries: …") when the placed garment has a non-finite coordinate; `body_joints` is not
+  /// validated.
   /// Opt-in: engine/fit_pipeline.cpp does not pass a surface, because on posed bodies the
   /// contact translation picks up flesh that is not the garment's (lowered arms lift a tee by
   /// ~4 cm), costs 20–60 ms per top, and left the corpus fit with more crossing edges (848
@@ -159,8 +171,8 @@ private:
   double m_setup_ms = 0;
 };
 
-/// One call: SkeletonDriver(garment, segmentation, skeletons, options).drive(body_joints), with
-/// the setup time in the timings.
+/// One call: SkeletonDriver(garment, segmentation, skeletons, options).drive(body_joints,
+/// body_surface), with the setup time in the timings; throws as the two do.
 SkeletonDriving drive_garment(const Mesh& garment, const GarmentSegmentation& segmentation,
                               std::span<const PartSkeleton> skeletons, const JointPositions& body_joints,
                               const SkeletonDrivingOptions& options = {}, const ProximityIndex* body_surface = nullptr);

@@ -62,21 +62,9 @@ const char* const GARMENTS[] = {"female_casualsuit01__jeans",
                                 "male_worksuit01__overalls",
                                 "male_worksuit01__tshirt"};
 
-bool has(const std::string& s, const char* part) { return s.find(part) != std::string::npos; }
-
-// The type a garment's name promises (as in corpus_segment_test.cpp); nullopt for pieces that
-// are not garments on their own: the pipeline must refuse those.
-std::optional<GarmentType> expected_type(const std::string& name) {
-  if (has(name, "collar") || has(name, "inner_shirt")) return std::nullopt;
-  if (has(name, "longsleeve") || has(name, "blazer") || has(name, "jacket")) return GarmentType::LONG_SLEEVE;
-  if (has(name, "tshirt") || has(name, "crop_top")) return GarmentType::TEE;
-  if (has(name, "shirt")) return GarmentType::LONG_SLEEVE;
-  if (has(name, "jeans") || has(name, "trousers") || has(name, "leggings") || has(name, "overalls"))
-    return GarmentType::TROUSERS;
-  if (has(name, "shorts")) return GarmentType::SHORTS;
-  if (has(name, "skirt")) return GarmentType::SKIRT;
-  return std::nullopt;
-}
+// The type a garment's name promises; nullopt for pieces that are not garments on their own:
+// the pipeline must refuse those.
+std::optional<GarmentType> expected_type(const std::string& name) { return test::corpus_garment_type(name); }
 
 // Known defects (issue 7's corpus run, measured when this test was written): garments left with
 // edges crossing the body in at least one of the poses after simulation and clean-up, every

@@ -20,21 +20,12 @@
 namespace vfit {
 namespace {
 
-bool has(const std::string& s, const char* part) { return s.find(part) != std::string::npos; }
-
-// The type a garment's name promises; nullopt for pieces that are not garments on their own
-// (a detached shirt collar, the front panel of a waistcoat): segmentation must refuse those.
+// The type a garment's name promises (test::corpus_garment_type); an unknown name fails.
 std::optional<GarmentType> expected_type(const std::string& name) {
-  if (has(name, "collar") || has(name, "inner_shirt")) return std::nullopt;
-  if (has(name, "longsleeve") || has(name, "blazer") || has(name, "jacket")) return GarmentType::LONG_SLEEVE;
-  if (has(name, "tshirt") || has(name, "crop_top")) return GarmentType::TEE;
-  if (has(name, "shirt")) return GarmentType::LONG_SLEEVE;
-  // Overalls: full-length legs under a bib, which stays torso.
-  if (has(name, "jeans") || has(name, "trousers") || has(name, "leggings") || has(name, "overalls")) return GarmentType::TROUSERS;
-  if (has(name, "shorts")) return GarmentType::SHORTS;
-  if (has(name, "skirt")) return GarmentType::SKIRT;
-  ADD_FAILURE() << "no expectation for " << name;
-  return std::nullopt;
+  bool known = false;
+  const std::optional<GarmentType> type = test::corpus_garment_type(name, &known);
+  if (!known) ADD_FAILURE() << "no expectation for " << name;
+  return type;
 }
 
 std::size_t pieces(const Mesh& m, const std::vector<GarmentPart>& parts, GarmentPart part) {

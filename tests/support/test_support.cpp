@@ -143,4 +143,19 @@ Mesh octahedron() {
   return m;
 }
 
+std::optional<GarmentType> corpus_garment_type(const std::string& name, bool* known) {
+  auto has = [&](const char* part) { return name.find(part) != std::string::npos; };
+  if (known) *known = true;
+  if (has("collar") || has("inner_shirt")) return std::nullopt;
+  if (has("longsleeve") || has("blazer") || has("jacket")) return GarmentType::LONG_SLEEVE;
+  if (has("tshirt") || has("crop_top")) return GarmentType::TEE;
+  if (has("shirt")) return GarmentType::LONG_SLEEVE;
+  // Overalls: full-length legs under a bib, which stays torso.
+  if (has("jeans") || has("trousers") || has("leggings") || has("overalls")) return GarmentType::TROUSERS;
+  if (has("shorts")) return GarmentType::SHORTS;
+  if (has("skirt")) return GarmentType::SKIRT;
+  if (known) *known = false;
+  return std::nullopt;
+}
+
 } // namespace vfit::test

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "geometry/body/body.h"
+#include "geometry/garment/garment.h"
 #include "geometry/mesh/mesh.h"
 
 namespace vfit::test {
@@ -41,6 +42,12 @@ CliResult run_cli(const std::vector<std::string>& args);
 /// The shared corpus folder, or nullopt when it is absent (tests then GTEST_SKIP, saying why).
 /// VFIT_CORPUS overrides the path configured at build time.
 std::optional<std::filesystem::path> corpus_dir();
+
+/// The garment type a corpus garment's file name promises (parts_on_hm08: "..._tshirt",
+/// "..._jeans", ...); nullopt for pieces that are not garments on their own (a detached shirt
+/// collar, an inner shirt panel: the pipeline must refuse them) and for names it does not know,
+/// in which case `known` (when given) is set false.
+std::optional<GarmentType> corpus_garment_type(const std::string& name, bool* known = nullptr);
 
 /// Every file under `dir` whose extension (lower case) is one of `extensions`, sorted.
 std::vector<std::filesystem::path> files_with_extensions(const std::filesystem::path& dir,
