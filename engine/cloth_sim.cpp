@@ -33,6 +33,14 @@ const char* to_string(ClothStatus status) {
   return "unknown";
 }
 
+// Guard (m) added to the contact reach for the float rounding of a signed distance (~1e-8 m
+// at 5 cm) and of the motion bound.
+constexpr float CONTACT_REACH_GUARD = 1e-4f;
+// Every this many contact passes every particle is queried again (see Impl::update_hits):
+// insurance for the one case the distance bound does not cover, a side flip of a particle
+// already buried in a self-overlapping posed body.
+constexpr int CONTACT_FULL_QUERY_PASSES = 32;
+
 // A vertex pinned to a body triangle (a, b, c): x = a + s·(b − a) + t·(c − a) + h·n̂.
 struct BodyAttachment {
   std::int32_t vertex = 0, triangle = 0;
@@ -185,9 +193,101 @@ struct ClothSim::Impl {
     return ContactParameters{options.contact_thickness, options.contact_friction, options.contact_restitution};
   }
 
+  // The contact broad phase kept across passes: a particle last queried at q with signed
+  // distance d cannot come closer than d − |x − q| to the body (the distance is 1-Lipschitz),
+  // so it is queried again only once |x − q| reaches d minus the contact reach; the others keep
+  // their hit rows, which stay farther than the reach (no response, no constraint) exactly as
+  // a fresh query's would. Identical contacts to querying every particle, for a closed body.
+  std::vector<float> query_positions;  // #V × 3: where each particle was last queried
+  std::vector<float> query_allowance;  // #V: motion (m) allowed before the next query
+  std::vector<std::int32_t> requeried; // scratch: the particles queried in this pass
+  std::vector<float> requery_points;
+  std::vector<float> requery_radii; // #requeried search radii (m)
+  ClosestHits requery_hits;
+  bool candidates_valid = false; // false: the next pass queries every particle
+  bool body_closed = false;      // the cache is used on closed bodies only (see set_body)
+  int passes_since_full = 0;
+
+  // Farthest signed distance (m) at which a hit row matters: the response's thickness, plus the
+  // constraint margin when contacts are in the solve, plus a guard for the float rounding of
+  // the distance.
+  float contact_reach() const {
+    return options.contact_thickness + (options.contacts_in_solve ? options.contact_margin : 0.0f) +
+           CONTACT_REACH_GUARD;
+  }
+
+  void record_query(std::size_t i, float reach) {
+    for (int k = 0; k < 3; ++k)
+      query_positions[3 * i + k] = x[3 * i + k];
+    const float d = hits.triangles[i] < 0 ? options.contact_search_radius : hits.signed_distances[i];
+    query_allowance[i] = d - reach;
+  }
+
+  // Brings `hits` up to date for every particle whose row can matter (see query_positions).
+  void update_hits() {
+    const std::size_t n = masses.size();
+    const float reach = contact_reach();
+    const bool full = !options.contact_candidates || !body_closed || !candidates_valid ||
+                      ++passes_since_full >= CONTACT_FULL_QUERY_PASSES;
+    if (full) {
+      query_body(x, options.contact_search_radius, hits);
+      query_positions.resize(3 * n);
+      query_allowance.resize(n);
+      for (std::size_t i = 0; i < n; ++i)
+        record_query(i, reach);
+      candidates_valid = true;
+      passes_since_full = 0;
+      return;
+    }
+    requeried.clear();
+    requery_points.clear();
+    requery_radii.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      const float a = query_allowance[i];
+      if (a > 0.0f) {
+        float moved2 = 0.0f;
+        for (int k = 0; k < 3; ++k) {
+          const float d = x[3 * i + k] - query_positions[3 * i + k];
+          moved2 += d * d;
+        }
+        if (moved2 < a * a) continue;
+      }
+      requeried.push_back(static_cast<std::int32_t>(i));
+      float to_old_point2 = 0.0f;
+      for (int k = 0; k < 3; ++k) {
+        requery_points.push_back(x[3 * i + k]);
+        const float d = x[3 * i + k] - hits.points[3 * i + k];
+        to_old_point2 += d * d;
+      }
+      // The old closest point is still on the (unmoved) body: the new closest point is no
+      // farther than it, so a search radius just past it finds the same answer as the full
+      // radius, pruning most of the BVH traversal.
+      const float radius = hits.triangles[i] < 0
+                               ? options.contact_search_radius
+                               : std::min(options.contact_search_radius,
+                                          std::sqrt(to_old_point2) * (1.0f + 1e-5f) + CONTACT_REACH_GUARD);
+      requery_radii.push_back(radius);
+    }
+    if (body && options.backend != ClothBackend::SERIAL)
+      body->closest_points(requery_points, requery_radii, requery_hits);
+    else
+      query_body(requery_points, options.contact_search_radius, requery_hits);
+    for (std::size_t r = 0; r < requeried.size(); ++r) {
+      const auto i = static_cast<std::size_t>(requeried[r]);
+      for (int k = 0; k < 3; ++k)
+        hits.points[3 * i + k] = requery_hits.points[3 * r + k];
+      hits.triangles[i] = requery_hits.triangles[r];
+      hits.barycentrics[2 * i] = requery_hits.barycentrics[2 * r];
+      hits.barycentrics[2 * i + 1] = requery_hits.barycentrics[2 * r + 1];
+      hits.signed_distances[i] = requery_hits.signed_distances[r];
+      hits.features[i] = requery_hits.features[r];
+      record_query(i, reach);
+    }
+  }
+
   std::size_t resolve_contacts() {
     if (!has_body()) return 0;
-    query_body(x, options.contact_search_radius, hits);
+    update_hits();
     hits_valid = true;
     return resolve_body_contacts(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
                                  contact_parameters());
@@ -366,6 +466,8 @@ void ClothSim::set_body(std::span<const float> positions, std::span<const std::i
   m.body_triangles.assign(triangles.begin(), triangles.end());
   m.body_velocities.clear();
   m.hits_valid = false;
+  m.candidates_valid = false;
+  m.body_closed = build_hole_caps(triangles, nb).loop_count() == 0;
   std::vector<std::int32_t> attach = attached_vertices();
   if (m.options.waistband_pins && !m.waistband_attached) {
     const std::vector<std::int32_t> band = waistband_vertices(m.x, m.triangles, m.options.waistband_width);
@@ -455,6 +557,7 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
   else
     m.body->refit(positions);
   m.hits_valid = false;
+  m.candidates_valid = false;
   for (const BodyAttachment& a : m.attachments) {
     double to[3];
     m.attached_position(a, to);
@@ -501,6 +604,7 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
     m.x = m.saved_x;
     m.v = m.saved_v;
     m.hits_valid = false;
+    m.candidates_valid = false;
     return r;
   }
   double total = 0;

@@ -88,15 +88,15 @@ void assemble_range(const float* x, const float* v, const SpringAdjacency& adj, 
       const auto j = static_cast<std::size_t>(adj.neighbors[e]);
       const vfit_vec3 xj = load3(x, j), vj = load3(v, j);
       const float L = adj.rest_lengths[e], k = adj.stiffness[e], c = adj.damping[e];
-      const vfit_vec3 fs = vfit_spring_force(xi, xj, vi, vj, L, k, c);
+      vfit_vec3 fs, ks;
+      vfit_sym3 block;
+      vfit_spring_implicit_terms(xi, xj, vi, vj, L, k, c, h, &fs, &ks, &block);
       f.x += fs.x;
       f.y += fs.y;
       f.z += fs.z;
-      const vfit_vec3 ks = vfit_sym3_apply(vfit_spring_system_block(xi, xj, L, k, 0.0f, 1.0f, 1), vfit_v3_sub(vj, vi));
       kv.x += ks.x;
       kv.y += ks.y;
       kv.z += ks.z;
-      const vfit_sym3 block = vfit_spring_system_block(xi, xj, L, k, c, h, 1);
       store_sym(s.off_diagonal.data(), std::size_t(e), block);
       add_sym(diag, block);
     }

@@ -183,6 +183,56 @@ VFIT_INLINE vfit_sym3 vfit_spring_system_block(vfit_vec3 xi, vfit_vec3 xj, float
   return b;
 }
 
+/* Everything the implicit step's assembly needs from one spring, from one evaluation of its
+ * length and direction (one sqrt where the three calls below take three):
+ *   *force = vfit_spring_force(xi, xj, vi, vj, L, k, c),
+ *   *stiffness_dv = K·(vj − vi), K = vfit_spring_system_block(xi, xj, L, k, 0, 1, 1),
+ *   *block = vfit_spring_system_block(xi, xj, L, k, c, h, 1),
+ * the same expressions as those functions (compression clamped), so the same values up to
+ * float rounding. Springs shorter than VFIT_SPRING_MIN_LENGTH give zeros. */
+VFIT_INLINE void vfit_spring_implicit_terms(vfit_vec3 xi, vfit_vec3 xj, vfit_vec3 vi, vfit_vec3 vj, float rest_length,
+                                            float stiffness, float damping, float h, vfit_vec3* force,
+                                            vfit_vec3* stiffness_dv, vfit_sym3* block) {
+  vfit_vec3 d = vfit_v3_sub(xj, xi);
+  float l = sqrt(vfit_v3_dot(d, d));
+  force->x = 0.0f;
+  force->y = 0.0f;
+  force->z = 0.0f;
+  *stiffness_dv = *force;
+  block->xx = 0.0f;
+  block->xy = 0.0f;
+  block->xz = 0.0f;
+  block->yy = 0.0f;
+  block->yz = 0.0f;
+  block->zz = 0.0f;
+  if (!(l > VFIT_SPRING_MIN_LENGTH)) return;
+  vfit_vec3 u;
+  u.x = d.x / l;
+  u.y = d.y / l;
+  u.z = d.z / l;
+  vfit_vec3 dvel = vfit_v3_sub(vj, vi);
+  float rate = vfit_v3_dot(dvel, u);
+  float s = stiffness * (l - rest_length) + damping * rate;
+  force->x = s * u.x;
+  force->y = s * u.y;
+  force->z = s * u.z;
+  float transverse = stiffness * (1.0f - rest_length / l);
+  if (transverse < 0.0f) transverse = 0.0f;
+  /* K·w = (k − t)·u·(u·w) + t·w */
+  float along = (stiffness - transverse) * rate;
+  stiffness_dv->x = along * u.x + transverse * dvel.x;
+  stiffness_dv->y = along * u.y + transverse * dvel.y;
+  stiffness_dv->z = along * u.z + transverse * dvel.z;
+  float t = h * h * transverse;
+  float a = h * damping + h * h * (stiffness - transverse);
+  block->xx = a * u.x * u.x + t;
+  block->xy = a * u.x * u.y;
+  block->xz = a * u.x * u.z;
+  block->yy = a * u.y * u.y + t;
+  block->yz = a * u.y * u.z;
+  block->zz = a * u.z * u.z + t;
+}
+
 /* S·p for a symmetric block S. */
 VFIT_INLINE vfit_vec3 vfit_sym3_apply(vfit_sym3 s, vfit_vec3 p) {
   vfit_vec3 r;

@@ -29,19 +29,52 @@ SparseMatrix assemble(std::vector<Eigen::Triplet<double>>& edges, std::size_t n)
 } // namespace
 
 SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::size_t vertex_count) {
-  // Each undirected edge once with weight 1 (an interior edge is seen by two faces).
-  std::vector<std::pair<std::int32_t, std::int32_t>> keys;
-  keys.reserve(triangles.size());
-  for (std::size_t c = 0; c < triangles.size(); ++c) {
-    const std::int32_t a = triangles[c], b = triangles[c % 3 == 2 ? c - 2 : c + 1];
-    if (a != b) keys.emplace_back(std::min(a, b), std::max(a, b));
+  // Each undirected edge once with weight 1 (an interior edge is seen by two faces): the
+  // neighbours of every vertex by a counting sort of the corner edges in both directions, then
+  // a small sort per vertex, written straight into the row-major storage in column order —
+  // linear in #F (a global sort of the edge list and setFromTriplets cost ~3× more; this is on
+  // penetration removal's path, once per call).
+  const std::size_t n = vertex_count;
+  std::vector<std::int32_t> start(n + 1, 0);
+  auto other = [&](std::size_t c) { return triangles[c % 3 == 2 ? c - 2 : c + 1]; };
+  for (std::size_t c = 0; c < triangles.size(); ++c)
+    if (const std::int32_t a = triangles[c], b = other(c); a != b) {
+      ++start[std::size_t(a) + 1];
+      ++start[std::size_t(b) + 1];
+    }
+  for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+  std::vector<std::int32_t> neighbours(std::size_t(start[n]));
+  std::vector<std::int32_t> cursor(start.begin(), start.end() - 1);
+  for (std::size_t c = 0; c < triangles.size(); ++c)
+    if (const std::int32_t a = triangles[c], b = other(c); a != b) {
+      neighbours[std::size_t(cursor[std::size_t(a)]++)] = b;
+      neighbours[std::size_t(cursor[std::size_t(b)]++)] = a;
+    }
+  Eigen::VectorXi row_sizes(static_cast<Eigen::Index>(n));
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto first = neighbours.begin() + start[v], last = neighbours.begin() + start[v + 1];
+    std::sort(first, last);
+    cursor[v] = std::int32_t(std::unique(first, last) - first); // distinct neighbours
+    row_sizes[static_cast<Eigen::Index>(v)] = cursor[v] + 1;
   }
-  std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-  std::vector<Eigen::Triplet<double>> edges;
-  edges.reserve(keys.size());
-  for (const auto& [a, b] : keys) edges.emplace_back(a, b, 1.0);
-  return assemble(edges, vertex_count);
+  SparseMatrix L(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  L.reserve(row_sizes);
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto row = static_cast<Eigen::Index>(v);
+    const std::int32_t* nb = neighbours.data() + start[v];
+    const std::int32_t count = cursor[v];
+    bool diagonal_written = false;
+    for (std::int32_t k = 0; k < count; ++k) {
+      if (!diagonal_written && nb[k] > std::int32_t(v)) {
+        L.insert(row, row) = double(count);
+        diagonal_written = true;
+      }
+      L.insert(row, nb[k]) = -1.0;
+    }
+    if (!diagonal_written) L.insert(row, row) = double(count);
+  }
+  L.makeCompressed();
+  return L;
 }
 
 SparseMatrix cotangent_laplacian(std::span<const float> positions, std::span<const std::int32_t> triangles) {

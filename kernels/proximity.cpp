@@ -75,6 +75,7 @@ bool closest_triangle_callback(RTCPointQueryFunctionArguments* args) {
     consider_cap(*s, static_cast<std::uint32_t>(s->index->face_count) + args->primID);
     return false;
   }
+  if (s->index->cannot_improve(s->query, args->primID, s->best.distance2)) return false;
   const vfit_closest_point c = s->index->closest_on(s->query, args->primID);
   if (!improves(c.distance2, args->primID, s->best.distance2, s->best_triangle)) return false;
   s->best = c;

@@ -17,12 +17,16 @@
 // step): wall seconds to rest, simulated seconds per wall second, and that rate against
 // Blender 3.4's 1.6 s of wall time per frame on this garment size, taking Blender's default
 // 24 frames per second of animation (0.026 simulated s per wall s): blender_x ≥ 50 is the bar.
+// cpu_s_to_rest is the process CPU time (all threads) of the drape: on a shared machine wall
+// time varies with the load, CPU time much less. BM_drape_tee_to_rest_full_queries turns the
+// contact candidate cache off (ClothOptions::contact_candidates) for comparison.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <map>
 #include <random>
 #include <memory>
@@ -229,25 +233,28 @@ const Drape& drape() {
 }
 
 void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, double max_simulated_seconds,
-                 bool contacts_in_solve = false) {
+                 bool contacts_in_solve = false, bool contact_candidates = true) {
   const Drape& d = drape();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
   vfit::ClothRestReport last;
-  double wall = 0, simulated = 0;
+  double wall = 0, cpu = 0, simulated = 0;
   for (auto _ : state) {
     vfit::ClothOptions o;
     o.integrator = integrator;
+    o.contact_candidates = contact_candidates;
     if (contacts_in_solve) {
       o.contacts_in_solve = true;
       o.implicit_step = 1.0 / 60.0;
     }
     const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
     vfit::ClothSim sim(d.tee.position_view(), d.tee.triangle_view(), o);
     sim.set_body(d.body.mesh.position_view(), d.body.mesh.triangle_view());
     vfit::ClothRestOptions ro;
     ro.max_simulated_seconds = max_simulated_seconds;
     last = sim.run_to_rest(ro);
     wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    cpu += double(std::clock() - c0) / CLOCKS_PER_SEC;
     simulated += last.simulated_seconds;
   }
   const double rate = simulated / wall;
@@ -261,6 +268,7 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   state.counters["wall_s_to_rest"] = wall / double(state.iterations());
   state.counters["cg_iterations"] = double(last.solver_iterations);
   state.counters["blender_x"] = rate / ((1.0 / 24.0) / 1.6);
+  state.counters["cpu_s_to_rest"] = cpu / double(state.iterations());
 }
 
 void BM_drape_tee_to_rest(benchmark::State& state) {
@@ -268,6 +276,13 @@ void BM_drape_tee_to_rest(benchmark::State& state) {
 }
 // One drape per thread count (each takes seconds); the garment and body are built once, untimed.
 BENCHMARK(BM_drape_tee_to_rest)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+// The same drape querying every particle at every contact pass (contact_candidates off): what
+// the contact candidate cache saves (the two settle through the same states, bit for bit).
+void BM_drape_tee_to_rest_full_queries(benchmark::State& state) {
+  drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0, false, false);
+}
+BENCHMARK(BM_drape_tee_to_rest_full_queries)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 // The same drape with the body contacts as constraints of the implicit solve
 // (ClothOptions::contacts_in_solve) in steps of 1/60 s (they diverge without it), cut at 3

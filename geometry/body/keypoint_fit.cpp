@@ -231,11 +231,18 @@ const std::vector<BoxLimit>& box_limits() {
   return limits;
 }
 
-constexpr int DIRECTION_LIMITS = 6; // per hip: extension, crossing; per shoulder: far behind
+constexpr int DIRECTION_LIMITS = 12; // per hip: extension, crossing, behind; per arm: far behind, upper and forearm behind
 constexpr double LIMIT_WEIGHT = 400.0;    // px-equivalent per rad (or per unit of direction)
+constexpr double PRIOR_SATURATION = 0.5;  // rad: where the pull toward the relaxed pose levels off
+constexpr double BEHIND_WEIGHT = 20.0;    // px-equivalent per unit of a limb's backward direction
+// Levenberg–Marquardt iterations for each depth hypothesis: enough to tell a better basin
+// (stage 3 finishes the winner), a cap that keeps the fit within its time budget.
+constexpr int FLIP_ITERATIONS = 15;
+constexpr double BEHIND_MARGIN = 0.2;     // backward direction component free of cost (~12°)
 
-// The relaxed pose (arms ~60° down, elbows and knees slightly bent) and per-number L2 weights
-// (px-equivalent per rad): strong on what 2D joints barely see.
+// The relaxed pose (arms ~60° down, elbows and knees slightly bent) and per-number weights of
+// the saturating pull toward it (px-equivalent per rad near it): strong on what 2D joints
+// barely see.
 struct PoseMean {
   std::array<double, BODY_POSE> mean{};
   std::array<double, BODY_POSE> weight{};
@@ -251,7 +258,7 @@ const PoseMean& pose_mean() {
     p.mean[at(Joint::RIGHT_ELBOW, 1)] = 0.15;
     p.mean[at(Joint::LEFT_KNEE, 0)] = 0.08;
     p.mean[at(Joint::RIGHT_KNEE, 0)] = 0.08;
-    p.weight.fill(10.0);
+    p.weight.fill(20.0);
     for (Joint j : {Joint::LEFT_WRIST, Joint::RIGHT_WRIST, Joint::LEFT_HAND, Joint::RIGHT_HAND, Joint::LEFT_FOOT, Joint::RIGHT_FOOT})
       for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 200.0;
     // The torso and neck stay near upright unless the keypoints insist: 2D joints cannot tell a
@@ -275,7 +282,15 @@ struct PosePrior {
     const PoseMean& m = pose_mean();
     const T s(*scale);
     int k = 0;
-    for (int i = 0; i < BODY_POSE; ++i) r[k++] = s * m.weight[static_cast<std::size_t>(i)] * (body[i] - m.mean[static_cast<std::size_t>(i)]);
+    // Saturating (Geman–McClure-like) pull toward the relaxed pose: quadratic for small
+    // deviations, so keypoint noise is not explained by bending limbs in depth, but bounded for
+    // large ones (r² → (w·PRIOR_SATURATION)²), so a pose the keypoints clearly show is not
+    // dragged along its depth ambiguity toward the relaxed pose.
+    using std::sqrt;
+    for (int i = 0; i < BODY_POSE; ++i) {
+      const T d = body[i] - m.mean[static_cast<std::size_t>(i)];
+      r[k++] = s * m.weight[static_cast<std::size_t>(i)] * d / sqrt(T(1) + d * d / T(PRIOR_SATURATION * PRIOR_SATURATION));
+    }
     auto excess = [](const T& x, double lo, double hi) { return x > T(hi) ? x - T(hi) : (x < T(lo) ? x - T(lo) : T(0)); };
     for (const BoxLimit& b : box_limits()) r[k++] = T(LIMIT_WEIGHT) * excess(body[3 * (b.joint - 1) + b.axis], b.lo, b.hi);
     // Thighs: not more than 30° behind the body, not crossing far over the mid-line.
@@ -293,6 +308,28 @@ struct PosePrior {
       V3<T> d;
       ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), out.data(), d.data());
       r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.6, 10.0);
+    }
+    // Limbs reach forward further than back (shoulder flexion ~180° against extension ~50°, hip
+    // flexion ~120° against extension ~20°): a soft cost on each upper arm, forearm and thigh
+    // pointing behind the torso's frontal plane, beyond a margin that lets arms and legs swing.
+    for (const Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
+      const Joint collar = sh == Joint::LEFT_SHOULDER ? Joint::LEFT_COLLAR : Joint::RIGHT_COLLAR;
+      const Joint elbow = sh == Joint::LEFT_SHOULDER ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW;
+      const V3<T> out(T(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0), T(0), T(0));
+      V3<T> a, b, upper, fore;
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), out.data(), a.data());
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(collar) - 1), a.data(), upper.data());
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(elbow) - 1), out.data(), a.data());
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), a.data(), b.data());
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(collar) - 1), b.data(), fore.data());
+      r[k++] = s * T(BEHIND_WEIGHT) * excess(upper.z(), -BEHIND_MARGIN, 10.0);
+      r[k++] = s * T(BEHIND_WEIGHT) * excess(fore.z(), -BEHIND_MARGIN, 10.0);
+    }
+    for (const Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
+      const V3<T> down(T(0), T(-1), T(0));
+      V3<T> d;
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(hip) - 1), down.data(), d.data());
+      r[k++] = s * T(BEHIND_WEIGHT) * excess(d.z(), -BEHIND_MARGIN, 10.0);
     }
     return true;
   }
@@ -341,6 +378,18 @@ ceres::Solver::Options solver_options(const KeypointFitOptions& o) {
 
 Eigen::Vector3d to_vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
+State state_of(const Pose& pose, const KeypointShape& beta) {
+  State s;
+  for (int a = 0; a < 3; ++a) {
+    s.global[static_cast<std::size_t>(a)] = pose.axis_angle(0, a);
+    s.trans[static_cast<std::size_t>(a)] = pose.translation[a];
+  }
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    for (int a = 0; a < 3; ++a) s.body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
+  s.beta = beta;
+  return s;
+}
+
 // Pose start for stage 2: each upper arm and thigh turned towards its keypoint, lifted from the
 // image as if the bone lay in the plane of its joint, leaning towards the body's front by what
 // the bone's length leaves over (foreshortening; a limb in front of the body is the common case).
@@ -371,6 +420,38 @@ void lift_limbs(const KeypointBodyModel& model, const PinholeCamera& cam, const 
     const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(bone.normalized(), parent.transpose() * d.normalized());
     const Eigen::Vector3d aa = matrix_to_axis_angle(q.toRotationMatrix());
     for (int a = 0; a < 3; ++a) s.body[static_cast<std::size_t>(3 * (idx(upper) - 1) + a)] = aa[a];
+  }
+}
+
+// The limbs whose bones' depths 2D keypoints cannot tell: upper joint, middle joint, end joint.
+struct Limb {
+  Joint upper, middle, end;
+};
+constexpr std::array<Limb, 4> LIMBS = {Limb{Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW, Joint::LEFT_WRIST},
+                                       Limb{Joint::RIGHT_SHOULDER, Joint::RIGHT_ELBOW, Joint::RIGHT_WRIST},
+                                       Limb{Joint::LEFT_HIP, Joint::LEFT_KNEE, Joint::LEFT_ANKLE},
+                                       Limb{Joint::RIGHT_HIP, Joint::RIGHT_KNEE, Joint::RIGHT_ANKLE}};
+
+// Mirrors the bone from joint `from` to its child `to` in depth (camera Z, so its image barely
+// changes) by rotating `from`, keeping the world rotation of `to` (the rest of the limb keeps
+// its direction).
+void flip_bone_depth(const KeypointBodyModel& model, State& s, Joint from, Joint to) {
+  Pose pose;
+  pose.axis_angle.row(0) = to_vec(s.global).transpose();
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    for (int a = 0; a < 3; ++a) pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+  const auto G = joint_world_transforms(model.rest_joints(s.beta), pose);
+  const auto f = static_cast<std::size_t>(idx(from)), t = static_cast<std::size_t>(idx(to));
+  const Eigen::Vector3d d = (G[t].translation() - G[f].translation()).normalized();
+  const Eigen::Vector3d flipped(d.x(), d.y(), -d.z());
+  const Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(d, flipped).toRotationMatrix();
+  const Eigen::Matrix3d R_from = turn * G[f].linear();
+  const Eigen::Matrix3d parent = G[static_cast<std::size_t>(joint_parent(idx(from)))].linear();
+  const Eigen::Vector3d a_from = matrix_to_axis_angle(parent.transpose() * R_from);
+  const Eigen::Vector3d a_to = matrix_to_axis_angle(R_from.transpose() * G[t].linear());
+  for (int a = 0; a < 3; ++a) {
+    s.body[static_cast<std::size_t>(3 * (idx(from) - 1) + a)] = a_from[a];
+    s.body[static_cast<std::size_t>(3 * (idx(to) - 1) + a)] = a_to[a];
   }
 }
 
@@ -495,13 +576,17 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
 
   State start;
   start.body = pose_mean().mean;
+  if (options.initial_pose) {
+    start = state_of(*options.initial_pose, options.initial_shape);
+    fit.stages.push_back({"camera", 0, 0, 0});
+  }
 
   // Stage 1: camera translation and global orientation on the torso, front- and back-facing.
   KeypointFitStage stage1{"camera", 0, 0, 0};
   auto t0 = Clock::now();
   State best;
   bool have_best = false;
-  for (int facing = 0; facing < 2; ++facing) {
+  for (int facing = 0; facing < (options.initial_pose ? 0 : 2); ++facing) {
     State s = start;
     const Eigen::Matrix3d R0 = facing == 0 ? Eigen::Matrix3d::Identity() : axis_angle_to_matrix({0, PI, 0});
     const Eigen::Vector3d g = matrix_to_axis_angle(R0);
@@ -524,13 +609,17 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
       fit.facing_away = facing == 1;
     }
   }
-  stage1.ms = elapsed_ms(t0);
-  stage1.cost = best.cost;
-  fit.stages.push_back(stage1);
+  if (!options.initial_pose) {
+    stage1.ms = elapsed_ms(t0);
+    stage1.cost = best.cost;
+    fit.stages.push_back(stage1);
+  } else {
+    best = start;
+  }
 
   // Stages 2 and 3 share one problem; the shape block is held constant in stage 2.
   double prior_scale = 1.0;
-  auto solve_full = [&](State& s, bool with_shape, int& iterations) {
+  auto solve_full = [&](State& s, bool with_shape, int& iterations, int max_iterations = 0) {
     ceres::Problem problem;
     auto* cost = new ceres::AutoDiffCostFunction<FullReprojection, ceres::DYNAMIC, 3, BODY_POSE, 3, KEYPOINT_SHAPE_PARAMS>(
         new FullReprojection{&model, &all, cam}, 2 * static_cast<int>(all.points.size()));
@@ -546,7 +635,9 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
     }
     if (!with_shape) problem.SetParameterBlockConstant(s.beta.data());
     ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
+    ceres::Solver::Options capped = solver;
+    if (max_iterations > 0) capped.max_num_iterations = std::min(solver.max_num_iterations, max_iterations);
+    ceres::Solve(capped, &problem, &summary);
     iterations += iterations_of(summary);
     s.cost = summary.final_cost;
   };
@@ -557,7 +648,7 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   t0 = Clock::now();
   prior_scale = 2.0;
   std::vector<State> starts = {best};
-  {
+  if (!options.initial_pose) {
     const Eigen::Matrix3d R = axis_angle_to_matrix(to_vec(best.global));
     const Eigen::Vector3d forward = R * Eigen::Vector3d::UnitZ();
     const double yaw = std::atan2(forward.x(), forward.z());
@@ -570,7 +661,7 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   }
   // Each turn from the relaxed pose and from the lifted limbs: the lifting guesses the sign of
   // each limb's depth, the relaxed start does not.
-  for (std::size_t i = 0, n = starts.size(); i < n; ++i) {
+  for (std::size_t i = 0, n = options.initial_pose ? 0 : starts.size(); i < n; ++i) {
     State lifted = starts[i];
     lift_limbs(model, cam, all, lifted);
     starts.push_back(lifted);
@@ -579,6 +670,18 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   for (std::size_t i = 0; i < starts.size(); ++i) {
     solve_full(starts[i], false, stage2.iterations);
     if (i == 0 || starts[i].cost < chosen.cost) chosen = starts[i];
+  }
+  if (!options.initial_pose) {
+    // Per-limb depth hypotheses: each bone of a limb mirrored in depth (its 2D image nearly
+    // unchanged), re-solved, kept when the objective (priors included) prefers it.
+    for (const Limb& limb : LIMBS)
+      for (int variant = 1; variant <= 3; ++variant) {
+        State s = chosen;
+        if (variant & 1) flip_bone_depth(model, s, limb.upper, limb.middle);
+        if (variant & 2) flip_bone_depth(model, s, limb.middle, limb.end);
+        solve_full(s, false, stage2.iterations, FLIP_ITERATIONS);
+        if (s.cost < chosen.cost) chosen = s;
+      }
   }
   stage2.ms = elapsed_ms(t0);
   stage2.cost = chosen.cost;

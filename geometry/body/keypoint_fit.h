@@ -6,11 +6,18 @@
 /// with ρ Geman–McClure (σ = the torso's length in px), Π a pinhole camera, X_i the posed body point that
 /// keypoint i observes, c_i its confidence and w_i its trust (0.5 for hips, whose annotations
 /// sit off the joint centres; keypoints.h). SMPLify's learned pose prior cannot ship, so E_pose
-/// is anatomical: joint limits (elbows and knees hinge one way only, spine, neck and collars
-/// within ranges, thighs and upper arms not far behind the body), a mild L2 toward a relaxed
-/// pose (arms ~60° down), stronger on what 2D joints cannot see (twists, hands, feet).
+/// is anatomical and ships without learned data: joint limits (elbows and knees hinge one way
+/// only, spine, neck and collars within ranges, thighs and upper arms not far behind the body);
+/// a soft cost on upper arms, forearms and thighs pointing behind the torso's frontal plane
+/// (limbs reach forward further than back); and a saturating pull toward a relaxed pose (arms
+/// ~60° down): quadratic near it, so 3 px of keypoint noise is not explained by bending limbs in
+/// depth, levelling off ~0.5 rad away, so a pose the keypoints show is not dragged along its
+/// depth ambiguity; stronger on what 2D joints cannot see (twists, hands, feet). The fit tries
+/// per-limb depth hypotheses (each bone of each arm and leg mirrored in depth) and lets the
+/// objective, priors included, pick the winner.
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -78,6 +85,12 @@ struct KeypointFitOptions {
   /// has nothing to share and measured slower (keypoint_fit_bench); default 1.
   int threads = 1;
   bool fit_shape = true;     ///< stage 3 (shape + pose); false: the average body's shape
+  /// A warm start (e.g. the previous video frame's fit, or a known pose in a test): when set,
+  /// stage 1 and the multi-start search of stage 2 are skipped and stages 2–3 start from this
+  /// pose (T-pose-relative, translation in the camera frame of fit_keypoints()) and
+  /// `initial_shape`.
+  std::optional<Pose> initial_pose;
+  KeypointShape initial_shape{}; ///< shape of the warm start (population σ); unused without initial_pose
 };
 
 /// One stage of the fit, as Ceres reported it.
@@ -110,7 +123,9 @@ struct KeypointFit {
 /// back-facing start (translation from the torso's pixel length by similar triangles, depth held
 /// near it by a prior), keeping the better; 2 pose (shape fixed), from that start and from its
 /// mirror turn when the torso is turned (2D torso keypoints cannot tell a turn to the left from
-/// one to the right), keeping the better; 3 shape and pose. Robust to a few wrong keypoints
+/// one to the right), keeping the better, then per limb (arms, legs) the upper, the lower and
+/// both bones mirrored in depth, each re-solved and kept when its objective is lower; 3 shape
+/// and pose. Robust to a few wrong keypoints
 /// (Geman–McClure). Never throws for Keypoints from parse_keypoints(); a hand-built Keypoints
 /// with no shoulder or no hip keypoint throws vfit::Error naming keypoints.source ("too few
 /// torso keypoints for a fit"). options.threads is clamped to [1, 2].

@@ -47,6 +47,36 @@ TEST(BodyCli, PosesByNameAndByJsonFile) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
+// `vfit body --scan`: the mannequin posed by `vfit body --pose apose`, saved as OBJ with its
+// joints, is read back as a bare scan; the fit recovers its joints (measured 10 mm mean) and
+// writes the rigged scan. (A walking mannequin is not yet recovered: joint estimation on the
+// scan needs both feet on the floor and the A-pose start then misses; see issue 8's report.)
+TEST(BodyCli, ScanOfAPosedMannequinGivesItsJointsAndARiggedScan) {
+  test::TempDir tmp;
+  const auto scan = tmp / "scan.obj", truth = tmp / "truth.json", fitted = tmp / "fit.json", rigged = tmp / "scan.glb";
+  auto r = test::run_cli({"body", "--vertices", "3000", "--pose", "apose", "--out", scan.string(), "--joints", truth.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_cli({"body", "--scan", scan.string(), "--joints", fitted.string(), "--rigged", rigged.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto want = nlohmann::json::parse(test::read_file(truth))["joints"];
+  const auto got = nlohmann::json::parse(test::read_file(fitted))["joints"];
+  ASSERT_EQ(got.size(), 24u);
+  double sum = 0;
+  for (int k = 0; k < JOINT_COUNT; ++k) {
+    const std::string name(joint_name(k));
+    Eigen::Vector3d d;
+    for (int c = 0; c < 3; ++c) d[c] = got[name][c].get<double>() - want[name][c].get<double>();
+    sum += d.norm();
+  }
+  EXPECT_LE(sum / JOINT_COUNT, 0.03) << "mean joint distance (m); issue 8's bar for scans is 3 cm";
+  // The rigged scan keeps the scan's own vertices and faces, with skin weights for each.
+  const Body b = read_gltf_body(rigged.string());
+  const ParsedMesh m = read_mesh(scan);
+  EXPECT_EQ(b.mesh.vertex_count(), m.mesh.vertex_count());
+  EXPECT_EQ(b.mesh.face_count(), m.mesh.face_count());
+  EXPECT_EQ(b.weights.vertex_count(), m.mesh.vertex_count());
+}
+
 TEST(GarmentCli, WritesTheGarmentAndItsLabels) {
   test::TempDir tmp;
   const auto out = tmp / "pants.ply";

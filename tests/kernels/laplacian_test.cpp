@@ -23,6 +23,36 @@ TEST(Laplacian, ConstantsAreInTheKernelAndTheOperatorIsSymmetric) {
   }
 }
 
+// The uniform Laplacian against a dense oracle built edge by edge from the faces: degree on the
+// diagonal, −1 per distinct neighbour; a face with a repeated vertex adds only its real edge,
+// an unused vertex gets an empty row (0 on the diagonal). Exact: the entries are integers.
+TEST(Laplacian, UniformMatchesADenseAdjacencyOracle) {
+  Mesh m = make_uv_sphere(7, 11, 0.3f);
+  const std::int32_t n = std::int32_t(m.vertex_count());
+  m.positions.insert(m.positions.end(), {5.0f, 5.0f, 5.0f}); // an isolated vertex n
+  std::vector<std::int32_t> triangles = m.triangles;
+  triangles.insert(triangles.end(), {0, 0, 5, 3, 9, 3}); // repeated vertices: edges 0–5 and 3–9 only
+  const std::size_t count = std::size_t(n) + 1;
+  Eigen::MatrixXd oracle = Eigen::MatrixXd::Zero(Eigen::Index(count), Eigen::Index(count));
+  for (std::size_t f = 0; f < triangles.size() / 3; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = triangles[3 * f + std::size_t(k)], b = triangles[3 * f + std::size_t(k + 1) % 3];
+      if (a != b) oracle(a, b) = oracle(b, a) = -1.0;
+    }
+  for (Eigen::Index i = 0; i < oracle.rows(); ++i) oracle(i, i) = -(oracle.row(i).sum() - oracle(i, i));
+  const SparseMatrix L = uniform_laplacian(triangles, count);
+  ASSERT_EQ(L.rows(), Eigen::Index(count));
+  EXPECT_EQ((Eigen::MatrixXd(L) - oracle).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_TRUE(L.isCompressed());
+  for (Eigen::Index r = 0; r < L.outerSize(); ++r) { // columns strictly ascending in every row
+    Eigen::Index previous = -1;
+    for (SparseMatrix::InnerIterator it(L, r); it; ++it) {
+      EXPECT_GT(it.col(), previous);
+      previous = it.col();
+    }
+  }
+}
+
 TEST(Laplacian, CotangentWeightsReproduceLinearFunctionsOnAFlatGrid) {
   // On a planar mesh the cotangent Laplacian of a linear function vanishes at interior
   // vertices (discrete harmonicity); the uniform one does not on an irregular grid.
