@@ -1,6 +1,7 @@
 #include "penetration.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -11,6 +12,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "kernels/error.h"
+#include "kernels/parallel.h"
 #include "kernels/proximity.h"
 
 namespace vfit {
@@ -473,44 +475,106 @@ public:
   // w·L_Rᵀ g for g with one row per region row.
   Eigen::MatrixXd transpose_times(const Eigen::MatrixXd& g) const { return m_w * (m_Lt * g); }
   // Solves (c I + w L_RᵀL_R) δ = rhs (n × 3) by Jacobi-preconditioned conjugate gradients, the
-  // three columns together; stops at ‖r‖ ≤ 1e-7·‖rhs‖ per column or after 200 iterations.
+  // three columns together; stops at ‖r‖ ≤ 1e-7·‖rhs‖ per column or after 200 iterations. The
+  // products run over the rows in parallel (each row a gather, no atomics) and the dot products
+  // are summed in fixed chunks in a fixed order, so the result does not depend on the threads.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs, int& iterations) const {
     iterations = 0;
     if (m_cholesky) return m_cholesky->solve(rhs);
-    const Eigen::Index n = rhs.rows();
-    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 3), r = rhs;
-    auto apply = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd { return m_c * v + m_w * (m_Lt * (m_L * v)); };
-    Eigen::MatrixXd z = m_inverse_diagonal.asDiagonal() * r, d = z;
-    Eigen::Array3d rz, stop;
-    for (int c = 0; c < 3; ++c) {
-      rz[c] = r.col(c).dot(z.col(c));
-      stop[c] = 1e-14 * rhs.col(c).squaredNorm();
-    }
-    iterations = 0;
+    const auto n = static_cast<std::size_t>(rhs.rows());
+    // Vectors are n × 3, row-major (x, y, z of one vertex together).
+    std::vector<double> x(3 * n, 0.0), r(3 * n), z(3 * n), d(3 * n), q(3 * n), t(3 * std::size_t(m_L.rows()));
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) r[3 * i + std::size_t(c)] = rhs(Eigen::Index(i), c);
+    auto precondition = [&] {
+      parallel_for_range(n, CG_GRAIN, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i)
+          for (int c = 0; c < 3; ++c) z[3 * i + std::size_t(c)] = m_inverse_diagonal[Eigen::Index(i)] * r[3 * i + std::size_t(c)];
+      });
+    };
+    precondition();
+    d = z;
+    std::array<double, 3> rz = column_dots(r, z), stop = column_dots(r, r);
+    for (double& s : stop) s *= 1e-14;
     for (; iterations < 200; ++iterations) {
-      bool done = true;
-      for (int c = 0; c < 3; ++c) done = done && r.col(c).squaredNorm() <= stop[c];
-      if (done) break;
-      const Eigen::MatrixXd q = apply(d);
-      for (int c = 0; c < 3; ++c) {
-        const double dq = d.col(c).dot(q.col(c));
-        if (!(dq > 0)) continue; // this column has converged (d = 0)
-        const double alpha = rz[c] / dq;
-        x.col(c) += alpha * d.col(c);
-        r.col(c) -= alpha * q.col(c);
+      const std::array<double, 3> rr = column_dots(r, r);
+      if (rr[0] <= stop[0] && rr[1] <= stop[1] && rr[2] <= stop[2]) break;
+      apply(d, t, q);
+      const std::array<double, 3> dq = column_dots(d, q);
+      std::array<double, 3> alpha{};
+      for (int c = 0; c < 3; ++c) alpha[std::size_t(c)] = dq[std::size_t(c)] > 0 ? rz[std::size_t(c)] / dq[std::size_t(c)] : 0.0; // 0: converged (d = 0)
+      parallel_for_range(n, CG_GRAIN, [&](std::size_t b, std::size_t e) {
+        for (std::size_t k = 3 * b; k < 3 * e; ++k) {
+          x[k] += alpha[k % 3] * d[k];
+          r[k] -= alpha[k % 3] * q[k];
+        }
+      });
+      precondition();
+      const std::array<double, 3> rz_next = column_dots(r, z);
+      std::array<double, 3> beta{};
+      for (std::size_t c = 0; c < 3; ++c) {
+        beta[c] = rz[c] > 0 ? rz_next[c] / rz[c] : 0.0;
+        rz[c] = rz_next[c];
       }
-      z = m_inverse_diagonal.asDiagonal() * r;
-      for (int c = 0; c < 3; ++c) {
-        const double rz_next = r.col(c).dot(z.col(c));
-        const double beta = rz[c] > 0 ? rz_next / rz[c] : 0.0;
-        d.col(c) = z.col(c) + beta * d.col(c);
-        rz[c] = rz_next;
-      }
+      parallel_for_range(n, CG_GRAIN, [&](std::size_t b, std::size_t e) {
+        for (std::size_t k = 3 * b; k < 3 * e; ++k) d[k] = z[k] + beta[k % 3] * d[k];
+      });
     }
-    return x;
+    Eigen::MatrixXd out(Eigen::Index(n), 3);
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) out(Eigen::Index(i), c) = x[3 * i + std::size_t(c)];
+    return out;
   }
 
 private:
+  static constexpr std::size_t CG_GRAIN = 4096; // rows per task of the CG's loops
+
+  // y = A·v for a row-major CSR A and n × 3 row-major v, y (rows of A × 3), rows in parallel.
+  template <class Matrix> static void multiply(const Matrix& A, const std::vector<double>& v, std::vector<double>& y) {
+    const auto* outer = A.outerIndexPtr();
+    const auto* inner = A.innerIndexPtr();
+    const double* value = A.valuePtr();
+    parallel_for_range(std::size_t(A.rows()), CG_GRAIN, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        double s0 = 0, s1 = 0, s2 = 0;
+        for (auto k = outer[i]; k < outer[i + 1]; ++k) {
+          const double* vj = v.data() + 3 * std::size_t(inner[k]);
+          s0 += value[k] * vj[0];
+          s1 += value[k] * vj[1];
+          s2 += value[k] * vj[2];
+        }
+        y[3 * i] = s0;
+        y[3 * i + 1] = s1;
+        y[3 * i + 2] = s2;
+      }
+    });
+  }
+  // q = c·d + w·L_Rᵀ(L_R d); t holds L_R d.
+  void apply(const std::vector<double>& d, std::vector<double>& t, std::vector<double>& q) const {
+    multiply(m_L, d, t);
+    multiply(m_Lt, t, q);
+    parallel_for_range(d.size() / 3, CG_GRAIN, [&](std::size_t b, std::size_t e) {
+      for (std::size_t k = 3 * b; k < 3 * e; ++k) q[k] = m_c * d[k] + m_w * q[k];
+    });
+  }
+  // Per-column dot products of two n × 3 row-major vectors: chunk sums in parallel, added in
+  // chunk order (the same bits for any thread count).
+  static std::array<double, 3> column_dots(const std::vector<double>& a, const std::vector<double>& b) {
+    const std::size_t n = a.size() / 3, chunks = (n + CG_GRAIN - 1) / CG_GRAIN;
+    std::vector<std::array<double, 3>> partial(chunks, {0.0, 0.0, 0.0});
+    parallel_for_range(chunks, 1, [&](std::size_t cb, std::size_t ce) {
+      for (std::size_t ch = cb; ch < ce; ++ch) {
+        std::array<double, 3> s{0.0, 0.0, 0.0};
+        for (std::size_t k = 3 * ch * CG_GRAIN; k < 3 * std::min(n, (ch + 1) * CG_GRAIN); ++k) s[k % 3] += a[k] * b[k];
+        partial[ch] = s;
+      }
+    });
+    std::array<double, 3> total{0.0, 0.0, 0.0};
+    for (const auto& s : partial)
+      for (std::size_t c = 0; c < 3; ++c) total[c] += s[c];
+    return total;
+  }
+
   double m_c, m_w;
   SparseMatrix m_L;                                      // region rows × R
   Eigen::SparseMatrix<double, Eigen::RowMajor> m_Lt;     // R × region rows
@@ -627,9 +691,11 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
         for (std::size_t v = 0; v < nv; ++v) seeds[v] |= pushes.flagged[v];
       seed_count = std::size_t(std::count(seeds.begin(), seeds.end(), char(1)));
       region = make_region(L, seeds);
+      const bool direct = o.solver == PenetrationSolver::CHOLESKY ||
+                          (o.solver == PenetrationSolver::AUTO && region.vertices.size() < o.direct_solve_limit);
       timed(report.system_ms, [&] {
         system.emplace(L, region, seed004 ? 1.0 + o.seed004_damping : 1.0,
-                       seed004 ? o.seed004_smoothing : o.smoothness, o.solver == PenetrationSolver::CHOLESKY);
+                       seed004 ? o.seed004_smoothing : o.smoothness, direct);
       });
       ++report.region_builds;
     }

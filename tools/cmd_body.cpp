@@ -61,7 +61,9 @@ int run_scan(Args& args, const std::string& path) {
     throw Error(*rigged, 0, "--rigged writes a .glb file");
   if (out) mesh_format_from_path(*out);
 
-  ParsedMesh parsed = read_mesh(path);
+  ReadOptions read_options;
+  read_options.allow_point_cloud = true; // a scanner's PLY of vertices only
+  ParsedMesh parsed = read_mesh(path, read_options);
   std::optional<Units> units = units_arg ? std::optional<Units>(parse_units(*units_arg)) : std::nullopt;
   if (!units) {
     const MeshStats stats = mesh_stats(parsed.mesh);
@@ -80,10 +82,11 @@ int run_scan(Args& args, const std::string& path) {
     std::printf("scan: %zu vertices, %zu faces; start from %s\n", parsed.mesh.vertex_count(), parsed.mesh.face_count(),
                 fit.initialised_from_joints ? "the joints estimated on the scan"
                                             : "the A-pose (joint estimation failed)");
-    std::printf("%-8s %10s %10s %12s %12s\n", "stage", "iterations", "ms", "mean (mm)", "95% (mm)");
+    std::printf("%-8s %10s %10s %10s %12s %12s\n", "stage", "iterations", "candidates", "ms", "mean (mm)",
+                "95% (mm)");
     for (const ScanFitStage& s : fit.stages)
-      std::printf("%-8s %10d %10.1f %12.2f %12.2f\n", s.name.c_str(), s.iterations, s.ms, 1000 * s.mean_distance,
-                  1000 * s.p95_distance);
+      std::printf("%-8s %10d %10d %10.1f %12.2f %12.2f\n", s.name.c_str(), s.iterations, s.candidates, s.ms,
+                  1000 * s.mean_distance, 1000 * s.p95_distance);
     std::printf("scan fit: %.1f ms; scale %.3f, height %.3f m, arm length %.3f m, shoulder width %.3f m\n",
                 fit.total_ms, fit.scale, fit.measurements.height, fit.measurements.arm_length,
                 fit.measurements.shoulder_width);

@@ -6,8 +6,9 @@
 //    mannequins. Counters: the paper's penetration ms, our median ms (removal's own clock, the
 //    mesh copy excluded), `speedup` = paper ms / our median ms, vertices
 //    inside and crossing edges before and after, rounds. Issue 5's bar: ≤ 10 ms per row.
-//  - BM_RemoveScaled/N: the catalogue T-pose tee of N vertices (10^4 … 10^6) driven onto the
+//  - BM_RemoveScaled/N/S: the catalogue T-pose tee of N vertices (10^4 … 10^6) driven onto the
 //    arms-down mannequin; `vertices_per_s` is the throughput. Bar: 10^6 vertices under 2 s.
+//    Second argument: the region solver, 0 = PenetrationSolver::CHOLESKY, 1 = CONJUGATE_GRADIENT.
 //    The 10^6 tee takes ~40 s to generate; filter it out with --benchmark_filter when in a hurry.
 // Each iteration copies the pre-removal mesh (a copy of 10^6 × 3 floats is ~1 ms, inside the
 // timing; negligible at the bar's scale).
@@ -71,8 +72,10 @@ vfit::PenetrationOptions pipeline_options() {
 }
 
 // Runs removal and returns the median of its own wall times (PenetrationReport::milliseconds).
-double run(benchmark::State& state, const Case& c) {
-  const vfit::PenetrationOptions po = pipeline_options();
+double run(benchmark::State& state, const Case& c,
+           vfit::PenetrationSolver solver = vfit::PenetrationOptions{}.solver) {
+  vfit::PenetrationOptions po = pipeline_options();
+  po.solver = solver;
   vfit::PenetrationReport report;
   std::vector<double> ms;
   for (auto _ : state) {
@@ -120,9 +123,10 @@ void BM_RemoveScaled(benchmark::State& state) {
     go.target_vertices = std::size_t(state.range(0));
     c = make_case("arms_down", vfit::make_garment(go), "tee");
   }
-  run(state, *c);
+  state.SetLabel(state.range(1) == 0 ? "cholesky" : "conjugate gradients");
+  run(state, *c, state.range(1) == 0 ? vfit::PenetrationSolver::CHOLESKY : vfit::PenetrationSolver::CONJUGATE_GRADIENT);
 }
-BENCHMARK(BM_RemoveScaled)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_RemoveScaled)->ArgsProduct({{10'000, 100'000, 1'000'000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 } // namespace
 

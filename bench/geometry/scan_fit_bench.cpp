@@ -45,6 +45,7 @@ void BM_ScanFit(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(scan.vertex_count())); // scan vertices/s
   for (const ScanFitStage& s : fit.stages) {
     state.counters[s.name + "_iterations"] = s.iterations;
+    state.counters[s.name + "_candidates"] = s.candidates;
     state.counters[s.name + "_ms"] = s.ms;
   }
   state.counters["mean_mm"] = 1000 * fit.stages.back().mean_distance;

@@ -5,14 +5,20 @@
 // Serial by design. Reports vertices/s; meshes are built once, untimed. Centredness: mean
 // distance of the skeleton's nodes to the true axis divided by the tube's radius.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 
 #include <benchmark/benchmark.h>
 
+#include "geometry/body/mannequin.h"
+#include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/garment/hole_fill.h"
+#include "geometry/garment/segment.h"
+#include "geometry/garment/skeleton_driving.h"
 #include "geometry/garment/skeleton_parts.h"
+#include "geometry/garment/table1.h"
 #include "geometry/mesh/primitives.h"
 
 #ifdef VFIT_BENCH_CGAL
@@ -110,6 +116,86 @@ BENCHMARK(BM_garment_limb_skeletons)
 BENCHMARK(BM_garment_limb_skeletons)
     ->ArgsProduct({{int(vfit::GarmentType::LONG_SLEEVE), int(vfit::GarmentType::TROUSERS)}, {100000}})
     ->Unit(benchmark::kMillisecond);
+
+// The deformation column of `vfit bench table1` for one Table-1 row (arg: the row's index),
+// stage by stage: part skeletons of the segmented garment, the driver's setup (seam distances,
+// handles, band factorisation) and drive() onto the row's posed mannequin. The garment, its
+// segmentation and the body are built once, untimed. The Dress (row 0) has no limbs.
+struct Table1Case {
+  vfit::Garment garment;
+  vfit::GarmentSegmentation segmentation;
+  vfit::Body body;
+};
+const Table1Case& table1_case(std::size_t row_index) {
+  static std::map<std::size_t, Table1Case> cache;
+  auto it = cache.find(row_index);
+  if (it == cache.end()) {
+    const vfit::Table1Row& row = vfit::table1_rows().at(row_index);
+    vfit::MannequinOptions mo;
+    mo.pose = vfit::RestPose::APOSE;
+    const vfit::Body rest = vfit::make_mannequin(mo);
+    vfit::Garment g = vfit::make_garment(vfit::table1_garment_options(row));
+    vfit::GarmentSegmentation seg = vfit::segment_garment(g.mesh);
+    vfit::Body posed = vfit::pose_body(rest, vfit::named_pose(row.body_pose, rest.rest_pose));
+    it = cache.emplace(row_index, Table1Case{std::move(g), std::move(seg), std::move(posed)}).first;
+  }
+  return it->second;
+}
+
+void BM_table1_deformation(benchmark::State& state) {
+  const auto row_index = std::size_t(state.range(0));
+  const Table1Case& c = table1_case(row_index);
+  using Clock = std::chrono::steady_clock;
+  const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  double skeleton_ms = 0, setup_ms = 0, drive_ms = 0;
+  vfit::PartSkeletonTimings limb_sum; // per-limb stages summed over limbs and runs
+  double iterations = 0, factorisations = 0, proxy = 0, area = 0;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    const std::vector<vfit::PartSkeleton> limbs = vfit::extract_limb_skeletons(c.garment.mesh, c.segmentation.vertex_parts);
+    const auto t1 = Clock::now();
+    const vfit::SkeletonDriver driver(c.garment.mesh, c.segmentation, limbs);
+    const auto t2 = Clock::now();
+    const vfit::SkeletonDriving d = driver.drive(c.body.joints);
+    const auto t3 = Clock::now();
+    benchmark::DoNotOptimize(d.positions.data());
+    for (const vfit::PartSkeleton& s : limbs) {
+      iterations += s.contraction.iterations;
+      factorisations += s.contraction.factorisations;
+      proxy += double(s.proxy_vertices);
+      area = std::max(area, s.contraction.final_area_ratio);
+      limb_sum.cut_ms += s.timings.cut_ms;
+      limb_sum.fill_ms += s.timings.fill_ms;
+      limb_sum.map_ms += s.timings.map_ms;
+      limb_sum.skeleton_stages.proxy_ms += s.timings.skeleton_stages.proxy_ms;
+      limb_sum.skeleton_stages.contraction_ms += s.timings.skeleton_stages.contraction_ms;
+      limb_sum.skeleton_stages.graph_ms += s.timings.skeleton_stages.graph_ms;
+      limb_sum.skeleton_stages.chain_ms += s.timings.skeleton_stages.chain_ms;
+    }
+    skeleton_ms += ms(t0, t1);
+    setup_ms += ms(t1, t2);
+    drive_ms += ms(t2, t3);
+  }
+  const auto n = double(state.iterations());
+  state.SetItemsProcessed(state.iterations() * std::int64_t(c.garment.mesh.vertex_count()));
+  state.SetLabel(vfit::table1_rows().at(row_index).garment);
+  state.counters["skeletons_ms"] = skeleton_ms / n;
+  state.counters["setup_ms"] = setup_ms / n;
+  state.counters["drive_ms"] = drive_ms / n;
+  // Summed over the limbs, which run concurrently: CPU-side cost, not wall time.
+  state.counters["cut_ms"] = limb_sum.cut_ms / n;
+  state.counters["fill_ms"] = limb_sum.fill_ms / n;
+  state.counters["proxy_ms"] = limb_sum.skeleton_stages.proxy_ms / n;
+  state.counters["contract_ms"] = limb_sum.skeleton_stages.contraction_ms / n;
+  state.counters["graph_ms"] = limb_sum.skeleton_stages.graph_ms / n;
+  state.counters["chain_ms"] = limb_sum.skeleton_stages.chain_ms / n;
+  state.counters["map_ms"] = limb_sum.map_ms / n;
+  state.counters["iterations"] = iterations / n;
+  state.counters["factorisations"] = factorisations / n;
+  state.counters["proxy_vertices"] = proxy / n;
+  state.counters["worst_area_ratio"] = area;
+}
+BENCHMARK(BM_table1_deformation)->DenseRange(1, 8)->Unit(benchmark::kMillisecond);
 
 #ifdef VFIT_BENCH_CGAL
 // CGAL's mean curvature flow skeleton of the same tube, closed by our hole filling (CGAL needs

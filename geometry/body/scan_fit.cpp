@@ -7,6 +7,7 @@
 #include <optional>
 
 #include <ceres/ceres.h>
+#include <tbb/task_group.h>
 
 #include "gltf_body.h"
 #include "joint_estimation.h"
@@ -14,6 +15,7 @@
 #include "kernels/parallel.h"
 #include "kernels/proximity.h"
 #include "mannequin.h"
+#include "scan_pose_search.h"
 
 namespace vfit {
 namespace {
@@ -576,6 +578,16 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   const auto t_start = Clock::now();
   check_scan(scan, source);
   ScanFit fit;
+  // Stage 0: the template and the shape basis, each built from the mannequin generator on
+  // first use (seconds; nothing afterwards), side by side on two cores.
+  auto t0 = Clock::now();
+  {
+    tbb::task_group builds;
+    builds.run([] { scan_fit_template(); });
+    mannequin_keypoint_model();
+    builds.wait();
+  }
+  fit.stages.push_back({"template", 0, 0, elapsed_ms(t0), 0, 0});
   Fitter f{scan_fit_template(), {}, {}, scan.positions, scan.triangles, {}, {}, {}, {}};
   f.model.mean = f.tmpl.joints;
   const KeypointBodyModel& kp = mannequin_keypoint_model();
@@ -591,8 +603,8 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
 
   // Stage 1: the skeleton fitted to the joints estimated on the scan; else the T-pose placed
   // on the scan's feet at its height.
-  auto t0 = Clock::now();
-  ScanFitStage init{"init", 0, 0, 0, 0};
+  t0 = Clock::now();
+  ScanFitStage init{"init", 0, 0, 0, 0, 0};
   State s;
   double lo = INFINITY, hi = -INFINITY, tmpl_lo = INFINITY, tmpl_hi = -INFINITY;
   Vec3 centre = Vec3::Zero();
@@ -651,9 +663,27 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   init.p95_distance = d_init.p95;
   fit.stages.push_back(init);
 
-  // Stage 2: ICP rounds.
+  // Stage 2: each part's orientation searched in turn (a walking or arms-raised scan is far
+  // from any A- or T-pose start, and ICP only finds the nearest minimum).
   t0 = Clock::now();
-  ScanFitStage icp{"icp", 0, 0, 0, 0};
+  {
+    const ScanPoseSearch found = search_scan_pose(f.tmpl, scan.positions, pose_of(s), s.shape[0]);
+    for (int a = 0; a < 3; ++a) {
+      s.global[static_cast<std::size_t>(a)] = found.pose.axis_angle(0, a);
+      s.trans[static_cast<std::size_t>(a)] = found.pose.translation[a];
+    }
+    for (int j = 1; j < JOINT_COUNT; ++j)
+      for (int a = 0; a < 3; ++a)
+        s.body[static_cast<std::size_t>(3 * (j - 1) + a)] = found.pose.axis_angle(j, a);
+    s.shape[0] = std::clamp(found.log_scale, -LOG_SCALE_LIMIT, LOG_SCALE_LIMIT);
+    f.pose_template(s);
+    const Distances d = f.scan_distances();
+    fit.stages.push_back({"search", 0, found.evaluations, elapsed_ms(t0), d.mean, d.p95});
+  }
+
+  // Stage 3: ICP rounds.
+  t0 = Clock::now();
+  ScanFitStage icp{"icp", 0, 0, 0, 0, 0};
   const auto scan_samples = spread(scan.vertex_count(), options.scan_samples);
   const auto tmpl_samples = spread(f.rest.size(), options.template_samples);
   const int rounds = std::max(1, options.icp_rounds);
@@ -684,7 +714,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   fit.rest_joints = rest_joints_of(f.model, s.shape.data());
   fit.joints = posed_joints(fit.rest_joints, fit.pose);
 
-  // Stage 3: the scan's skin weights from the posed template (seed 001 §5.2).
+  // Stage 4: the scan's skin weights from the posed template (seed 001 §5.2).
   t0 = Clock::now();
   Mesh posed_template = f.tmpl.mesh;
   posed_template.positions = f.posed;
@@ -693,9 +723,9 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   fit.rigged.weights = interpolate_skin_weights(posed_template, f.tmpl.weights, scan.positions);
   fit.rigged.rest_pose = classify_rest_pose(fit.joints);
   fit.rigged.source = source;
-  fit.stages.push_back({"weights", 0, elapsed_ms(t0), d_icp.mean, d_icp.p95});
+  fit.stages.push_back({"weights", 0, 0, elapsed_ms(t0), d_icp.mean, d_icp.p95});
 
-  // Stage 4: the joints. The template's joints follow the mannequin's conventions, which put a
+  // Stage 5: the joints. The template's joints follow the mannequin's conventions, which put a
   // joint a few cm from where rigs put it inside another body's surface (collars, head, elbows);
   // estimate_joints() is calibrated on real rigs but needs an A- or T-pose. So the scan is
   // unposed into the fitted template's A-pose by inverting each vertex's blended skinning
@@ -736,7 +766,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   }
   fit.rigged.joints = fit.joints;
   fit.rigged.rest_pose = classify_rest_pose(fit.joints);
-  fit.stages.push_back({"joints", 0, elapsed_ms(t0), d_icp.mean, d_icp.p95});
+  fit.stages.push_back({"joints", 0, 0, elapsed_ms(t0), d_icp.mean, d_icp.p95});
   fit.total_ms = elapsed_ms(t_start);
   return fit;
 }

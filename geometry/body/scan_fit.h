@@ -36,8 +36,11 @@ struct ScanFitOptions {
 
 /// One stage of the fit.
 struct ScanFitStage {
-  std::string name;         ///< "init", "icp", "weights", "joints"
+  /// "template" (building the template and shape basis: first use only), "init", "search"
+  /// (search_scan_pose()), "icp", "weights", "joints"
+  std::string name;
   int iterations = 0;       ///< Ceres iterations (all rounds together), or 0
+  int candidates = 0;       ///< candidate poses scored ("search"), or 0
   double ms = 0;            ///< wall time
   double mean_distance = 0; ///< mean distance (m) from the scan's vertices to the posed template after the stage
   double p95_distance = 0;  ///< its 95th percentile (m)
@@ -80,7 +83,9 @@ const Body& scan_fit_template();
 /// cloud: a Mesh without faces, then only scan → template correspondences are used and the
 /// rigged result has no faces), in metres, upright (Y up), in any pose the pose prior allows.
 /// Start: estimate_joints() on the scan (A- or T-pose scans) and the skeleton fitted to those
-/// joints; where that fails, the A-pose scaled to the scan's height, with a warning. After the
+/// joints; where that fails, the A-pose scaled to the scan's height, with a warning. Then
+/// search_scan_pose() (scan_pose_search.h) tries each part's orientation in turn, so a scan in
+/// another pose (walking, arms raised, a knee bent, legs apart) starts near its own. After the
 /// ICP rounds and the skin weights, the joints are re-estimated on the unposed scan (ScanFit::joints). Shape
 /// model: the template's rest vertices v = s (v₀ + Σ_k w_k ΔJ_k(β)) follow their joints'
 /// displacement ΔJ(β) from the keypoint model, so β changes limb lengths and s everything.

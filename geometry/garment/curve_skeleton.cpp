@@ -1,6 +1,7 @@
 #include "curve_skeleton.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -18,6 +19,9 @@
 
 namespace vfit {
 namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 // Projects x onto segments [lo, hi) of the polyline `line` (arc: its cumulative arc lengths):
 // sets `along` to the arc length of the nearest point; leaves it alone when the range is empty.
@@ -401,6 +405,7 @@ Eigen::MatrixXd contract_mesh(const Mesh& mesh, const ContractionOptions& option
     return x;
   }
   // COTANGENT: the weights follow the contracting surface, so every iteration refactors.
+  wl = options.cotangent_weight;
   std::optional<SparseLeastSquares> solver;
   std::vector<float> current;
   for (int it = 0; it < options.max_iterations && area0 > 0 && ratio > options.area_ratio; ++it) {
@@ -429,10 +434,15 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
                 "original vertex count " + std::to_string(original_vertices) + " is not in [1, " +
                     std::to_string(mesh.vertex_count()) + "]");
   CurveSkeleton skeleton;
+  auto stage = Clock::now();
   const SkeletonProxy proxy =
       simplify_for_skeleton(mesh, options.proxy_vertices > 0 ? options.proxy_vertices : mesh.vertex_count());
   skeleton.proxy_vertices = proxy.mesh.vertex_count();
+  skeleton.timings.proxy_ms = ms_since(stage);
+  stage = Clock::now();
   const Eigen::MatrixXd contracted = contract_mesh(proxy.mesh, options.contraction, &skeleton.contraction);
+  skeleton.timings.contraction_ms = ms_since(stage);
+  stage = Clock::now();
   const CollapsedGraph graph = collapse_to_graph(contracted, proxy.mesh.triangles);
   const auto k = std::size_t(graph.node_count);
   skeleton.graph_nodes = k;
@@ -485,11 +495,14 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
     chain_of[p] = std::int32_t(i);
   }
 
+  skeleton.timings.graph_ms = ms_since(stage);
+  stage = Clock::now();
   skeleton.vertex_node.resize(original_vertices);
   for (std::size_t v = 0; v < original_vertices; ++v) skeleton.vertex_node[v] = chain_of[std::size_t(proxy.vertex_proxy[v])];
   skeleton.nodes = recentre(mesh, skeleton.vertex_node, path.size());
   // Full-resolution contraction clusters are already clean slabs; refining them can only cut.
   if (proxy.mesh.vertex_count() < mesh.vertex_count()) refine_slabs(mesh, skeleton.vertex_node, skeleton.nodes);
+  skeleton.timings.chain_ms = ms_since(stage);
   return skeleton;
 }
 

@@ -51,9 +51,7 @@ std::vector<float> LaplacianDeformer::deform(const Eigen::MatrixXd& delta, const
 }
 
 BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform)
-    : m_laplacian(uniform ? uniform_laplacian(mesh.triangle_view(), mesh.vertex_count())
-                          : cotangent_laplacian(mesh.position_view(), mesh.triangle_view())),
-      m_handles(handles.begin(), handles.end()) {
+    : m_handles(handles.begin(), handles.end()) {
   const std::size_t nv = mesh.vertex_count();
   // column[v]: index among the free vertices (≥ 0) or −1 − index among the handles.
   std::vector<std::int32_t> column(nv, 0);
@@ -70,6 +68,25 @@ BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const s
       column[v] = static_cast<std::int32_t>(m_free.size());
       m_free.push_back(static_cast<std::int32_t>(v));
     }
+  // Only the rows of L with a free column are used: those of the free vertices and of their
+  // neighbours, whose entries come from the faces around them. The Laplacian is built from
+  // those faces alone (most of a driven garment is handles), and its other rows dropped.
+  std::vector<char> in_band(nv, 0);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const std::int32_t* t = &mesh.triangles[3 * f];
+    if (column[static_cast<std::size_t>(t[0])] >= 0 || column[static_cast<std::size_t>(t[1])] >= 0 ||
+        column[static_cast<std::size_t>(t[2])] >= 0)
+      for (int k = 0; k < 3; ++k) in_band[static_cast<std::size_t>(t[k])] = 1;
+  }
+  std::vector<std::int32_t> band_triangles;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const std::int32_t* t = &mesh.triangles[3 * f];
+    if (in_band[static_cast<std::size_t>(t[0])] || in_band[static_cast<std::size_t>(t[1])] ||
+        in_band[static_cast<std::size_t>(t[2])])
+      band_triangles.insert(band_triangles.end(), t, t + 3);
+  }
+  m_laplacian = uniform ? uniform_laplacian(band_triangles, nv) : cotangent_laplacian(mesh.position_view(), band_triangles);
+  m_laplacian.prune([&](Eigen::Index row, Eigen::Index, double) { return in_band[static_cast<std::size_t>(row)] != 0; });
   if (m_free.empty()) return;
   std::vector<Eigen::Triplet<double>> free_entries, handle_entries;
   for (Eigen::Index r = 0; r < m_laplacian.outerSize(); ++r) {

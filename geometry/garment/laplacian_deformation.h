@@ -60,7 +60,9 @@ public:
 
   bool ok() const { return m_free.empty() || m_solver->ok(); }
 
-  /// δ = L · x for positions (#V × 3 flat, m) of this mesh: #V × 3.
+  /// δ = L · x for positions (#V × 3 flat, m) of this mesh: #V × 3. Only the rows deform()
+  /// reads are kept (free vertices and their neighbours, built from the faces around them);
+  /// the others are zero.
   Eigen::MatrixXd laplacian_coordinates(std::span<const float> positions) const;
 
   /// delta: #V × 3 target differential coordinates (only the rows that touch a free vertex
@@ -72,7 +74,7 @@ public:
   const std::vector<std::int32_t>& free_vertices() const { return m_free; }
 
 private:
-  SparseMatrix m_laplacian;            ///< #V × #V
+  SparseMatrix m_laplacian;            ///< #V × #V, rows of the free vertices and their neighbours only
   std::vector<std::int32_t> m_handles; ///< #H, caller's order
   std::vector<std::int32_t> m_free;    ///< #F ascending
   std::vector<std::int32_t> m_rows;    ///< rows of L with a free column, ascending

@@ -139,6 +139,7 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
   result.contraction = skeleton.contraction;
   result.proxy_vertices = skeleton.proxy_vertices;
   result.timings.skeleton_ms = ms_since(stage);
+  result.timings.skeleton_stages = skeleton.timings;
 
   stage = Clock::now();
   const std::vector<std::int32_t>& piece_node = skeleton.vertex_node;

@@ -36,12 +36,13 @@ ParsedMesh read_mesh(const std::filesystem::path& path, const ReadOptions& optio
   ParsedMesh parsed;
   switch (format) {
   case MeshFormat::OBJ: parsed = read_obj(bytes, name); break;
-  case MeshFormat::PLY: parsed = read_ply(bytes, name); break;
+  case MeshFormat::PLY: parsed = read_ply(bytes, name, options.allow_point_cloud); break;
   case MeshFormat::OFF: parsed = read_off(bytes, name); break;
   case MeshFormat::STL: parsed = read_stl(bytes, name); break;
   case MeshFormat::GLB:
   case MeshFormat::GLTF: parsed = read_gltf(bytes, name); break;
   }
+  if (parsed.mesh.face_count() == 0) return parsed; // a point cloud (allow_point_cloud): no surface to validate
   ValidationOptions vo;
   vo.repair = options.repair;
   validate_mesh(parsed.mesh, parsed.source, vo, parsed.warnings);

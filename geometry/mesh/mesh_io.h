@@ -22,6 +22,10 @@ MeshFormat mesh_format_from_path(const std::filesystem::path& path);
 struct ReadOptions {
   /// Drop degenerate and duplicate faces with a warning instead of rejecting the file.
   bool repair = false;
+  /// Accept a PLY file of vertices only (a point cloud, e.g. a body scan): the mesh comes back
+  /// with no triangles and is not validated as a surface. Other formats still need faces. Off
+  /// by default: garments and bodies need faces.
+  bool allow_point_cloud = false;
 };
 
 /// Reads, parses and validates a mesh file (validate_mesh()). Positions stay in the file's

@@ -562,7 +562,7 @@ template <class T> void append_text(std::string& out, T v, char separator) {
 
 } // namespace
 
-ParsedMesh read_ply(std::string_view bytes, const std::string& path) {
+ParsedMesh read_ply(std::string_view bytes, const std::string& path, bool allow_point_cloud) {
   ParsedMesh out;
   Header h = parse_header(bytes, path, out.warnings);
   assign_roles(h, path);
@@ -583,7 +583,8 @@ ParsedMesh read_ply(std::string_view bytes, const std::string& path) {
       out.warnings.push_back(path + ": " + std::to_string(src.bytes_left()) + " bytes after the last element ignored");
   }
   Mesh& m = out.mesh;
-  if (m.triangles.empty()) throw Error(path, 0, "no faces");
+  if (m.triangles.empty() && !(allow_point_cloud && m.vertex_count() > 0))
+    throw Error(path, 0, allow_point_cloud ? "no vertices" : "no faces");
   if (b.bad_normals) {
     out.warnings.push_back(path + ": vertex normals contain NaN or infinite values; normals ignored");
     m.normals.clear();

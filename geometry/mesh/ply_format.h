@@ -22,7 +22,10 @@ namespace vfit {
 /// elements than the header declares), NaN/Inf positions or UVs, indices out of range, faces
 /// with fewer than 3 vertices, or no faces. Header counts are never trusted beyond what the
 /// bytes can hold. NaN/Inf normals are dropped with a warning (normals can be recomputed).
-ParsedMesh read_ply(std::string_view bytes, const std::string& path);
+/// `allow_point_cloud`: a file with vertices and no faces (a scanner's point cloud, with or
+/// without a face element) is returned with no triangles instead of rejected; off by default,
+/// since garments and bodies need faces.
+ParsedMesh read_ply(std::string_view bytes, const std::string& path, bool allow_point_cloud = false);
 
 /// PLY of `mesh`, binary little-endian or (`binary` false) ASCII with shortest round-trip
 /// floats: float x y z (+ nx ny nz when the mesh has one normal per vertex, i.e.

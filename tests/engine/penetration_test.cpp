@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/primitives.h"
@@ -180,6 +181,22 @@ TEST(Penetration, ConjugateGradientsAgreeWithTheFactorisedSolve) {
       worst = std::max(worst, double(std::fabs(direct.positions[k] - iterative.positions[k])));
     EXPECT_LT(worst, 1e-6) << "method " << int(method);
     EXPECT_GT(test::mean_edge_length_change(start, direct), 1e-4) << "the solve moved the tube";
+    // AUTO picks by region size: below the limit it is the factorisation, at it CG, bit for bit.
+    o.solver = PenetrationSolver::AUTO;
+    for (const std::size_t limit : {std::size_t(1) << 40, std::size_t(0)}) {
+      o.direct_solve_limit = limit;
+      Mesh automatic = start;
+      remove_penetration(automatic, index, crossings, o);
+      EXPECT_EQ(automatic.positions, limit == 0 ? iterative.positions : direct.positions) << "limit " << limit;
+    }
+    // CG's parallel products and chunked dot products: the same bits on one thread.
+    o.solver = PenetrationSolver::CONJUGATE_GRADIENT;
+    Mesh serial = start;
+    {
+      const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+      remove_penetration(serial, index, crossings, o);
+    }
+    EXPECT_EQ(serial.positions, iterative.positions);
   }
 }
 

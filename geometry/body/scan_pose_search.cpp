@@ -1,0 +1,412 @@
+#include "scan_pose_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+namespace vfit {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using Vec3f = Eigen::Vector3f;
+constexpr double DEG = std::numbers::pi / 180.0;
+
+// Nearest-point distances, capped, over a point set binned in a uniform grid of cells as large
+// as the cap: a query looks at its own cell and the 26 around it, which hold every point within
+// the cap. The search scores a few hundred poses, so this replaces a triangle BVH (rebuilt per
+// pose) with a counting sort.
+class PointGrid {
+public:
+  explicit PointGrid(float cell) : m_cell(cell) {}
+
+  void build(std::span<const float> xyz, std::span<const std::size_t> subset) {
+    const std::size_t n = subset.empty() ? xyz.size() / 3 : subset.size();
+    auto point = [&](std::size_t i) {
+      const std::size_t v = subset.empty() ? i : subset[i];
+      return Vec3f(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
+    };
+    m_lo = Vec3f::Constant(INFINITY);
+    Vec3f hi = Vec3f::Constant(-INFINITY);
+    for (std::size_t i = 0; i < n; ++i) {
+      m_lo = m_lo.cwiseMin(point(i));
+      hi = hi.cwiseMax(point(i));
+    }
+    for (int a = 0; a < 3; ++a)
+      m_dims[a] = n == 0 ? 0 : static_cast<int>((hi[a] - m_lo[a]) / m_cell) + 1;
+    const auto cells = static_cast<std::size_t>(m_dims[0]) * static_cast<std::size_t>(m_dims[1]) *
+                       static_cast<std::size_t>(m_dims[2]);
+    m_start.assign(cells + 1, 0);
+    m_cell_of.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      m_cell_of[i] = cell_index(point(i));
+      ++m_start[m_cell_of[i] + 1];
+    }
+    for (std::size_t c = 0; c < cells; ++c)
+      m_start[c + 1] += m_start[c];
+    m_points.resize(n);
+    std::vector<std::size_t> fill(m_start.begin(), m_start.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      m_points[fill[m_cell_of[i]]++] = point(i);
+  }
+
+  // min(distance to the nearest point, cell size).
+  float capped_distance(const Vec3f& q) const {
+    float best = m_cell * m_cell;
+    std::array<int, 3> c{};
+    for (int a = 0; a < 3; ++a) {
+      c[a] = static_cast<int>(std::floor((q[a] - m_lo[a]) / m_cell));
+      if (c[a] < -1 || c[a] > m_dims[a]) return m_cell;
+    }
+    for (int x = std::max(c[0] - 1, 0); x <= std::min(c[0] + 1, m_dims[0] - 1); ++x)
+      for (int y = std::max(c[1] - 1, 0); y <= std::min(c[1] + 1, m_dims[1] - 1); ++y)
+        for (int z = std::max(c[2] - 1, 0); z <= std::min(c[2] + 1, m_dims[2] - 1); ++z) {
+          const std::size_t cell = flat(x, y, z);
+          for (std::size_t k = m_start[cell]; k < m_start[cell + 1]; ++k)
+            best = std::min(best, (m_points[k] - q).squaredNorm());
+        }
+    return std::sqrt(best);
+  }
+
+private:
+  std::size_t flat(int x, int y, int z) const {
+    return (static_cast<std::size_t>(x) * static_cast<std::size_t>(m_dims[1]) + static_cast<std::size_t>(y)) *
+               static_cast<std::size_t>(m_dims[2]) +
+           static_cast<std::size_t>(z);
+  }
+  std::size_t cell_index(const Vec3f& p) const {
+    std::array<int, 3> c{};
+    for (int a = 0; a < 3; ++a)
+      c[a] = std::clamp(static_cast<int>((p[a] - m_lo[a]) / m_cell), 0, m_dims[a] - 1);
+    return flat(c[0], c[1], c[2]);
+  }
+
+  float m_cell;
+  Vec3f m_lo = Vec3f::Zero();
+  std::array<int, 3> m_dims{};
+  std::vector<std::size_t> m_start, m_cell_of;
+  std::vector<Vec3f> m_points;
+};
+
+std::vector<std::size_t> spread(std::size_t n, std::size_t count) {
+  std::vector<std::size_t> out;
+  const std::size_t m = std::min(n, std::max<std::size_t>(count, 1));
+  for (std::size_t i = 0; i < m; ++i)
+    out.push_back(i * n / m);
+  return out;
+}
+
+// The rotation (axis-angle) taking `from` to `to` about their common normal, the shortest one.
+Vec3 swing(const Vec3& from, const Vec3& to) {
+  const Eigen::AngleAxisd aa(Eigen::Quaterniond::FromTwoVectors(from, to));
+  return aa.angle() * aa.axis();
+}
+Vec3 compose(const Vec3& a, const Vec3& b) { // rotation a after b
+  return matrix_to_axis_angle(axis_angle_to_matrix(a) * axis_angle_to_matrix(b));
+}
+
+class Scorer {
+public:
+  Scorer(const Body& tmpl, std::span<const float> scan, const ScanPoseSearchOptions& o)
+      : m_tmpl(tmpl), m_grid(static_cast<float>(o.cap)), m_tmpl_grid(static_cast<float>(o.cap)),
+        m_cap(static_cast<float>(o.cap)) {
+    for (std::size_t v : spread(scan.size() / 3, o.scan_samples))
+      m_scan_samples.emplace_back(scan[3 * v], scan[3 * v + 1], scan[3 * v + 2]);
+    const auto grid_points = spread(scan.size() / 3, o.scan_grid_points);
+    m_grid.build(scan, grid_points);
+    m_floor = INFINITY;
+    for (std::size_t v = 0; v < scan.size() / 3; ++v)
+      m_floor = std::min(m_floor, scan[3 * v + 1]);
+    m_tmpl_samples = spread(tmpl.mesh.vertex_count(), o.template_samples);
+  }
+
+  // Scores `pose` at scale exp(log_scale); with `level`, first moves it vertically so that its
+  // lowest vertex is level with the scan's (the translation is updated).
+  double score(Pose& pose, double log_scale, bool level = false) {
+    ++m_evaluations;
+    if (log_scale != m_shaped_log_scale || m_shaped.empty()) {
+      const auto s = static_cast<float>(std::exp(log_scale));
+      m_shaped.resize(m_tmpl.mesh.positions.size());
+      for (std::size_t i = 0; i < m_shaped.size(); ++i)
+        m_shaped[i] = s * m_tmpl.mesh.positions[i];
+      m_shaped_log_scale = log_scale;
+    }
+    const JointPositions J = std::exp(log_scale) * m_tmpl.joints;
+    linear_blend_skinning(m_shaped, m_tmpl.weights, skinning_transforms(J, pose), m_posed);
+    float lowest = INFINITY;
+    for (std::size_t v = 0; v < m_posed.size() / 3; ++v)
+      lowest = std::min(lowest, m_posed[3 * v + 1]);
+    const float dy = level ? m_floor - lowest : 0.f;
+    for (std::size_t v = 0; v < m_posed.size() / 3; ++v)
+      m_posed[3 * v + 1] += dy;
+    pose.translation.y() += dy;
+    m_tmpl_grid.build(m_posed, {});
+    double a = 0, b = 0;
+    for (const Vec3f& q : m_scan_samples)
+      a += m_tmpl_grid.capped_distance(q);
+    for (std::size_t v : m_tmpl_samples)
+      b += m_grid.capped_distance(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]));
+    return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
+           b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
+  }
+  int evaluations() const { return m_evaluations; }
+
+  // Prepares scoring of poses that differ from `base` only in the joints of `subtrees` (and
+  // their descendants): the template's vertices they move are re-posed per candidate, the
+  // others' distances are kept from `base`.
+  void begin_part(Pose& base, double log_scale, const std::vector<int>& subtrees) {
+    std::array<bool, JOINT_COUNT> moving{};
+    for (int j = 0; j < JOINT_COUNT; ++j)
+      for (int a = j; a >= 0 && !moving[static_cast<std::size_t>(j)]; a = joint_parent(a))
+        moving[static_cast<std::size_t>(j)] = std::find(subtrees.begin(), subtrees.end(), a) != subtrees.end();
+    score(base, log_scale); // m_posed and m_shaped at this pose and scale
+    m_part_log_scale = log_scale;
+    m_moving.clear();
+    std::vector<std::size_t> still;
+    const SkinWeights& w = m_tmpl.weights;
+    for (std::size_t v = 0; v < w.vertex_count(); ++v) {
+      bool moves = false;
+      for (int k = 0; k < 4; ++k)
+        moves = moves || (w.weights[4 * v + k] > 0 && moving[static_cast<std::size_t>(w.joints[4 * v + k])]);
+      (moves ? m_moving : still).push_back(v);
+    }
+    m_tmpl_grid.build(m_posed, still);
+    m_still_distance.resize(m_scan_samples.size());
+    for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
+      m_still_distance[i] = still.empty() ? m_cap : m_tmpl_grid.capped_distance(m_scan_samples[i]);
+    m_still_sum = 0;
+    m_moving_samples.clear();
+    std::vector<bool> is_moving(w.vertex_count(), false);
+    for (std::size_t v : m_moving)
+      is_moving[v] = true;
+    for (std::size_t v : m_tmpl_samples) {
+      if (is_moving[v])
+        m_moving_samples.push_back(v);
+      else
+        m_still_sum += m_grid.capped_distance(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]));
+    }
+  }
+
+  // The score of `pose` (equal to score() up to rounding) for a pose that differs from
+  // begin_part()'s base only in that part; the translation is kept.
+  double score_part(const Pose& pose) {
+    ++m_evaluations;
+    const JointPositions J = std::exp(m_part_log_scale) * m_tmpl.joints;
+    const auto A = skinning_transforms(J, pose);
+    const SkinWeights& w = m_tmpl.weights;
+    m_part_points.resize(3 * m_moving.size());
+    for (std::size_t i = 0; i < m_moving.size(); ++i) {
+      const std::size_t v = m_moving[i];
+      const Eigen::Vector3d x(m_shaped[3 * v], m_shaped[3 * v + 1], m_shaped[3 * v + 2]);
+      Eigen::Vector3d y = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 4; ++k)
+        if (w.weights[4 * v + k] > 0)
+          y += static_cast<double>(w.weights[4 * v + k]) * (A[static_cast<std::size_t>(w.joints[4 * v + k])] * x);
+      for (int a = 0; a < 3; ++a)
+        m_posed[3 * v + a] = m_part_points[3 * i + a] = static_cast<float>(y[a]);
+    }
+    m_part_grid.build(m_part_points, {});
+    double a = 0, b = m_still_sum;
+    for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
+      a += std::min(m_still_distance[i], m_part_grid.capped_distance(m_scan_samples[i]));
+    for (std::size_t v : m_moving_samples)
+      b += m_grid.capped_distance(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]));
+    return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
+           b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
+  }
+
+private:
+  const Body& m_tmpl;
+  PointGrid m_grid, m_tmpl_grid;
+  float m_cap;
+  float m_floor = 0;
+  std::vector<Vec3f> m_scan_samples;
+  std::vector<std::size_t> m_tmpl_samples;
+  std::vector<float> m_shaped, m_posed;
+  double m_shaped_log_scale = 0;
+  int m_evaluations = 0;
+  // begin_part() / score_part():
+  PointGrid m_part_grid{m_cap};
+  double m_part_log_scale = 0, m_still_sum = 0;
+  std::vector<std::size_t> m_moving, m_moving_samples;
+  std::vector<float> m_still_distance, m_part_points;
+};
+
+// One candidate: a change to the current pose and scale.
+using Candidate = std::function<void(Pose&, double&)>;
+
+void set_joint(Pose& p, int joint, const Vec3& r) { p.axis_angle.row(joint) = r.transpose(); }
+
+std::vector<Candidate> placement_candidates() {
+  std::vector<Candidate> c;
+  for (double dx : {-0.08, -0.04, 0.04, 0.08}) {
+    c.push_back([dx](Pose& p, double&) { p.translation.x() += dx; });
+    c.push_back([dx](Pose& p, double&) { p.translation.z() += dx; });
+  }
+  for (double dy : {-0.12, -0.06, -0.03, 0.03})
+    c.push_back([dy](Pose& p, double&) { p.translation.y() += dy; });
+  for (double yaw : {-30.0, -15.0, 15.0, 30.0})
+    c.push_back([yaw](Pose& p, double&) {
+      p.axis_angle.row(0) = compose(Vec3(0, yaw * DEG, 0), p.axis_angle.row(0).transpose()).transpose();
+    });
+  for (double ds : {-0.15, -0.10, -0.05, 0.05, 0.10, 0.15})
+    c.push_back([ds](Pose&, double& log_scale) { log_scale += ds; });
+  return c;
+}
+
+std::vector<Candidate> torso_candidates() {
+  std::vector<Candidate> c;
+  for (double bend : {-15.0, 0.0, 15.0, 30.0})
+    for (double twist : {-24.0, 0.0, 24.0})
+      c.push_back([bend, twist](Pose& p, double&) {
+        // Spread over the three spine joints, as a spine bends.
+        const Vec3 r = compose(Vec3(0, twist * DEG / 3, 0), Vec3(bend * DEG / 3, 0, 0));
+        for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3})
+          set_joint(p, idx(j), r);
+      });
+  return c;
+}
+
+// A frame (columns) from a direction and a second, orthogonalised against it.
+Eigen::Matrix3d frame(const Vec3& d, const Vec3& n) {
+  Eigen::Matrix3d F;
+  F.col(0) = d.normalized();
+  F.col(1) = (n - n.dot(F.col(0)) * F.col(0)).normalized();
+  F.col(2) = F.col(0).cross(F.col(1));
+  return F;
+}
+
+// Directions spread over the sphere: the 6 axes, 12 edge and 8 corner directions of a cube.
+std::vector<Vec3> sphere_directions() {
+  std::vector<Vec3> out;
+  for (int x = -1; x <= 1; ++x)
+    for (int y = -1; y <= 1; ++y)
+      for (int z = -1; z <= 1; ++z)
+        if (x != 0 || y != 0 || z != 0) out.push_back(Vec3(x, y, z).normalized());
+  return out;
+}
+
+// A two-bone limb (thigh and shank, or upper arm and forearm) set to point its first bone
+// along `upper` and its second along `lower` (directions in the parent's frame): the root
+// joint takes the rotation that maps the rest's bone direction to `upper` and the rest's hinge
+// axis to the one that bends `upper` into `lower`; the hinge joint takes the bend about it.
+// Straight (`lower` = `upper`): the shortest rotation, no twist.
+struct Limb {
+  Joint root, hinge;
+  Vec3 rest_direction; ///< the first bone's direction in the rest pose
+  Vec3 rest_axis;      ///< the hinge axis in the rest pose: a positive bend about it is anatomical
+  double max_bend;     ///< rad
+};
+
+Candidate limb_candidate(const Limb& limb, const Vec3& upper, const Vec3& lower) {
+  const double bend = std::acos(std::clamp(upper.dot(lower), -1.0, 1.0));
+  Vec3 root = swing(limb.rest_direction, upper);
+  if (bend > 1e-3) {
+    const Vec3 axis = upper.cross(lower).normalized();
+    const Eigen::Matrix3d R = frame(upper, axis) * frame(limb.rest_direction, limb.rest_axis).transpose();
+    root = matrix_to_axis_angle(R);
+  }
+  const Vec3 hinge = bend * limb.rest_axis;
+  return [limb, root, hinge](Pose& p, double&) {
+    set_joint(p, idx(limb.root), root);
+    set_joint(p, idx(limb.hinge), hinge);
+  };
+}
+
+// First bones over `uppers`, second bones over the sphere's directions (and straight) that
+// bend by 20° to max_bend.
+std::vector<Candidate> limb_candidates(const Limb& limb, const std::vector<Vec3>& uppers) {
+  std::vector<Candidate> c;
+  const auto lowers = sphere_directions();
+  for (const Vec3& u : uppers) {
+    c.push_back(limb_candidate(limb, u, u));
+    for (const Vec3& l : lowers) {
+      const double bend = std::acos(std::clamp(u.dot(l), -1.0, 1.0));
+      if (bend >= 20 * DEG && bend <= limb.max_bend) c.push_back(limb_candidate(limb, u, l));
+    }
+  }
+  return c;
+}
+
+// Thighs: flexion f forward (+Z) and abduction b outward from the rest's straight down.
+std::vector<Candidate> leg_candidates(double side) {
+  const Limb limb{side > 0 ? Joint::LEFT_HIP : Joint::RIGHT_HIP, side > 0 ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE,
+                  Vec3(0, -1, 0), Vec3(1, 0, 0), 120 * DEG};
+  std::vector<Vec3> uppers;
+  for (double f : {-30.0, 0.0, 25.0, 50.0, 80.0})
+    for (double b : {-10.0, 0.0, 12.0, 24.0, 36.0, 48.0})
+      uppers.emplace_back(side * std::sin(b * DEG), -std::cos(b * DEG) * std::cos(f * DEG),
+                          std::cos(b * DEG) * std::sin(f * DEG));
+  // The knee bends only backwards: keep shanks behind the thigh's plane of flexion.
+  std::vector<Candidate> c;
+  const auto lowers = sphere_directions();
+  for (const Vec3& u : uppers) {
+    c.push_back(limb_candidate(limb, u, u));
+    const Vec3 back = Vec3(1, 0, 0).cross(u).normalized(); // where the shank goes when the knee bends
+    for (const Vec3& l : lowers) {
+      const double bend = std::acos(std::clamp(u.dot(l), -1.0, 1.0));
+      if (bend >= 20 * DEG && bend <= limb.max_bend && l.dot(back) > 0.3) c.push_back(limb_candidate(limb, u, l));
+    }
+  }
+  return c;
+}
+
+// Upper arms: elevation e above horizontal and azimuth a forward (+Z) from the rest's straight
+// out to the side, and straight up and down.
+std::vector<Candidate> arm_candidates(double side) {
+  const Limb limb{side > 0 ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER,
+                  side > 0 ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW, Vec3(side, 0, 0), Vec3(0, -side, 0), 140 * DEG};
+  std::vector<Vec3> uppers = {Vec3(0, 1, 0), Vec3(0, -1, 0)};
+  for (double e : {-70.0, -45.0, -20.0, 0.0, 25.0, 50.0, 75.0})
+    for (double a : {-30.0, 0.0, 35.0, 70.0})
+      uppers.emplace_back(side * std::cos(e * DEG) * std::cos(a * DEG), std::sin(e * DEG),
+                          std::cos(e * DEG) * std::sin(a * DEG));
+  return limb_candidates(limb, uppers);
+}
+
+} // namespace
+
+ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,
+                                const ScanPoseSearchOptions& options) {
+  Scorer scorer(tmpl, scan, options);
+  ScanPoseSearch out;
+  out.pose = start;
+  out.log_scale = log_scale;
+  out.score = out.start_score = scorer.score(out.pose, out.log_scale, true);
+  struct Part {
+    std::vector<Candidate> candidates;
+    std::vector<int> subtrees; // empty: the whole body moves (scored in full)
+  };
+  const std::vector<Part> parts = {
+      {placement_candidates(), {}},
+      {torso_candidates(), {}},
+      {leg_candidates(1), {idx(Joint::LEFT_HIP)}},
+      {leg_candidates(-1), {idx(Joint::RIGHT_HIP)}},
+      {arm_candidates(1), {idx(Joint::LEFT_SHOULDER)}},
+      {arm_candidates(-1), {idx(Joint::RIGHT_SHOULDER)}},
+  };
+  for (int pass = 0; pass < std::max(1, options.passes); ++pass)
+    for (const Part& part : parts) {
+      // Every candidate of a part is tried from the same current pose; the best one is kept.
+      Pose base = out.pose;
+      const double base_scale = out.log_scale;
+      if (!part.subtrees.empty()) scorer.begin_part(base, base_scale, part.subtrees);
+      for (const Candidate& apply : part.candidates) {
+        Pose p = base;
+        double ls = base_scale;
+        apply(p, ls);
+        const double s = part.subtrees.empty() ? scorer.score(p, ls) : scorer.score_part(p);
+        if (s < out.score) {
+          out.score = s;
+          out.pose = p;
+          out.log_scale = ls;
+        }
+      }
+    }
+  out.evaluations = scorer.evaluations();
+  return out;
+}
+
+} // namespace vfit

@@ -1,0 +1,50 @@
+#pragma once
+/// \file
+/// The starting pose of a scan fit (scan_fit.h) for a scan in any pose: a coarse search over
+/// each body part's orientation in turn (global placement, torso, thighs, knees, upper arms,
+/// elbows, scale), every candidate scored by a truncated two-sided point distance between the
+/// posed template and the scan. Seed 001 eq. 4 is local (ICP converges to the nearest minimum);
+/// this search puts the limbs into the right basin first, so that a walking, sitting or
+/// arms-raised scan does not start from an A-pose whose limbs lie on the wrong side of the scan's.
+/// Conventions: metres, Y up, the body facing +Z, +X = the body's left.
+
+#include <span>
+
+#include "body.h"
+
+namespace vfit {
+
+/// Settings of search_scan_pose().
+struct ScanPoseSearchOptions {
+  std::size_t scan_samples = 700;     ///< scan points scored (fixed-seed even subset)
+  std::size_t scan_grid_points = 4000; ///< scan points the template's points are matched to
+  std::size_t template_samples = 700; ///< template vertices scored
+  /// Distances are truncated here (m): a part farther than this off the scan counts the same
+  /// wherever it is, so a wrong limb cannot outweigh the rest of the body.
+  double cap = 0.08;
+  int passes = 2; ///< sweeps over all parts (each keeps only improvements)
+};
+
+/// The result of search_scan_pose().
+struct ScanPoseSearch {
+  Pose pose;                ///< T-pose-relative pose and translation (m) of the template
+  double log_scale = 0;     ///< log of the template's global scale
+  double start_score = 0;   ///< score of the starting pose (m: mean truncated distance, both ways)
+  double score = 0;         ///< score of the returned pose (m)
+  int evaluations = 0;      ///< candidate poses scored
+};
+
+/// Searches the pose of `tmpl` (a body in T-pose whose rest joints and weights pose it by LBS)
+/// scaled by exp(log_scale) that best covers `scan` (#P × 3, m; a mesh's vertices or a point
+/// cloud), starting from `start`. Score: mean over scan samples of min(d, cap) to the posed
+/// template's vertices plus the same from template samples to the scan's points, so a part is
+/// rewarded both for explaining scan points and for lying on the scan. Each part is tried in a
+/// fixed set of orientations (upper arms over 35 directions and 3 twists, elbows 0–120°,
+/// thighs over 24 directions, knees 0–100°, torso bend and twist, global yaw ±30°, x/z shifts,
+/// scale ±15 %), every candidate placed on the scan's floor (lowest points level); a candidate
+/// replaces the current value only when it scores better, so the result never scores worse
+/// than `start`. Deterministic. Needs at least one scan point; never throws for finite input.
+ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,
+                                const ScanPoseSearchOptions& options = {});
+
+} // namespace vfit
