@@ -41,6 +41,11 @@ constexpr float CONTACT_REACH_GUARD = 1e-4f;
 // already buried in a self-overlapping posed body.
 constexpr int CONTACT_FULL_QUERY_PASSES = 32;
 
+// Resting contacts (ClothOptions::resting_contacts) are the particles the last contact pass
+// found closer than τ + this (m): those it pushed out to τ, and those left at τ up to the float
+// rounding of a distance (~1e-8 m at 5 cm).
+constexpr float RESTING_CONTACT_MARGIN = 1e-6f;
+
 // A vertex pinned to a body triangle (a, b, c): x = a + s·(b − a) + t·(c − a) + h·n̂.
 struct BodyAttachment {
   std::int32_t vertex = 0, triangle = 0;
@@ -82,7 +87,8 @@ struct ClothSim::Impl {
   // positions (the query of the last contact pass, taken before its response).
   bool hits_valid = false;
   ImplicitConstraints constraints;
-  std::vector<unsigned char> released; // 1: the constraint pulled last step, left free this one
+  ImplicitContactSprings contact_springs;
+  std::vector<unsigned char> released; // 1: the constraint or spring pulled last step, free this one
 
   void update_substep() {
     if (options.integrator == ClothIntegrator::IMPLICIT_EULER) {
@@ -161,27 +167,36 @@ struct ClothSim::Impl {
     }
   }
 
-  // One implicit Euler step of h (with the body contacts as constraints of the solve and their
-  // friction when contacts_in_solve), then a contact pass; returns the CG iterations.
+  // One implicit Euler step of h, with the body contacts in the solve (resting contacts as
+  // stiff springs, or as B&W constraints when contacts_in_solve) and their friction, then a
+  // contact pass; returns the CG iterations.
   int implicit_step(double h, std::size_t& contacts) {
     const ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
     const ImplicitConstraints* c = nullptr;
+    const ImplicitContactSprings* cs = nullptr;
     const float hf = static_cast<float>(h);
-    if (has_body() && options.contacts_in_solve) {
+    if (has_body() && (options.contacts_in_solve || options.resting_contacts)) {
       if (!hits_valid) contacts += resolve_contacts();
       released.resize(masses.size(), 0);
-      body_contact_constraints(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
-                               contact_parameters(), options.contact_margin, hf, released, constraints);
-      c = &constraints;
+      if (options.contacts_in_solve) {
+        body_contact_constraints(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
+                                 contact_parameters(), options.contact_margin, hf, released, constraints);
+        c = &constraints;
+      } else {
+        body_contact_springs(x, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
+                             contact_parameters(), RESTING_CONTACT_MARGIN, options.resting_contact_stiffness, hf,
+                             released, contact_springs);
+        cs = &contact_springs;
+      }
     }
     const ImplicitSolveReport r =
         options.backend == ClothBackend::SERIAL
-            ? implicit_euler_step_serial(x, v, adjacency, particles, hf, solve, implicit_workspace, c)
-            : implicit_euler_step_tbb(x, v, adjacency, particles, hf, solve, implicit_workspace, c);
-    if (c != nullptr) {
+            ? implicit_euler_step_serial(x, v, adjacency, particles, hf, solve, implicit_workspace, c, cs)
+            : implicit_euler_step_tbb(x, v, adjacency, particles, hf, solve, implicit_workspace, c, cs);
+    if (c != nullptr || cs != nullptr) {
       const std::vector<float>& impulses = implicit_workspace.normal_impulses;
-      apply_contact_friction(x, v, particles.inverse_masses, constraints, impulses, hits, body_triangles,
-                             body_velocities, options.contact_friction, hf);
+      apply_contact_friction(x, v, particles.inverse_masses, c != nullptr ? c->normals : cs->normals, impulses, hits,
+                             body_triangles, body_velocities, options.contact_friction, hf);
       for (std::size_t i = 0; i < released.size(); ++i)
         released[i] = impulses[i] < 0.0f ? 1 : 0;
     }

@@ -4,7 +4,8 @@
 /// with masses from the fabric's area density, structural and bending springs with damping,
 /// gravity and global damping, implicit Euler in large steps (Baraff & Witkin 1998, as seed
 /// 004 §2) or RK4 in stable substeps, pinning, body collision
-/// through the proximity core with thickness, friction and restitution, a run-to-rest
+/// through the proximity core with thickness, friction and restitution (resting contacts held
+/// inside the implicit solve), a run-to-rest
 /// convergence test (seed 004 §3.2.1) and divergence detection. Steps a frame at a time for
 /// real-time apps (step(dt), move_body() refits a moving body) or runs to rest for fitting.
 
@@ -116,9 +117,9 @@ struct ClothOptions {
   /// queried in full, as the side across a hole's cap can flip away from the surface. With the
   /// BVH and a parallel backend a re-query also searches only as far as the particle's previous
   /// closest point (which bounds the new distance). On the 6,000-vertex tee drape about 15 % of
-  /// the particles are queried per pass once it has landed, and the whole run to rest takes
-  /// 2.8 instead of 4.4 CPU s (bench/kernels/cloth_bench.cpp, BM_drape_tee_to_rest vs
-  /// BM_drape_tee_to_rest_full_queries, one run on 2 shared cores).
+  /// the particles are queried per pass once it has landed; when it was added, the whole run
+  /// to rest took 2.8 instead of 4.4 CPU s (bench/kernels/cloth_bench.cpp,
+  /// BM_drape_tee_to_rest vs BM_drape_tee_to_rest_full_queries, one run on 2 shared cores).
   bool contact_candidates = true;
   float contact_thickness = 0.003f; ///< τ (m): gap kept to the body
   float contact_friction = 0.3f;    ///< Coulomb μ_f against the body
@@ -135,14 +136,39 @@ struct ClothOptions {
   /// the solve (Baraff & Witkin §5.3's filter: no velocity change into the body, the step ends
   /// at the gap τ, Coulomb friction from the constraint's impulse), released for one step when
   /// the constraint pulled; particles the constraints miss (fast ones) are still caught by the
-  /// contact pass after every step. Off by default: on the 6,000-vertex tee drape benchmark it
-  /// keeps steps of 1/60 s stable (without it they snag between arm and torso and diverge) at
-  /// 1.3–2.1 simulated s per wall s on 2 threads, but the cloth then does not come to rest
-  /// (run_to_rest()'s test) within 3 simulated s, nor within 10 at the default step, where the
-  /// contact pass alone rests after 2.1 s: particles at the edge of the contact region
-  /// alternate between constrained and released.
+  /// contact pass after every step. Off by default: with steps of 1/60 s (which diverge
+  /// without it, snagging between arm and torso) it is only marginally stable: of the tees of
+  /// 4,500, 6,000 and 7,500 vertices on the benchmark's mannequin, one diverges within 0.25 s,
+  /// which one depending on float rounding (a change of the CG's summation order moved it from
+  /// the 4,500 to the 6,000 one); the others run at 1.3–2.1 simulated s per wall s on 2 threads
+  /// but do not come to rest (run_to_rest()'s test) within 3 simulated s, nor within 10 at the
+  /// default step: particles at the edge of the contact region alternate between constrained
+  /// and released. Varying its velocity target (no pull onto the gap; the approach speed
+  /// capped) and margin (0.2–2 mm) did not help. Takes precedence over resting_contacts.
   bool contacts_in_solve = false;
   float contact_margin = 0.002f; ///< m; see contacts_in_solve
+  /// Implicit Euler: the particles resting on the body (those the last contact pass found
+  /// within the gap τ and pushed out to it) are held by stiff one-sided springs inside the
+  /// solve (kernels/cloth_implicit.h, ImplicitContactSprings; cloth_collision.h,
+  /// body_contact_springs): the solve sees the contact, so a resting particle no longer sinks
+  /// by h²·g each step to be pushed back out by the contact pass, which jiggled its neighbours
+  /// and kept the cloth creeping; a spring that would pull is removed and the step solved again
+  /// (5 more CG iterations at most), and left off for the next step; the contact's friction
+  /// comes from the spring's impulse (apply_contact_friction), the contact pass still catches
+  /// the particles arriving. On the 6,000-vertex tee drape benchmark the cloth comes to rest
+  /// after 1.06 instead of 1.81 simulated s (6,565 instead of 8,086 CG iterations, 2.0 instead
+  /// of 2.6 CPU s on one thread: bench/kernels/cloth_bench.cpp, BM_drape_tee_to_rest vs
+  /// BM_drape_tee_to_rest_contact_pass), and after 0.9–1.3 instead of 1.5–2.1 s on tees of
+  /// 3,000–9,000 vertices, at the same mean height within about a millimetre. It does not make
+  /// longer steps pay: at 1/100 s either model rests erratically (after 1.5 to over 8 s).
+  bool resting_contacts = true;
+  /// κ, dimensionless: a resting contact's spring has stiffness κ·m/h² (m: the particle's mass,
+  /// h: the step), so one step leaves 1/(1 + κ) of the particle's velocity into the body. 20:
+  /// of κ = 20, 30, 50 and 100 on the tees above, 20 rested soonest over all sizes; 100, the
+  /// nearest to a hard constraint, took up to twice as long. The penetration it allows before
+  /// the contact pass, h²·g/κ ≈ 0.01 mm under the particle's own weight at the default step,
+  /// is far below τ.
+  float resting_contact_stiffness = 20.0f;
 
   /// Waistband auto-pins: when a body is first set, the band of the garment within
   /// waistband_width of its waist opening (waistband_vertices() of the cloth's positions at that

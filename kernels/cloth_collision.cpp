@@ -99,19 +99,52 @@ std::size_t body_contact_constraints(std::span<const float> positions, std::span
   return count;
 }
 
+std::size_t body_contact_springs(std::span<const float> positions, std::span<const float> inverse_masses,
+                                 const ClosestHits& hits, std::span<const float> body_positions,
+                                 std::span<const std::int32_t> body_triangles, std::span<const float> body_velocities,
+                                 const ContactParameters& contact, float margin, float stiffness_ratio, float h,
+                                 std::span<const unsigned char> released, ImplicitContactSprings& out) {
+  const std::size_t n = inverse_masses.size();
+  assert(positions.size() == 3 * n && hits.size() == n && "one hit per particle");
+  assert((released.empty() || released.size() == n) && "one release flag per particle");
+  out.normals.assign(3 * n, 0.0f);
+  out.gaps.assign(n, 0.0f);
+  out.stiffness.assign(n, 0.0f);
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int32_t t = hits.triangles[i];
+    const float sd = hits.signed_distances[i];
+    if (t < 0 || inverse_masses[i] == 0.0f || !(sd < contact.thickness + margin)) continue;
+    if (!released.empty() && released[i]) continue;
+    // As in body_contact_constraints(): the particle sits at max(d, τ), outside the body.
+    const float d = std::max(sd, contact.thickness);
+    const vfit_vec3 nrm =
+        contact_normal(load3(positions.data(), i), load3(hits.points.data(), i), d, body_positions, body_triangles, t);
+    if (!(vfit_v3_dot(nrm, nrm) > 0.0f)) continue;
+    const vfit_vec3 bv =
+        body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1]);
+    store3(out.normals.data(), i, nrm);
+    out.gaps[i] = (d - contact.thickness) - h * vfit_v3_dot(bv, nrm);
+    out.stiffness[i] = stiffness_ratio / (inverse_masses[i] * h * h);
+    ++count;
+  }
+  return count;
+}
+
 void apply_contact_friction(std::span<float> positions, std::span<float> velocities,
-                            std::span<const float> inverse_masses, const ImplicitConstraints& constraints,
+                            std::span<const float> inverse_masses, std::span<const float> normals,
                             std::span<const float> normal_impulses, const ClosestHits& hits,
                             std::span<const std::int32_t> body_triangles, std::span<const float> body_velocities,
                             float friction, float h) {
   const std::size_t n = inverse_masses.size();
-  if (constraints.empty() || normal_impulses.size() != n) return;
+  if (normals.empty() || normal_impulses.size() != n) return;
+  assert(normals.size() == 3 * n && "one normal row per particle");
   assert(positions.size() == 3 * n && velocities.size() == 3 * n && hits.size() == n && "one hit per particle");
   parallel_for_range(n, CLOTH_CONTACT_GRAIN, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const float lambda = normal_impulses[i];
       if (!(lambda > 0.0f) || inverse_masses[i] == 0.0f || hits.triangles[i] < 0) continue;
-      const vfit_vec3 nrm = load3(constraints.normals.data(), i);
+      const vfit_vec3 nrm = load3(normals.data(), i);
       const vfit_vec3 bv = body_velocity_at(body_velocities, body_triangles, hits.triangles[i],
                                             hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1]);
       const vfit_vec3 v = load3(velocities.data(), i);

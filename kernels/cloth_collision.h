@@ -14,6 +14,7 @@ namespace vfit {
 
 struct ClosestHits;
 struct ImplicitConstraints;
+struct ImplicitContactSprings;
 
 /// Contact constants.
 struct ContactParameters {
@@ -56,14 +57,33 @@ std::size_t body_contact_constraints(std::span<const float> positions, std::span
                                      float margin, float h, std::span<const unsigned char> released,
                                      ImplicitConstraints& out);
 
-/// Coulomb friction of the constrained contacts after an implicit step of h (s): a particle
-/// whose constraint pushed with the normal impulse λ > 0 (N·s, ImplicitWorkspace::
-/// normal_impulses) has its tangential velocity relative to the body reduced by μ_f·λ·m⁻¹
-/// (stopping, never reversing), and its position moved by h times that velocity change so it
-/// stays consistent with x₁ = x₀ + h·v₁. Same inputs as body_contact_constraints() (the hits
-/// the constraints were built from). Parallel over particles.
+/// Resting contacts for the next implicit Euler step as stiff one-sided springs
+/// (ImplicitContactSprings, kernels/cloth_implicit.h). `hits` as for body_contact_constraints()
+/// (queried before resolve_body_contacts() moved the particles: one found closer than τ now
+/// sits at τ). A free particle whose distance d is below τ + margin (m) and whose row of
+/// `released` is 0 (or `released` empty) gets the outward contact normal n, the gap
+/// g₀ = max(d, τ) − τ − h·(v_b·n) (the body's velocity v_b at the contact, from
+/// body_velocities, #B × 3 m/s or empty for a body at rest, moves the surface over the step of
+/// h s) and the stiffness k = stiffness_ratio·m/h² (m = 1/inverse mass, N/m): the dimensionless
+/// stiffness_ratio κ makes h²·k = κ·m, so within one step the spring leaves a particle
+/// 1/(1 + κ) of the velocity into the body it would have without it. Other rows get zeros.
+/// Writes out.normals (#V × 3), out.gaps and out.stiffness (#V); returns the number of springs.
+std::size_t body_contact_springs(std::span<const float> positions, std::span<const float> inverse_masses,
+                                 const ClosestHits& hits, std::span<const float> body_positions,
+                                 std::span<const std::int32_t> body_triangles, std::span<const float> body_velocities,
+                                 const ContactParameters& contact, float margin, float stiffness_ratio, float h,
+                                 std::span<const unsigned char> released, ImplicitContactSprings& out);
+
+/// Coulomb friction of the constrained (or contact-spring) contacts after an implicit step of h
+/// (s): a particle whose constraint pushed with the normal impulse λ > 0 (N·s, ImplicitWorkspace::
+/// normal_impulses) along its row of `normals` (#V × 3: ImplicitConstraints::normals or
+/// ImplicitContactSprings::normals; empty = nothing to do) has its tangential velocity relative
+/// to the body reduced by μ_f·λ·m⁻¹ (stopping, never reversing), and its position moved by h
+/// times that velocity change so it stays consistent with x₁ = x₀ + h·v₁. Same inputs as
+/// body_contact_constraints() (the hits the constraints were built from). Parallel over
+/// particles.
 void apply_contact_friction(std::span<float> positions, std::span<float> velocities,
-                            std::span<const float> inverse_masses, const ImplicitConstraints& constraints,
+                            std::span<const float> inverse_masses, std::span<const float> normals,
                             std::span<const float> normal_impulses, const ClosestHits& hits,
                             std::span<const std::int32_t> body_triangles, std::span<const float> body_velocities,
                             float friction, float h);

@@ -124,14 +124,90 @@ void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries) {
   s.free.resize(nv);
 }
 
+bool contact_row(const ImplicitContactSprings& c, std::size_t i) {
+  const vfit_vec3 n = load3(c.normals.data(), i);
+  return vfit_v3_dot(n, n) > 0.0f;
+}
+
+// Adds (sign = 1) or removes (sign = −1) particle i's contact spring: h²·k·n·nᵀ on its diagonal
+// block (and its preconditioner block) and (−h·k·g₀ − h²·k·n·v₀)·n on its right-hand side.
+void add_contact_spring(ImplicitSystem& s, const ImplicitContactSprings& c, const float* v, float h, std::size_t i,
+                        float sign) {
+  const vfit_vec3 n = load3(c.normals.data(), i);
+  const float k = c.stiffness[i];
+  const float a = sign * h * h * k;
+  vfit_sym3 d = load_sym(s.diagonal.data(), i);
+  d.xx += a * n.x * n.x;
+  d.xy += a * n.x * n.y;
+  d.xz += a * n.x * n.z;
+  d.yy += a * n.y * n.y;
+  d.yz += a * n.y * n.z;
+  d.zz += a * n.z * n.z;
+  store_sym(s.diagonal.data(), i, d);
+  store_sym(s.preconditioner.data(), i, vfit_sym3_inverse(d));
+  const float along = sign * (-h * k * c.gaps[i]) - a * vfit_v3_dot(n, load3(v, i));
+  const vfit_vec3 b = load3(s.rhs.data(), i);
+  store3(s.rhs.data(), i, vfit_vec3{b.x + along * n.x, b.y + along * n.y, b.z + along * n.z});
+}
+
+// λ = −h·k·(g₀ + h·n·v₁) (N·s), v₁ = v₀ + Δv: the contact spring's impulse over the step.
+float contact_impulse(const ImplicitContactSprings& c, const float* v, const float* dv, float h, std::size_t i) {
+  const vfit_vec3 n = load3(c.normals.data(), i), v0 = load3(v, i), d = load3(dv, i);
+  const vfit_vec3 v1{v0.x + d.x, v0.y + d.y, v0.z + d.z};
+  return -h * c.stiffness[i] * (c.gaps[i] + h * vfit_v3_dot(n, v1));
+}
+
 ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> velocities,
                                   const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
                                   const ImplicitSolveOptions& options, ImplicitWorkspace& w, bool parallel,
-                                  const ImplicitConstraints* constraints) {
+                                  const ImplicitConstraints* constraints,
+                                  const ImplicitContactSprings* contact_springs) {
   const std::size_t nv = adjacency.particle_count();
   assert(positions.size() == 3 * nv && velocities.size() == 3 * nv && "state and adjacency sizes differ");
   assemble_implicit_system(positions, velocities, adjacency, particles, h, w.system, parallel);
-  const ImplicitSolveReport report = solve_implicit_system(adjacency, options, w, parallel, constraints);
+  const bool springs = contact_springs != nullptr && !contact_springs->empty();
+  if (springs) {
+    assert(contact_springs->normals.size() == 3 * nv && contact_springs->gaps.size() == nv &&
+           contact_springs->stiffness.size() == nv && "one contact spring row per particle");
+    w.contact_active.assign(nv, 0);
+    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i)
+        if (w.system.free[i] && contact_springs->stiffness[i] > 0.0f && contact_row(*contact_springs, i)) {
+          w.contact_active[i] = 1;
+          add_contact_spring(w.system, *contact_springs, velocities.data(), h, i, 1.0f);
+        }
+    });
+  }
+  ImplicitSolveReport report = solve_implicit_system(adjacency, options, w, parallel, constraints);
+  if (springs) {
+    // One-sided: remove the springs that pulled and solve again from this answer.
+    const std::size_t chunks = chunk_count(nv);
+    w.partials.assign(chunks, 0.0);
+    w.normal_impulses.assign(nv, 0.0f);
+    run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
+      double removed = 0;
+      for (std::size_t i = b; i < e; ++i) {
+        if (!w.contact_active[i]) continue;
+        if (contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i) < 0.0f) {
+          w.contact_active[i] = 0;
+          add_contact_spring(w.system, *contact_springs, velocities.data(), h, i, -1.0f);
+          removed += 1;
+        }
+      }
+      w.partials[c] = removed;
+    });
+    if (chunk_sum(w.partials, chunks, 1, 0) > 0 && contact_springs->release_iterations > 0) {
+      ImplicitSolveOptions again = options;
+      again.warm_start = true;
+      again.max_iterations = contact_springs->release_iterations;
+      report.iterations += solve_implicit_system(adjacency, again, w, parallel, constraints).iterations;
+    }
+    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i)
+        if (w.contact_active[i])
+          w.normal_impulses[i] = contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i);
+    });
+  }
   float* x = positions.data();
   float* v = velocities.data();
   const float* dv = w.dv.data();
@@ -183,8 +259,9 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   assert((!constrained || (constraints->normals.size() == 3 * nv && constraints->targets.size() == nv)) &&
          "one constraint row per particle");
   const float* normals = constrained ? constraints->normals.data() : nullptr;
+  const bool warm = options.warm_start && w.dv.size() == 3 * nv && !constrained;
   for (auto* buf : {&w.dv, &w.r, &w.z, &w.p, &w.q})
-    buf->assign(3 * nv, 0.0f);
+    if (!warm || buf != &w.dv) buf->assign(3 * nv, 0.0f);
   w.partials.assign(2 * chunks, 0.0);
   float* dv = w.dv.data();
   float* r = w.r.data();
@@ -202,7 +279,8 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
     return vfit_vec3{a.x - an * n.x, a.y - an * n.y, a.z - an * n.z};
   };
 
-  // Δv₀ = the constrained components (zero without constraints), so r₀ = S·(b − A·Δv₀).
+  // Δv₀ = the constrained components, or the previous answer with a warm start (zero otherwise),
+  // so r₀ = S·(b − A·Δv₀).
   if (constrained) {
     run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
@@ -212,18 +290,17 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
       }
     });
   }
-  // r = S·(b − A·Δv₀), z = S·P⁻¹·r, p = z; partials: |S·b|², r·z.
+  // r = S·(b − A·Δv₀), z = S·P⁻¹·r; partials: |S·b|², r·z.
   run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
     double bb = 0, rz = 0;
     for (std::size_t i = b; i < e; ++i) {
       const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
       vfit_vec3 ri = bi;
-      if (constrained && s.free[i])
+      if ((constrained || warm) && s.free[i])
         ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), row_times(s, adjacency, dv, i)));
       const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sym(precond, i), ri));
       store3(r, i, ri);
       store3(z, i, zi);
-      store3(p, i, zi);
       bb += dot3(bi, bi);
       rz += dot3(ri, zi);
     }
@@ -238,17 +315,27 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
     rr += double(r[k]) * r[k];
   // The scale of the relative test: |S·b| (the impulse the free directions must balance; |b|
   // instead, which includes the weight the contacts carry, lets the 6,000-vertex tee drape
-  // diverge at steps of 1/60 s), or |r₀| when only the constraints drive the solve.
-  const double scale = std::max(bb, rr);
+  // diverge at steps of 1/60 s), or |r₀| when only the constraints drive the solve; with a warm
+  // start |r₀| alone (see ImplicitSolveOptions::warm_start).
+  const double scale = warm ? rr : std::max(bb, rr);
   const double stop = options.tolerance * options.tolerance * scale;
+  // Two passes over the particles per iteration instead of three: the new search direction
+  // p = z + β·p and its product q = S·A·p are formed together, q as S·A·z + β·q (the product is
+  // linear), so the product gathers z, which is complete before the pass, and p and q are
+  // updated in place row by row. p and q start at zero, so β = 0 gives p = z, q = S·A·z.
+  float beta = 0.0f;
   while (scale > 0 && report.iterations < options.max_iterations && rr > stop) {
-    // q = S·A·p; partial p·q.
+    // p = z + β·p, q = S·A·z + β·q; partial p·q.
     run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
       double pq = 0;
       for (std::size_t i = b; i < e; ++i) {
-        const vfit_vec3 qi = s.free[i] ? filter(i, row_times(s, adjacency, p, i)) : vfit_vec3{0.0f, 0.0f, 0.0f};
-        store3(q, i, qi);
-        pq += dot3(load3(p, i), qi);
+        const vfit_vec3 az = s.free[i] ? filter(i, row_times(s, adjacency, z, i)) : vfit_vec3{0.0f, 0.0f, 0.0f};
+        const vfit_vec3 zi = load3(z, i), pi = load3(p, i), qi = load3(q, i);
+        const vfit_vec3 pn{zi.x + beta * pi.x, zi.y + beta * pi.y, zi.z + beta * pi.z};
+        const vfit_vec3 qn{az.x + beta * qi.x, az.y + beta * qi.y, az.z + beta * qi.z};
+        store3(p, i, pn);
+        store3(q, i, qn);
+        pq += dot3(pn, qn);
       }
       part[2 * c] = pq;
     });
@@ -276,12 +363,8 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
     const double rz_next = chunk_sum(w.partials, chunks, 2, 1);
     ++report.iterations;
     if (rr <= stop) break;
-    const auto beta = static_cast<float>(rz_next / rz);
+    beta = static_cast<float>(rz_next / rz);
     rz = rz_next;
-    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
-      for (std::size_t k = 3 * b; k < 3 * e; ++k)
-        p[k] = z[k] + beta * p[k];
-    });
   }
   if (constrained) {
     // The impulse each constraint applied: (A·Δv − b)·n.
@@ -302,15 +385,19 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
 ImplicitSolveReport implicit_euler_step_serial(std::span<float> positions, std::span<float> velocities,
                                                const SpringAdjacency& adjacency, const ClothParticles& particles,
                                                float h, const ImplicitSolveOptions& options,
-                                               ImplicitWorkspace& workspace, const ImplicitConstraints* constraints) {
-  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, false, constraints);
+                                               ImplicitWorkspace& workspace, const ImplicitConstraints* constraints,
+                                               const ImplicitContactSprings* contact_springs) {
+  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, false, constraints,
+                       contact_springs);
 }
 
 ImplicitSolveReport implicit_euler_step_tbb(std::span<float> positions, std::span<float> velocities,
                                             const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
                                             const ImplicitSolveOptions& options, ImplicitWorkspace& workspace,
-                                            const ImplicitConstraints* constraints) {
-  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, true, constraints);
+                                            const ImplicitConstraints* constraints,
+                                            const ImplicitContactSprings* contact_springs) {
+  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, true, constraints,
+                       contact_springs);
 }
 
 } // namespace vfit

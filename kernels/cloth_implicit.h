@@ -11,7 +11,9 @@
 /// The solve is a conjugate gradient preconditioned by the inverse 3×3 diagonal blocks (block
 /// Jacobi), matrix-free over the CSR spring adjacency: each particle gathers its own row, so no
 /// atomics. Pinned particles (inverse mass 0) are constraints handled by B&W's filter (§5.3):
-/// their rows and columns are projected out, their Δv is 0 and they never move. Dot products
+/// their rows and columns are projected out, their Δv is 0 and they never move. Body contacts
+/// enter either as the same filter (ImplicitConstraints) or as stiff one-sided springs on the
+/// diagonal (ImplicitContactSprings). Dot products
 /// are summed per fixed chunk of particles in double and the chunk sums added in chunk order,
 /// so the serial and TBB drivers give the same bits for any thread count.
 
@@ -37,6 +39,11 @@ struct ImplicitSolveOptions {
   /// the relative test still drives the solve, so the equilibrium is the true f(x) = 0.
   double tolerance = 1e-3;
   int max_iterations = 200; ///< also stops here (the step is then taken with the last iterate)
+  /// Start from workspace.dv (#V × 3, m/s; a previous solution) instead of Δv = 0; the relative
+  /// test is then against the initial residual ‖r₀‖ (the part of the answer still missing), as
+  /// ‖b‖ would be met at once by a good start whose error never shrinks. Ignored with
+  /// constraints, which set their own start.
+  bool warm_start = false;
 };
 
 /// The linear system of one implicit step, assembled at the step start (x₀, v₀). Row i of
@@ -61,6 +68,24 @@ struct ImplicitConstraints {
   bool empty() const { return normals.empty(); }
 };
 
+/// Resting contacts as stiff one-sided springs of the implicit step (an implicit penalty: the
+/// contact force f = −k·g·n on the gap g = g₀ + n·(x − x₀), linearised like the cloth's springs,
+/// B&W eq. 16), for particles lying on a body. The spring only adds h²·k·n·nᵀ to the particle's
+/// diagonal block and (−h·k·g₀ − h²·k·n·v₀)·n to its right-hand side, so the block-Jacobi
+/// preconditioner absorbs its stiffness and CG needs no more iterations; unlike B&W's filter
+/// (ImplicitConstraints) its neighbours see the contact within the same solve without the
+/// constraint's exact velocity target. One-sided: a spring whose impulse comes out pulling
+/// (λ < 0, see implicit_euler_step_serial) is removed and the step solved again from that
+/// answer (ImplicitSolveOptions::warm_start) within release_iterations CG iterations. Both
+/// arrays empty = none; otherwise normals #V × 3 (unit, or zero for no spring) and stiffness #V.
+struct ImplicitContactSprings {
+  std::vector<float> normals;   ///< #V × 3: the body's outward unit normal at the contact, or zero
+  std::vector<float> gaps;      ///< #V: g₀ (m), the gap beyond the contact thickness at the step start
+  std::vector<float> stiffness; ///< #V: k (N/m), > 0 where normals is nonzero
+  int release_iterations = 5;   ///< CG iteration budget of the solve after removing pulling springs
+  bool empty() const { return normals.empty(); }
+};
+
 /// Scratch of the solver (#V × 3 each, sized by the callee) and the system, reused across steps.
 struct ImplicitWorkspace {
   ImplicitSystem system;
@@ -68,8 +93,11 @@ struct ImplicitWorkspace {
   std::vector<double> partials; ///< one entry per reduction chunk and quantity
   /// #V, written by a solve with constraints: the impulse (N·s) the constraint applied along
   /// its normal, ((A·Δv − b)·n); negative when it pulled the particle towards the body (B&W's
-  /// release test), zero for unconstrained particles.
+  /// release test), zero for unconstrained particles. Written by a step with contact springs
+  /// too: each spring's impulse −h·k·(g₀ + h·n·v₁), zero for particles without a spring and for
+  /// springs removed as pulling.
   std::vector<float> normal_impulses;
+  std::vector<unsigned char> contact_active; ///< #V scratch of a step with contact springs
 };
 
 /// What one implicit solve did.
@@ -91,7 +119,8 @@ void implicit_system_multiply(const ImplicitSystem& system, const SpringAdjacenc
                               std::vector<float>& out);
 
 /// Solves A·Δv = b by block-Jacobi-preconditioned, filtered CG into workspace.dv (#V × 3, m/s),
-/// starting from Δv = 0 (B&W's modified PCG starting from the constrained values when
+/// starting from Δv = 0 (or from workspace.dv with options.warm_start; B&W's modified PCG
+/// starting from the constrained values when
 /// `constraints` is given and not empty: the residual, search directions and A·p are projected
 /// by the filter S_i = I − n·nᵀ, so constrained components stay at their targets). With
 /// constraints, also writes workspace.normal_impulses. `parallel` selects the TBB driver (same
@@ -100,20 +129,27 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
                                           ImplicitWorkspace& workspace, bool parallel,
                                           const ImplicitConstraints* constraints = nullptr);
 
-/// One implicit Euler step of h (s) in place: assemble, solve (with the contact constraints
-/// when given), v += Δv, x += h·v for the free particles (pinned ones keep x and v). Serial
+/// One implicit Euler step of h (s) in place: assemble, add the contact springs when given,
+/// solve (with the contact constraints when given), v += Δv, x += h·v for the free particles
+/// (pinned ones keep x and v). With contact springs, each spring's impulse λ = −h·k·(g₀ +
+/// h·n·v₁) is checked after the solve; springs with λ < 0 are removed and the system solved
+/// again from the first answer (at most release_iterations CG iterations, counted in the
+/// report); workspace.normal_impulses holds the kept springs' λ (springs still pulling after
+/// that solve keep their negative λ: the caller may release them for the next step). Serial
 /// range kernels.
 ImplicitSolveReport implicit_euler_step_serial(std::span<float> positions, std::span<float> velocities,
                                                const SpringAdjacency& adjacency, const ClothParticles& particles,
                                                float h, const ImplicitSolveOptions& options,
                                                ImplicitWorkspace& workspace,
-                                               const ImplicitConstraints* constraints = nullptr);
+                                               const ImplicitConstraints* constraints = nullptr,
+                                               const ImplicitContactSprings* contact_springs = nullptr);
 
 /// TBB driver of implicit_euler_step_serial() (chunks of CLOTH_IMPLICIT_CHUNK particles); the
 /// same bits for any thread count.
 ImplicitSolveReport implicit_euler_step_tbb(std::span<float> positions, std::span<float> velocities,
                                             const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
                                             const ImplicitSolveOptions& options, ImplicitWorkspace& workspace,
-                                            const ImplicitConstraints* constraints = nullptr);
+                                            const ImplicitConstraints* constraints = nullptr,
+                                            const ImplicitContactSprings* contact_springs = nullptr);
 
 } // namespace vfit

@@ -172,7 +172,7 @@ Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation a
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
 the placement of eq. 16-17; garments it cannot drive, e.g. skirts, get the coarse move alone)
 -> penetration removal against the body and the garments under it, edges crossing the body
-included -> cloth simulation to rest (stops at --max-sim-seconds of simulated time, default 2;
+included -> cloth simulation to rest (stops at --max-sim-seconds of simulated time, default 3;
 a diverged simulation is discarded and reported) -> fit feedback (strain, ease, size verdict).
 Bottoms are dressed before tops.
 --body takes the same sources and flags as `vfit body --from` (default: the mannequin; use

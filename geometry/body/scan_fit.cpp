@@ -348,15 +348,6 @@ std::array<std::int32_t, 3> corners(std::span<const std::int32_t> triangles, std
   return {triangles[b], triangles[b + 1], triangles[b + 2]};
 }
 
-// Evenly spread indices into [0, n): at most `count` of them.
-std::vector<std::size_t> spread(std::size_t n, std::size_t count) {
-  std::vector<std::size_t> out;
-  const std::size_t m = std::min(n, std::max<std::size_t>(count, 1));
-  for (std::size_t i = 0; i < m; ++i)
-    out.push_back(i * n / m);
-  return out;
-}
-
 struct Distances {
   double mean = 0, p95 = 0;
 };
@@ -684,8 +675,8 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   // Stage 3: ICP rounds.
   t0 = Clock::now();
   ScanFitStage icp{"icp", 0, 0, 0, 0, 0};
-  const auto scan_samples = spread(scan.vertex_count(), options.scan_samples);
-  const auto tmpl_samples = spread(f.rest.size(), options.template_samples);
+  const auto scan_samples = spread_indices(scan.vertex_count(), options.scan_samples);
+  const auto tmpl_samples = spread_indices(f.rest.size(), options.template_samples);
   const int rounds = std::max(1, options.icp_rounds);
   for (int r = 0; r < rounds; ++r) {
     const double reject = options.reject_distance * (1.0 - 0.5 * r / std::max(1, rounds - 1));

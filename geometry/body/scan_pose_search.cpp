@@ -90,14 +90,6 @@ private:
   std::vector<Vec3f> m_points;
 };
 
-std::vector<std::size_t> spread(std::size_t n, std::size_t count) {
-  std::vector<std::size_t> out;
-  const std::size_t m = std::min(n, std::max<std::size_t>(count, 1));
-  for (std::size_t i = 0; i < m; ++i)
-    out.push_back(i * n / m);
-  return out;
-}
-
 // The rotation (axis-angle) taking `from` to `to` about their common normal, the shortest one.
 Vec3 swing(const Vec3& from, const Vec3& to) {
   const Eigen::AngleAxisd aa(Eigen::Quaterniond::FromTwoVectors(from, to));
@@ -112,14 +104,14 @@ public:
   Scorer(const Body& tmpl, std::span<const float> scan, const ScanPoseSearchOptions& o)
       : m_tmpl(tmpl), m_grid(static_cast<float>(o.cap)), m_tmpl_grid(static_cast<float>(o.cap)),
         m_cap(static_cast<float>(o.cap)) {
-    for (std::size_t v : spread(scan.size() / 3, o.scan_samples))
+    for (std::size_t v : spread_indices(scan.size() / 3, o.scan_samples))
       m_scan_samples.emplace_back(scan[3 * v], scan[3 * v + 1], scan[3 * v + 2]);
-    const auto grid_points = spread(scan.size() / 3, o.scan_grid_points);
+    const auto grid_points = spread_indices(scan.size() / 3, o.scan_grid_points);
     m_grid.build(scan, grid_points);
     m_floor = INFINITY;
     for (std::size_t v = 0; v < scan.size() / 3; ++v)
       m_floor = std::min(m_floor, scan[3 * v + 1]);
-    m_tmpl_samples = spread(tmpl.mesh.vertex_count(), o.template_samples);
+    m_tmpl_samples = spread_indices(tmpl.mesh.vertex_count(), o.template_samples);
   }
 
   // Scores `pose` at scale exp(log_scale); with `level`, first moves it vertically so that its
@@ -406,6 +398,14 @@ ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, c
       }
     }
   out.evaluations = scorer.evaluations();
+  return out;
+}
+
+std::vector<std::size_t> spread_indices(std::size_t n, std::size_t count) {
+  std::vector<std::size_t> out;
+  const std::size_t m = std::min(n, std::max<std::size_t>(count, 1));
+  for (std::size_t i = 0; i < m; ++i)
+    out.push_back(i * n / m);
   return out;
 }
 

@@ -9,6 +9,7 @@
 /// Conventions: metres, Y up, the body facing +Z, +X = the body's left.
 
 #include <span>
+#include <vector>
 
 #include "body.h"
 
@@ -33,6 +34,10 @@ struct ScanPoseSearch {
   double score = 0;         ///< score of the returned pose (m)
   int evaluations = 0;      ///< candidate poses scored
 };
+
+/// Evenly spread indices into [0, n): min(n, max(count, 1)) of them, i·n/m for i < m (the
+/// fixed-seed sample both the search and the scan fit score with); empty when n = 0.
+std::vector<std::size_t> spread_indices(std::size_t n, std::size_t count);
 
 /// Searches the pose of `tmpl` (a body in T-pose whose rest joints and weights pose it by LBS)
 /// scaled by exp(log_scale) that best covers `scan` (#P × 3, m; a mesh's vertices or a point

@@ -225,25 +225,39 @@ float deepest_signed_distance(const Mesh& body, std::span<const float> points) {
   return deepest;
 }
 
+// With the resting contacts in the solve (the default) and with the contact pass alone: both
+// rest outside the body, hanging from the shoulders, at the same mean height within 3 mm (the
+// two contact models hold the same cloth up by the same friction; measured 1.1 mm apart, and
+// 0.1–0.6 mm on 4,500–9,000-vertex tees on the benchmark's mannequin).
 TEST(ClothSim, CatalogueTeeSettlesOnTheMannequinWithNoVertexInside) {
   const TeeOnMannequin& t = tee_on_mannequin();
-  ClothSim sim(t.tee.position_view(), t.tee.triangle_view());
-  sim.set_body(t.body.mesh.position_view(), t.body.mesh.triangle_view());
-  ClothRestOptions ro;
-  ro.max_simulated_seconds = 4.0;
-  const ClothRestReport r = sim.run_to_rest(ro);
-  ASSERT_EQ(r.status, ClothStatus::OK);
-  EXPECT_TRUE(r.converged) << "after " << r.simulated_seconds << " s, mean displacement " << r.mean_displacement;
-  ASSERT_TRUE(all_finite(sim.positions()));
-  EXPECT_GE(deepest_signed_distance(t.body.mesh, sim.positions()), 0.0f);
-  // It hangs from the shoulders: the garment went down, not through the body.
-  double y0 = 0, y1 = 0;
-  for (std::size_t i = 0; i < t.tee.vertex_count(); ++i) {
-    y0 += t.tee.positions[3 * i + 1];
-    y1 += sim.positions()[3 * i + 1];
+  double mean_y[2] = {0, 0};
+  for (const bool resting : {true, false}) {
+    ClothOptions o;
+    o.resting_contacts = resting;
+    ClothSim sim(t.tee.position_view(), t.tee.triangle_view(), o);
+    sim.set_body(t.body.mesh.position_view(), t.body.mesh.triangle_view());
+    ClothRestOptions ro;
+    ro.max_simulated_seconds = 4.0;
+    const ClothRestReport r = sim.run_to_rest(ro);
+    ASSERT_EQ(r.status, ClothStatus::OK) << "resting " << resting;
+    EXPECT_TRUE(r.converged) << "resting " << resting << ": after " << r.simulated_seconds << " s, mean displacement "
+                             << r.mean_displacement;
+    ASSERT_TRUE(all_finite(sim.positions()));
+    EXPECT_GE(deepest_signed_distance(t.body.mesh, sim.positions()), 0.0f) << "resting " << resting;
+    // It hangs from the shoulders: the garment went down, not through the body.
+    double y0 = 0, y1 = 0;
+    for (std::size_t i = 0; i < t.tee.vertex_count(); ++i) {
+      y0 += t.tee.positions[3 * i + 1];
+      y1 += sim.positions()[3 * i + 1];
+    }
+    EXPECT_LE(y1, y0) << "resting " << resting;
+    EXPECT_GT(y1 / double(t.tee.vertex_count()), y0 / double(t.tee.vertex_count()) - 0.05) << "resting " << resting;
+    mean_y[resting ? 0 : 1] = y1 / double(t.tee.vertex_count());
+    RecordProperty(resting ? "resting_contacts_simulated_s" : "contact_pass_simulated_s",
+                   std::to_string(r.simulated_seconds));
   }
-  EXPECT_LE(y1, y0);
-  EXPECT_GT(y1 / double(t.tee.vertex_count()), y0 / double(t.tee.vertex_count()) - 0.05);
+  EXPECT_NEAR(mean_y[0], mean_y[1], 0.003);
 }
 
 // The contact candidate cache (ClothOptions::contact_candidates) re-queries only the particles

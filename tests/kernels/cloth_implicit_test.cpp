@@ -279,7 +279,7 @@ TEST(ClothContactConstraints, BuiltFromHitsAndFrictionStopsWithoutReversing) {
 
   // Friction: λ = 0.05 N·s at w = 10/kg could remove 0.15 m/s: the 0.1 m/s slide stops.
   std::vector<float> xf = x, vf = v;
-  apply_contact_friction(xf, vf, inv_mass, k, std::vector<float>{0.05f, 0, 0, 0}, hits, sphere.triangles, {},
+  apply_contact_friction(xf, vf, inv_mass, k.normals, std::vector<float>{0.05f, 0, 0, 0}, hits, sphere.triangles, {},
                          contact.friction, h);
   EXPECT_NEAR(vf[0], 0.0f, 1e-6f);
   EXPECT_NEAR(xf[0], x[0] - h * 0.1f, 1e-7f);
@@ -287,10 +287,105 @@ TEST(ClothContactConstraints, BuiltFromHitsAndFrictionStopsWithoutReversing) {
   // λ = 0.01 N·s removes 0.03 m/s of it.
   xf = x;
   vf = v;
-  apply_contact_friction(xf, vf, inv_mass, k, std::vector<float>{0.01f, 0, 0, 0}, hits, sphere.triangles, {},
+  apply_contact_friction(xf, vf, inv_mass, k.normals, std::vector<float>{0.01f, 0, 0, 0}, hits, sphere.triangles, {},
                          contact.friction, h);
   EXPECT_NEAR(vf[0], 0.07f, 1e-5f);
   EXPECT_EQ(vf[3], v[3]); // unconstrained particles are untouched
+}
+
+// Contact springs from the closest body points, on the sphere of the test above: a particle
+// the contact pass found inside the gap τ gets the outward normal, gap 0 and k = κ·m/h²; one
+// within the margin gets its gap beyond τ minus the step's body motion along n; one beyond the
+// margin, a released one and a pinned one get nothing.
+TEST(ClothContactSprings, BuiltFromHits) {
+  const Mesh sphere = make_uv_sphere(16, 32, 0.25f);
+  const ProximityIndex body(sphere.position_view(), sphere.triangle_view());
+  const ContactParameters contact{0.003f, 0.3f, 0.0f};
+  const float margin = 0.002f, h = 0.01f, kappa = 20.0f;
+  // 0: inside τ; 1: 1 mm beyond τ (in the margin); 2: beyond the margin; 3: released; 4: pinned.
+  const std::vector<float> x = {0, 0.2515f, 0, 0, 0.254f, 0, 0, 0.26f, 0, 0, 0.2515f, 0, 0, 0.2515f, 0};
+  const std::vector<float> inv_mass = {10.0f, 10.0f, 10.0f, 10.0f, 0.0f};
+  const std::vector<unsigned char> released = {0, 0, 0, 1, 0};
+  ClosestHits hits;
+  body.closest_points(x, 0.05f, hits);
+  // The body moves up at 0.1 m/s: the surface closes 1 mm of gap over the step.
+  const std::vector<float> body_v(sphere.positions.size(), 0.0f);
+  std::vector<float> moving = body_v;
+  for (std::size_t b = 1; b < moving.size(); b += 3)
+    moving[b] = 0.1f;
+  for (const bool move : {false, true}) {
+    ImplicitContactSprings k;
+    const std::size_t n = body_contact_springs(x, inv_mass, hits, sphere.positions, sphere.triangles,
+                                               move ? moving : body_v, contact, margin, kappa, h, released, k);
+    EXPECT_EQ(n, 2u);
+    ASSERT_EQ(k.normals.size(), 15u);
+    EXPECT_NEAR(k.normals[1], 1.0f, 1e-5f);
+    EXPECT_NEAR(k.normals[4], 1.0f, 1e-5f);
+    const float shift = move ? h * 0.1f : 0.0f;
+    EXPECT_NEAR(k.gaps[0], 0.0f - shift, 1e-6f);
+    EXPECT_NEAR(k.gaps[1], 0.001f - shift, 1e-6f);
+    EXPECT_FLOAT_EQ(k.stiffness[0], kappa / (10.0f * h * h));
+    for (std::size_t i = 2; i < 5; ++i) {
+      EXPECT_EQ(k.stiffness[i], 0.0f) << i;
+      EXPECT_EQ(k.normals[3 * i + 1], 0.0f) << i;
+    }
+  }
+}
+
+// A flat, unstretched cloth at rest on contact springs (normal +y, gap 0) under gravity: the
+// uniform fall has no spring force, so each free particle solves m·(1 + h·μ + κ)·Δv_y = −h·m·g
+// and keeps 1/(1 + h·μ + κ) of the free fall's velocity; the spring's impulse λ = −h·k·h·v_y
+// is the weight it carries. Thrown upwards at 1 m/s instead, every spring would pull (λ < 0):
+// all are removed, and the step ends as the step without springs. TBB and serial agree bit for
+// bit. Tolerances: float rounding of sums over a particle's ~12 springs of a solve at 1e-6.
+TEST(ClothContactSprings, HoldARestingClothAndLetALiftingOneGo) {
+  const Mesh m = make_grid(12, 12, 1.0f, 1.0f);
+  ClothSprings s = build_cloth_springs(m.position_view(), m.triangle_view());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    s.stiffness[i] = 300.0f;
+    s.damping[i] = 0.01f;
+  }
+  const SpringAdjacency adj = build_spring_adjacency(s, m.vertex_count());
+  const std::size_t nv = m.vertex_count();
+  ClothParticles particles;
+  particles.inverse_masses.assign(nv, 200.0f);
+  particles.global_damping = 0.5f;
+  const float h = 0.005f, kappa = 20.0f, g = 9.81f, mass = 1.0f / 200.0f;
+  ImplicitContactSprings k;
+  k.normals.assign(3 * nv, 0.0f);
+  k.gaps.assign(nv, 0.0f);
+  k.stiffness.assign(nv, kappa / (200.0f * h * h));
+  for (std::size_t i = 0; i < nv; ++i)
+    k.normals[3 * i + 1] = 1.0f;
+  const ImplicitSolveOptions o{1e-6, 200};
+  {
+    std::vector<float> x = m.positions, v(3 * nv, 0.0f);
+    ImplicitWorkspace w;
+    implicit_euler_step_serial(x, v, adj, particles, h, o, w, nullptr, &k);
+    const float vy = -h * g / (1.0f + h * particles.global_damping + kappa);
+    for (std::size_t i = 0; i < nv; ++i) {
+      EXPECT_NEAR(v[3 * i + 1], vy, 1e-5f * std::abs(vy)) << i;
+      // In-plane: only the springs' rest lengths rounded to float (~1e-8 m, ~3e-6 N at k = 300)
+      // move a particle, h·f/m ≲ 3e-6 m/s.
+      EXPECT_NEAR(v[3 * i], 0.0f, 3e-6f) << i;
+      EXPECT_NEAR(w.normal_impulses[i], -h * k.stiffness[i] * h * vy, 1e-4f * mass * g * h) << i;
+    }
+  }
+  std::vector<float> xs = m.positions, vs(3 * nv, 0.0f), xt, vt, xf, vf;
+  for (std::size_t i = 0; i < nv; ++i)
+    vs[3 * i + 1] = 1.0f;
+  xt = xf = xs;
+  vt = vf = vs;
+  ImplicitWorkspace ws, wt, wf;
+  implicit_euler_step_serial(xs, vs, adj, particles, h, o, ws, nullptr, &k);
+  implicit_euler_step_tbb(xt, vt, adj, particles, h, o, wt, nullptr, &k);
+  implicit_euler_step_serial(xf, vf, adj, particles, h, o, wf);
+  for (std::size_t i = 0; i < nv; ++i) {
+    EXPECT_EQ(ws.normal_impulses[i], 0.0f) << i;
+    EXPECT_NEAR(vs[3 * i + 1], vf[3 * i + 1], 1e-6f) << i;
+  }
+  EXPECT_TRUE(same_bits(xs, xt));
+  EXPECT_TRUE(same_bits(vs, vt));
 }
 
 TEST(ClothImplicit, TbbEqualsSerialBitForBit) {
