@@ -142,14 +142,34 @@ const Table1Case& table1_case(std::size_t row_index) {
   return it->second;
 }
 
-void BM_table1_deformation(benchmark::State& state) {
-  const auto row_index = std::size_t(state.range(0));
-  const Table1Case& c = table1_case(row_index);
+// The resolution sweep's case (`vfit bench sweep`): a T-pose catalogue tee at `vertices`,
+// driven onto the A-pose mannequin with its arms down.
+const Table1Case& sweep_case(std::size_t vertices) {
+  static std::map<std::size_t, Table1Case> cache;
+  auto it = cache.find(vertices);
+  if (it == cache.end()) {
+    vfit::MannequinOptions mo;
+    mo.pose = vfit::RestPose::APOSE;
+    const vfit::Body rest = vfit::make_mannequin(mo);
+    vfit::GarmentOptions go;
+    go.type = vfit::GarmentType::TEE;
+    go.target_vertices = vertices;
+    go.pose = vfit::RestPose::TPOSE;
+    vfit::Garment g = vfit::make_garment(go);
+    vfit::GarmentSegmentation seg = vfit::segment_garment(g.mesh);
+    vfit::Body posed = vfit::pose_body(rest, vfit::named_pose("arms_down", rest.rest_pose));
+    it = cache.emplace(vertices, Table1Case{std::move(g), std::move(seg), std::move(posed)}).first;
+  }
+  return it->second;
+}
+
+// Part skeletons, driver setup and drive() of one case, with the per-limb stages as counters.
+void time_deformation(benchmark::State& state, const Table1Case& c) {
   using Clock = std::chrono::steady_clock;
   const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   double skeleton_ms = 0, setup_ms = 0, drive_ms = 0;
   vfit::PartSkeletonTimings limb_sum; // per-limb stages summed over limbs and runs
-  double iterations = 0, factorisations = 0, proxy = 0, area = 0;
+  double iterations = 0, factorisations = 0, proxy = 0, area = 0, pieces = 0, caps = 0, free_vertices = 0;
   for (auto _ : state) {
     const auto t0 = Clock::now();
     const std::vector<vfit::PartSkeleton> limbs = vfit::extract_limb_skeletons(c.garment.mesh, c.segmentation.vertex_parts);
@@ -159,10 +179,13 @@ void BM_table1_deformation(benchmark::State& state) {
     const vfit::SkeletonDriving d = driver.drive(c.body.joints);
     const auto t3 = Clock::now();
     benchmark::DoNotOptimize(d.positions.data());
+    free_vertices += double(c.garment.mesh.vertex_count() - driver.handles().size());
     for (const vfit::PartSkeleton& s : limbs) {
       iterations += s.contraction.iterations;
       factorisations += s.contraction.factorisations;
       proxy += double(s.proxy_vertices);
+      pieces += double(s.piece_vertices);
+      caps += double(s.cap_vertices);
       area = std::max(area, s.contraction.final_area_ratio);
       limb_sum.cut_ms += s.timings.cut_ms;
       limb_sum.fill_ms += s.timings.fill_ms;
@@ -178,7 +201,6 @@ void BM_table1_deformation(benchmark::State& state) {
   }
   const auto n = double(state.iterations());
   state.SetItemsProcessed(state.iterations() * std::int64_t(c.garment.mesh.vertex_count()));
-  state.SetLabel(vfit::table1_rows().at(row_index).garment);
   state.counters["skeletons_ms"] = skeleton_ms / n;
   state.counters["setup_ms"] = setup_ms / n;
   state.counters["drive_ms"] = drive_ms / n;
@@ -193,9 +215,26 @@ void BM_table1_deformation(benchmark::State& state) {
   state.counters["iterations"] = iterations / n;
   state.counters["factorisations"] = factorisations / n;
   state.counters["proxy_vertices"] = proxy / n;
+  state.counters["piece_vertices"] = pieces / n; // summed over the limbs
+  state.counters["cap_vertices"] = caps / n;
+  state.counters["band_vertices"] = free_vertices / n; // the Laplacian's unknowns
   state.counters["worst_area_ratio"] = area;
 }
+
+void BM_table1_deformation(benchmark::State& state) {
+  const auto row_index = std::size_t(state.range(0));
+  time_deformation(state, table1_case(row_index));
+  state.SetLabel(vfit::table1_rows().at(row_index).garment);
+}
 BENCHMARK(BM_table1_deformation)->DenseRange(1, 8)->Unit(benchmark::kMillisecond);
+
+// The deformation column of `vfit bench sweep` (arg: the tee's vertex count), stage by stage,
+// to see which stage grows faster than the vertex count.
+void BM_sweep_deformation(benchmark::State& state) {
+  time_deformation(state, sweep_case(std::size_t(state.range(0))));
+  state.SetLabel("tee");
+}
+BENCHMARK(BM_sweep_deformation)->Arg(10000)->Arg(31600)->Arg(100000)->Arg(316200)->Unit(benchmark::kMillisecond);
 
 #ifdef VFIT_BENCH_CGAL
 // CGAL's mean curvature flow skeleton of the same tube, closed by our hole filling (CGAL needs

@@ -4,11 +4,12 @@
 /// et al. 2012 "Mean curvature skeletons" and Au et al. 2008 "Skeleton extraction by mesh
 /// contraction"): the surface is contracted by implicit Laplacian flow until it has almost no
 /// area, the contracted mesh is collapsed edge by edge into a graph, and the graph's longest
-/// path becomes a chain of nodes, each at the centroid of the original vertices it took in
+/// path becomes a chain of nodes, each at the centre of the original vertices it took in
 /// (seed 000 eq. 12: every vertex belongs to exactly one node).
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -103,13 +104,33 @@ struct CurveSkeleton {
 /// that own no original vertex (cap tips) are dropped; each node is placed at the centroid of
 /// its original vertices (seed 000 eq. 12: disjoint vertex sets). Through a proxy, whose
 /// clusters make ragged node borders, the nodes are then re-cut as slabs across a smoothed
-/// chain (three sweeps). Centredness on tubes: exact at full resolution (nodes are whole
-/// rings); through a proxy within about 0.15–0.2 of the radius near the ends and where a slab
-/// border crosses a ring, within 0.01 elsewhere. Which end comes first is
+/// chain (three sweeps). Finally each node moves to its cross-section's centre
+/// (cross_section_centres()). Centredness on tubes: exact at full resolution (nodes are whole
+/// rings); through a proxy within 0.06 of the radius (plain centroids of the ragged slabs: up
+/// to 0.17 near the ends and where a slab border crosses a ring). Which end comes first is
 /// unspecified; orient_chain() fixes it. Throws vfit::Error when `original_vertices` is 0 or
 /// exceeds the mesh.
 CurveSkeleton extract_curve_skeleton(const Mesh& closed_mesh, std::size_t original_vertices,
                                      const CurveSkeletonOptions& options = {});
+
+/// The centre of each node's cross-section (seed 000 eq. 12's node, made insensitive to how the
+/// vertices are spread around the limb): the node's vertices, sorted by angle about the chain's
+/// local direction (nodes[n+1] − nodes[n−1], one-sided at the ends) through their centroid, each
+/// weigh half the angle between their angular neighbours (at most twice the mean spacing), and
+/// the node is their weighted mean, twice (the second time about the first result): the
+/// centroid of the cross-section curve by trapezoidal quadrature over the angle, which angles
+/// about an off-centre point skew, so the second round removes most of the first's offset. A plain centroid is pulled towards the side where the
+/// node's slab is thicker or its mesh denser: through a proxy, whose clusters leave ragged slab
+/// borders, by up to 0.2 of the radius on a tube. A node with fewer than 3 vertices, or whose
+/// vertices leave an angular gap wider than 90° (a sliver, a cap-like end) or span more along
+/// the axis than their mean distance from it (an end cut slantwise, like a trouser leg's top at
+/// the crotch), keeps its entry.
+/// positions: #P × 3 (mesh units); vertices: ids into positions; vertex_node: per entry of
+/// `vertices`, its node in [0, #N); nodes: #N current centres in chain order (their centroids
+/// do). Returns #N centres.
+std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positions, std::span<const std::int32_t> vertices,
+                                                   std::span<const std::int32_t> vertex_node,
+                                                   const std::vector<Eigen::Vector3d>& nodes);
 
 /// Reverses the chain (nodes and vertex_node) when its last node is nearer to `start` than its
 /// first, so that it runs from the end near `start`.

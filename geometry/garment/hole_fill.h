@@ -15,6 +15,13 @@ struct HoleFillOptions {
   /// radius (distance of its vertices to their centroid). 1: a hemisphere, whose medial axis
   /// ends at the opening's centre, so a tube's curve skeleton reaches its openings; 0: flat.
   double dome_height = 1.0;
+  /// A cap's rings have at most this many vertices, and it has at most a quarter as many
+  /// rings (0: unbounded). Unbounded, a cap over a loop of n vertices has about n²/6 vertices,
+  /// which on a 10^5-vertex tee was 1.7× the sleeves' own vertices and most of the cost of
+  /// skeletonising them (the proxy's input), while the proxy keeps ~one vertex per cm² of cap
+  /// whatever its resolution. Loops of up to this many vertices (every corpus and Table-1
+  /// garment's) get the same caps as unbounded.
+  std::size_t max_ring_vertices = 128;
 };
 
 /// A watertight mesh made from an open one: the input's vertices first, in their order, then
@@ -31,8 +38,9 @@ struct FilledMesh {
 /// ring the loop scaled by cos θ_k towards its centroid and lifted by sin θ_k·dome height;
 /// rings thin out towards the apex (about n·cos θ_k vertices for a loop of n) and neighbouring
 /// rings are zipped by arc-length parameter, so caps have no slivers. R ≈ n/4 (at least 1):
-/// about square triangles. The caps' triangles are oriented like the input's, so an
-/// outward-oriented part gives an outward-oriented closed surface. A mesh without boundary is
+/// about square triangles; options.max_ring_vertices bounds both for long loops (the rim is
+/// then zipped to a first ring with fewer vertices). The caps' triangles are oriented like the
+/// input's, so an outward-oriented part gives an outward-oriented closed surface. A mesh without boundary is
 /// returned unchanged. Throws vfit::Error("hole filling", …) naming the vertex where a boundary
 /// is not a simple loop (a vertex with two outgoing boundary edges: non-manifold or
 /// inconsistently oriented input) and for a bad index.

@@ -46,8 +46,12 @@ private:
 /// free vertices are unknowns, argmin over x_F of ‖L x − δ‖² with x_H = t. Rows of L that touch
 /// no free vertex are constant and dropped, so the factorisation is of the free band's system
 /// alone (#F unknowns, not #V): far cheaper when most of the mesh is handles, as in skeleton
-/// driving (seed 000 §5.4). ok() is false when the reduced system is singular: a connected
-/// piece of free vertices with no handle in its Laplacian stencil.
+/// driving (seed 000 §5.4). (The square system of the free rows alone, L_FF x_F = δ_F − L_FH t,
+/// factors 4× faster at 10^5 vertices, 53 against 231 ms for a tee's 22,500-vertex band, but
+/// leaves the handle rows next to the band all the residual: the driven catalogue tee's mean
+/// edge-length change away from the joints rose from 2.5 % to 3.7 %, over the 3 %.)
+/// ok() is false when the reduced system is singular: a connected piece of free vertices with
+/// no handle in its Laplacian stencil.
 class BandLaplacianDeformer {
 public:
   /// mesh: the rest surface (cotangent Laplacian; uniform when `uniform`). handles: vertex

@@ -133,6 +133,8 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
   auto stage = Clock::now();
   const FilledMesh closed = fill_holes(piece.mesh, options.hole_fill);
   result.timings.fill_ms = ms_since(stage);
+  result.piece_vertices = closed.original_vertices;
+  result.cap_vertices = closed.mesh.vertex_count() - closed.original_vertices;
 
   stage = Clock::now();
   const CurveSkeleton skeleton = extract_curve_skeleton(closed.mesh, closed.original_vertices, options.skeleton);
@@ -178,6 +180,7 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
     }
   result.vertex_node.reserve(result.vertices.size());
   for (std::int32_t v : result.vertices) result.vertex_node.push_back(renumber[std::size_t(garment_node[std::size_t(v)])]);
+  result.nodes = cross_section_centres(garment.positions, result.vertices, result.vertex_node, result.nodes);
 
   // Attachment end: nearest the seam with the rest of the garment.
   std::vector<char> seam(nv, 0);

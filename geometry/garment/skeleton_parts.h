@@ -40,12 +40,14 @@ struct PartSkeletonTimings {
 struct PartSkeleton {
   GarmentPart part = GarmentPart::LEFT_SLEEVE;
   /// #N node positions (mesh units), from the attachment end (the seam with the rest of the
-  /// garment: shoulder or hip) to the open end (cuff or hem); each is the centroid of its
-  /// vertices (seed 000 eq. 12).
+  /// garment: shoulder or hip) to the open end (cuff or hem); each is the centre of its
+  /// vertices' cross-section (seed 000 eq. 12; cross_section_centres(), curve_skeleton.h).
   std::vector<Eigen::Vector3d> nodes;
   std::vector<std::int32_t> vertices;    ///< the part's garment vertex ids, ascending
   std::vector<std::int32_t> vertex_node; ///< per entry of `vertices`: its node in [0, #N); disjoint sets
   std::size_t proxy_vertices = 0;        ///< vertices the contraction ran on (proxy, or the closed part itself)
+  std::size_t piece_vertices = 0;        ///< vertices of the cut-out piece before hole filling
+  std::size_t cap_vertices = 0;          ///< vertices the hole-filling caps added to it
   ContractionStats contraction;
   PartSkeletonTimings timings;
 };
@@ -56,7 +58,8 @@ struct PartSkeleton {
 /// only at a point are split, the largest edge-connected piece is kept, hole-filled
 /// (hole_fill.h) and skeletonised (extract_curve_skeleton(), on a proxy when large), which
 /// gives each of its vertices a node; labelled vertices off the piece take the nearest node.
-/// Nodes are recentred on all their vertices. The chain starts at the end nearest the
+/// Nodes are recentred on all their vertices, at their cross-sections' centres
+/// (cross_section_centres()). The chain starts at the end nearest the
 /// centroid of the part's seam vertices (those with a neighbour of another label); a part
 /// with no seam keeps the order extract_curve_skeleton() gave. Throws vfit::Error
 /// ("part skeleton", …) when the labels do not match the mesh, the part has no face, or the
