@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <optional>
 
 #include "cloth_gather.h"
 #include "cloth_implicit.h"
@@ -65,6 +66,40 @@ std::size_t resolve_body_contacts(std::span<float> positions, std::span<float> v
   return contacts;
 }
 
+namespace {
+
+// A particle resting on the body, as the implicit solve's contact models see it: its distance
+// d = max(signed distance, τ) (the hit was taken before the contact response, which moved a
+// particle then closer than τ out to τ: x − p points outwards, no flip), the outward normal and
+// the body's velocity at the hit.
+struct RestingContact {
+  float d;
+  vfit_vec3 normal, body_velocity;
+};
+
+// Particle i's resting contact, or nothing when it has no hit, is pinned, is farther than
+// τ + margin, was released, or its normal is degenerate.
+std::optional<RestingContact> resting_contact(std::size_t i, std::span<const float> positions,
+                                              std::span<const float> inverse_masses, const ClosestHits& hits,
+                                              std::span<const float> body_positions,
+                                              std::span<const std::int32_t> body_triangles,
+                                              std::span<const float> body_velocities, const ContactParameters& contact,
+                                              float margin, std::span<const unsigned char> released) {
+  const std::int32_t t = hits.triangles[i];
+  const float sd = hits.signed_distances[i];
+  if (t < 0 || inverse_masses[i] == 0.0f || !(sd < contact.thickness + margin)) return std::nullopt;
+  if (!released.empty() && released[i]) return std::nullopt;
+  const float d = std::max(sd, contact.thickness);
+  const vfit_vec3 nrm =
+      contact_normal(load3(positions.data(), i), load3(hits.points.data(), i), d, body_positions, body_triangles, t);
+  if (!(vfit_v3_dot(nrm, nrm) > 0.0f)) return std::nullopt;
+  return RestingContact{d, nrm,
+                        body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i],
+                                         hits.barycentrics[2 * i + 1])};
+}
+
+} // namespace
+
 std::size_t body_contact_constraints(std::span<const float> positions, std::span<const float> velocities,
                                      std::span<const float> inverse_masses, const ClosestHits& hits,
                                      std::span<const float> body_positions,
@@ -79,21 +114,12 @@ std::size_t body_contact_constraints(std::span<const float> positions, std::span
   out.targets.assign(n, 0.0f);
   std::size_t count = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const std::int32_t t = hits.triangles[i];
-    const float sd = hits.signed_distances[i];
-    if (t < 0 || inverse_masses[i] == 0.0f || !(sd < contact.thickness + margin)) continue;
-    if (!released.empty() && released[i]) continue;
-    // The hit was taken before the contact response: a particle then closer than τ sits at τ.
-    // The response moved it to p + τ·n, so x − p points outwards (d > 0: no flip).
-    const float d = std::max(sd, contact.thickness);
-    const vfit_vec3 x = load3(positions.data(), i);
-    const vfit_vec3 nrm = contact_normal(x, load3(hits.points.data(), i), d, body_positions, body_triangles, t);
-    if (!(vfit_v3_dot(nrm, nrm) > 0.0f)) continue;
-    const vfit_vec3 bv =
-        body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1]);
-    const float target_vn = vfit_v3_dot(bv, nrm) - (d - contact.thickness) / h;
-    store3(out.normals.data(), i, nrm);
-    out.targets[i] = target_vn - vfit_v3_dot(load3(velocities.data(), i), nrm);
+    const auto c = resting_contact(i, positions, inverse_masses, hits, body_positions, body_triangles, body_velocities,
+                                   contact, margin, released);
+    if (!c) continue;
+    const float target_vn = vfit_v3_dot(c->body_velocity, c->normal) - (c->d - contact.thickness) / h;
+    store3(out.normals.data(), i, c->normal);
+    out.targets[i] = target_vn - vfit_v3_dot(load3(velocities.data(), i), c->normal);
     ++count;
   }
   return count;
@@ -112,19 +138,11 @@ std::size_t body_contact_springs(std::span<const float> positions, std::span<con
   out.stiffness.assign(n, 0.0f);
   std::size_t count = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const std::int32_t t = hits.triangles[i];
-    const float sd = hits.signed_distances[i];
-    if (t < 0 || inverse_masses[i] == 0.0f || !(sd < contact.thickness + margin)) continue;
-    if (!released.empty() && released[i]) continue;
-    // As in body_contact_constraints(): the particle sits at max(d, τ), outside the body.
-    const float d = std::max(sd, contact.thickness);
-    const vfit_vec3 nrm =
-        contact_normal(load3(positions.data(), i), load3(hits.points.data(), i), d, body_positions, body_triangles, t);
-    if (!(vfit_v3_dot(nrm, nrm) > 0.0f)) continue;
-    const vfit_vec3 bv =
-        body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1]);
-    store3(out.normals.data(), i, nrm);
-    out.gaps[i] = (d - contact.thickness) - h * vfit_v3_dot(bv, nrm);
+    const auto c = resting_contact(i, positions, inverse_masses, hits, body_positions, body_triangles, body_velocities,
+                                   contact, margin, released);
+    if (!c) continue;
+    store3(out.normals.data(), i, c->normal);
+    out.gaps[i] = (c->d - contact.thickness) - h * vfit_v3_dot(c->body_velocity, c->normal);
     out.stiffness[i] = stiffness_ratio / (inverse_masses[i] * h * h);
     ++count;
   }
