@@ -595,6 +595,15 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   // Stage 1: the skeleton fitted to the joints estimated on the scan; else the T-pose placed
   // on the scan's feet at its height.
   t0 = Clock::now();
+  // Closes a stage that moved the template: its distances to the scan, then its wall time.
+  auto finish_stage = [&](ScanFitStage stage) {
+    const Distances d = f.scan_distances();
+    stage.ms = elapsed_ms(t0);
+    stage.mean_distance = d.mean;
+    stage.p95_distance = d.p95;
+    fit.stages.push_back(stage);
+    return d;
+  };
   ScanFitStage init{"init", 0, 0, 0, 0, 0};
   State s;
   double lo = INFINITY, hi = -INFINITY, tmpl_lo = INFINITY, tmpl_hi = -INFINITY;
@@ -648,11 +657,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     s.trans = {t.x(), t.y(), t.z()};
   }
   f.pose_template(s);
-  const Distances d_init = f.scan_distances();
-  init.ms = elapsed_ms(t0);
-  init.mean_distance = d_init.mean;
-  init.p95_distance = d_init.p95;
-  fit.stages.push_back(init);
+  finish_stage(init);
 
   // Stage 2: each part's orientation searched in turn (a walking or arms-raised scan is far
   // from any A- or T-pose start, and ICP only finds the nearest minimum).
@@ -668,8 +673,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
         s.body[static_cast<std::size_t>(3 * (j - 1) + a)] = found.pose.axis_angle(j, a);
     s.shape[0] = std::clamp(found.log_scale, -LOG_SCALE_LIMIT, LOG_SCALE_LIMIT);
     f.pose_template(s);
-    const Distances d = f.scan_distances();
-    fit.stages.push_back({"search", 0, found.evaluations, elapsed_ms(t0), d.mean, d.p95});
+    finish_stage({"search", 0, found.evaluations, 0, 0, 0});
   }
 
   // Stage 3: ICP rounds.
@@ -689,11 +693,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     icp.iterations += solve(f.model, pairs, s, std::max(1, options.iterations_per_round), options.threads);
     f.pose_template(s);
   }
-  const Distances d_icp = f.scan_distances();
-  icp.ms = elapsed_ms(t0);
-  icp.mean_distance = d_icp.mean;
-  icp.p95_distance = d_icp.p95;
-  fit.stages.push_back(icp);
+  const Distances d_icp = finish_stage(icp);
 
   // Results.
   fit.pose = pose_of(s);
