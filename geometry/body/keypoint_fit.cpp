@@ -9,6 +9,7 @@
 #include <ceres/rotation.h>
 
 #include "kernels/error.h"
+#include "limb_lift.h"
 #include "mannequin_shape.h"
 
 namespace vfit {
@@ -231,13 +232,19 @@ const std::vector<BoxLimit>& box_limits() {
   return limits;
 }
 
-constexpr int DIRECTION_LIMITS = 12; // per hip: extension, crossing, behind; per arm: far behind, upper and forearm behind
+// per hip: extension, crossing, behind; per arm: far behind, across the body, humeral rotation,
+// upper and forearm behind
+constexpr int DIRECTION_LIMITS = 16;
 constexpr double LIMIT_WEIGHT = 400.0;    // px-equivalent per rad (or per unit of direction)
+// px-equivalent per unit of an upper arm's hinge axis along the torso's forward axis (humeral
+// rotation away from neutral).
+constexpr double HINGE_WEIGHT = 20.0;
 constexpr double PRIOR_SATURATION = 0.5;  // rad: where the pull toward the relaxed pose levels off
 constexpr double BEHIND_WEIGHT = 20.0;    // px-equivalent per unit of a limb's backward direction
 // Levenberg–Marquardt iterations for each depth hypothesis: enough to tell a better basin
 // (stage 3 finishes the winner), a cap that keeps the fit within its time budget.
 constexpr int FLIP_ITERATIONS = 15;
+constexpr double SAME_HYPOTHESIS = 0.02; // m: a lifted limb this close to the fit's is the fit's own
 constexpr double BEHIND_MARGIN = 0.2;     // backward direction component free of cost (~12°)
 
 // The relaxed pose (arms ~60° down, elbows and knees slightly bent) and per-number weights of
@@ -268,6 +275,11 @@ const PoseMean& pose_mean() {
     // Twists about the bone: invisible in 2D joints.
     p.weight[at(Joint::LEFT_ELBOW, 0)] = p.weight[at(Joint::RIGHT_ELBOW, 0)] = 60.0;
     p.weight[at(Joint::LEFT_SHOULDER, 0)] = p.weight[at(Joint::RIGHT_SHOULDER, 0)] = 20.0;
+    // Elbow and knee flexion: everyday poses use the whole range and the 2D angle between the
+    // bones shows it in most views, so the pull is half the default: it settles a foreshortened
+    // limb without straightening a bent one that the keypoints show.
+    p.weight[at(Joint::LEFT_ELBOW, 1)] = p.weight[at(Joint::RIGHT_ELBOW, 1)] = 10.0;
+    p.weight[at(Joint::LEFT_KNEE, 0)] = p.weight[at(Joint::RIGHT_KNEE, 0)] = 10.0;
     p.weight[at(Joint::LEFT_KNEE, 1)] = p.weight[at(Joint::RIGHT_KNEE, 1)] = 60.0;
     return p;
   }();
@@ -302,12 +314,28 @@ struct PosePrior {
       r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.5, 10.0);
       r[k++] = T(LIMIT_WEIGHT) * excess(T(side) * d.x(), -0.35, 10.0);
     }
-    // Upper arms: not far behind the body.
+    // Upper arms: not far behind the body, and not across it except in front of the chest: the
+    // shoulder adducts ~25° past the vertical in the frontal plane (sin 25° ≈ 0.4), further only
+    // as the arm comes forward (horizontal adduction); an arm pointing through the torso or over
+    // and down the other side is out of range.
     for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-      const V3<T> out(T(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0), T(0), T(0));
+      const double side = sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
+      const V3<T> out(T(side), T(0), T(0));
       V3<T> d;
       ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), out.data(), d.data());
       r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.6, 10.0);
+      const T forward = d.z() > T(0) ? d.z() : T(0);
+      r[k++] = T(LIMIT_WEIGHT) * excess(T(-side) * d.x() - forward, -10.0, 0.4);
+      // Humeral rotation: in neutral rotation the elbow's hinge axis lies square to the torso's
+      // forward axis (the forearm flexes in the arm's plane of elevation, towards the front when
+      // the arm hangs); rotating the humerus inwards or outwards tilts the axis forward or back.
+      // A pull toward neutral, which also tells a forearm bent towards the camera from one bent
+      // away (the other needs a humerus turned far round). Silent where the arm points forward
+      // (the axis is then square to it whatever the rotation).
+      const V3<T> hinge_rest(T(0), T(-side), T(0));
+      V3<T> hinge;
+      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), hinge_rest.data(), hinge.data());
+      r[k++] = s * T(HINGE_WEIGHT) * hinge.z();
     }
     // Limbs reach forward further than back (shoulder flexion ~180° against extension ~50°, hip
     // flexion ~120° against extension ~20°): a soft cost on each upper arm, forearm and thigh
@@ -390,6 +418,26 @@ State state_of(const Pose& pose, const KeypointShape& beta) {
   return s;
 }
 
+Pose pose_of(const State& s) {
+  Pose pose;
+  pose.axis_angle.row(0) = to_vec(s.global).transpose();
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    for (int a = 0; a < 3; ++a) pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+  pose.translation = to_vec(s.trans);
+  return pose;
+}
+
+// The pixel of body point `point` among the observations, or null.
+const Eigen::Vector2d* observed_pixel(const Observations& obs, int point) {
+  const auto it = std::find(obs.points.begin(), obs.points.end(), point);
+  return it == obs.points.end() ? nullptr : &obs.pixels[static_cast<std::size_t>(it - obs.points.begin())];
+}
+
+// Unit direction (camera frame) of the ray from the camera's centre through pixel `px`.
+Eigen::Vector3d camera_ray(const PinholeCamera& cam, const Eigen::Vector2d& px) {
+  return Eigen::Vector3d((px.x() - cam.principal_point.x()) / cam.focal, -(px.y() - cam.principal_point.y()) / cam.focal, -1.0).normalized();
+}
+
 // Pose start for stage 2: each upper arm and thigh turned towards its keypoint, lifted from the
 // image as if the bone lay in the plane of its joint, leaning towards the body's front by what
 // the bone's length leaves over (foreshortening; a limb in front of the body is the common case).
@@ -420,38 +468,6 @@ void lift_limbs(const KeypointBodyModel& model, const PinholeCamera& cam, const 
     const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(bone.normalized(), parent.transpose() * d.normalized());
     const Eigen::Vector3d aa = matrix_to_axis_angle(q.toRotationMatrix());
     for (int a = 0; a < 3; ++a) s.body[static_cast<std::size_t>(3 * (idx(upper) - 1) + a)] = aa[a];
-  }
-}
-
-// The limbs whose bones' depths 2D keypoints cannot tell: upper joint, middle joint, end joint.
-struct Limb {
-  Joint upper, middle, end;
-};
-constexpr std::array<Limb, 4> LIMBS = {Limb{Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW, Joint::LEFT_WRIST},
-                                       Limb{Joint::RIGHT_SHOULDER, Joint::RIGHT_ELBOW, Joint::RIGHT_WRIST},
-                                       Limb{Joint::LEFT_HIP, Joint::LEFT_KNEE, Joint::LEFT_ANKLE},
-                                       Limb{Joint::RIGHT_HIP, Joint::RIGHT_KNEE, Joint::RIGHT_ANKLE}};
-
-// Mirrors the bone from joint `from` to its child `to` in depth (camera Z, so its image barely
-// changes) by rotating `from`, keeping the world rotation of `to` (the rest of the limb keeps
-// its direction).
-void flip_bone_depth(const KeypointBodyModel& model, State& s, Joint from, Joint to) {
-  Pose pose;
-  pose.axis_angle.row(0) = to_vec(s.global).transpose();
-  for (int j = 1; j < JOINT_COUNT; ++j)
-    for (int a = 0; a < 3; ++a) pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
-  const auto G = joint_world_transforms(model.rest_joints(s.beta), pose);
-  const auto f = static_cast<std::size_t>(idx(from)), t = static_cast<std::size_t>(idx(to));
-  const Eigen::Vector3d d = (G[t].translation() - G[f].translation()).normalized();
-  const Eigen::Vector3d flipped(d.x(), d.y(), -d.z());
-  const Eigen::Matrix3d turn = Eigen::Quaterniond::FromTwoVectors(d, flipped).toRotationMatrix();
-  const Eigen::Matrix3d R_from = turn * G[f].linear();
-  const Eigen::Matrix3d parent = G[static_cast<std::size_t>(joint_parent(idx(from)))].linear();
-  const Eigen::Vector3d a_from = matrix_to_axis_angle(parent.transpose() * R_from);
-  const Eigen::Vector3d a_to = matrix_to_axis_angle(R_from.transpose() * G[t].linear());
-  for (int a = 0; a < 3; ++a) {
-    s.body[static_cast<std::size_t>(3 * (idx(from) - 1) + a)] = a_from[a];
-    s.body[static_cast<std::size_t>(3 * (idx(to) - 1) + a)] = a_to[a];
   }
 }
 
@@ -672,16 +688,36 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
     if (i == 0 || starts[i].cost < chosen.cost) chosen = starts[i];
   }
   if (!options.initial_pose) {
-    // Per-limb depth hypotheses: each bone of a limb mirrored in depth (its 2D image nearly
-    // unchanged), re-solved, kept when the objective (priors included) prefers it.
-    for (const Limb& limb : LIMBS)
-      for (int variant = 1; variant <= 3; ++variant) {
-        State s = chosen;
-        if (variant & 1) flip_bone_depth(model, s, limb.upper, limb.middle);
-        if (variant & 2) flip_bone_depth(model, s, limb.middle, limb.end);
-        solve_full(s, false, stage2.iterations, FLIP_ITERATIONS);
-        if (s.cost < chosen.cost) chosen = s;
-      }
+    // Per-limb depth hypotheses: each limb lifted onto its keypoints' camera rays, the elbow or
+    // knee nearer or farther than the shoulder or hip and the wrist or ankle nearer or farther
+    // than that (limb_lift.h), re-solved, kept when the objective (priors included) prefers it.
+    // A limb whose middle keypoint is missing is lifted through the middle joint's present
+    // image instead (the solve then moves it freely); one whose end keypoint is missing keeps its
+    // hinge.
+    for (const HingeLimb& limb : hinge_limbs()) {
+      const Eigen::Vector2d* end_px = observed_pixel(all, idx(limb.end));
+      const Eigen::Vector2d* middle_px = observed_pixel(all, idx(limb.middle));
+      if (!middle_px && !end_px) continue;
+      const State base = chosen;
+      const JointPositions rest = model.rest_joints(base.beta);
+      const JointPositions base_joints = posed_joints(rest, pose_of(base));
+      const Eigen::Vector3d middle_ray = middle_px ? camera_ray(cam, *middle_px) : base_joints.row(idx(limb.middle)).transpose().normalized();
+      const std::optional<Eigen::Vector3d> end_ray = end_px ? std::optional(camera_ray(cam, *end_px)) : std::nullopt;
+      for (LiftDepth middle_depth : {LiftDepth::NEAR, LiftDepth::FAR})
+        for (LiftDepth end_depth : {LiftDepth::NEAR, LiftDepth::FAR}) {
+          if (!end_px && end_depth == LiftDepth::FAR) continue;
+          Pose pose = pose_of(base);
+          lift_limb(rest, limb, middle_ray, middle_depth, end_ray, end_depth, pose);
+          // The hypothesis the fit already holds (joints within 2 cm) is a local minimum: skip it.
+          const JointPositions lifted = posed_joints(rest, pose);
+          if ((lifted.row(idx(limb.middle)) - base_joints.row(idx(limb.middle))).norm() < SAME_HYPOTHESIS &&
+              (lifted.row(idx(limb.end)) - base_joints.row(idx(limb.end))).norm() < SAME_HYPOTHESIS)
+            continue;
+          State s = state_of(pose, base.beta);
+          solve_full(s, false, stage2.iterations, FLIP_ITERATIONS);
+          if (s.cost < chosen.cost) chosen = s;
+        }
+    }
   }
   stage2.ms = elapsed_ms(t0);
   stage2.cost = chosen.cost;

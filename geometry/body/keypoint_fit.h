@@ -7,14 +7,17 @@
 /// keypoint i observes, c_i its confidence and w_i its trust (0.5 for hips, whose annotations
 /// sit off the joint centres; keypoints.h). SMPLify's learned pose prior cannot ship, so E_pose
 /// is anatomical and ships without learned data: joint limits (elbows and knees hinge one way
-/// only, spine, neck and collars within ranges, thighs and upper arms not far behind the body);
-/// a soft cost on upper arms, forearms and thighs pointing behind the torso's frontal plane
-/// (limbs reach forward further than back); and a saturating pull toward a relaxed pose (arms
-/// ~60° down): quadratic near it, so 3 px of keypoint noise is not explained by bending limbs in
-/// depth, levelling off ~0.5 rad away, so a pose the keypoints show is not dragged along its
-/// depth ambiguity; stronger on what 2D joints cannot see (twists, hands, feet). The fit tries
-/// per-limb depth hypotheses (each bone of each arm and leg mirrored in depth) and lets the
-/// objective, priors included, pick the winner.
+/// only, spine, neck and collars within ranges, thighs and upper arms not far behind the body,
+/// upper arms across the body only in front of the chest); a pull toward neutral humeral
+/// rotation (the elbow's hinge axis square to the torso's forward axis); a soft cost on upper
+/// arms, forearms and thighs pointing behind the torso's frontal plane (limbs reach forward
+/// further than back); and a saturating pull toward a relaxed pose (arms ~60° down): quadratic
+/// near it, so 3 px of keypoint noise is not explained by bending limbs in depth, levelling off
+/// ~0.5 rad away, so a pose the keypoints show is not dragged along its depth ambiguity; weaker on
+/// elbow and knee flexion (visible in 2D), stronger on what 2D joints cannot see (twists, hands,
+/// feet). The fit tries per-limb depth hypotheses (each arm and leg lifted onto its keypoints'
+/// camera rays with its elbow or knee and its wrist or ankle nearer or farther, limb_lift.h) and
+/// lets the objective, priors included, pick the winner.
 
 #include <array>
 #include <optional>
@@ -123,9 +126,10 @@ struct KeypointFit {
 /// back-facing start (translation from the torso's pixel length by similar triangles, depth held
 /// near it by a prior), keeping the better; 2 pose (shape fixed), from that start and from its
 /// mirror turn when the torso is turned (2D torso keypoints cannot tell a turn to the left from
-/// one to the right), keeping the better, then per limb (arms, legs) the upper, the lower and
-/// both bones mirrored in depth, each re-solved and kept when its objective is lower; 3 shape
-/// and pose. Robust to a few wrong keypoints
+/// one to the right), keeping the better, then per limb (arms, legs) its 4 depth hypotheses
+/// (lift_limb(): middle and end joints nearer or farther on their camera rays; a missing middle
+/// keypoint is replaced by the joint's present image, a missing end keypoint keeps the hinge),
+/// each re-solved and kept when its objective is lower; 3 shape and pose. Robust to a few wrong keypoints
 /// (Geman–McClure). Never throws for Keypoints from parse_keypoints(); a hand-built Keypoints
 /// with no shoulder or no hip keypoint throws vfit::Error naming keypoints.source ("too few
 /// torso keypoints for a fit"). options.threads is clamped to [1, 2].

@@ -14,6 +14,7 @@
 
 #include "geometry/body/keypoint_fit.h"
 #include "geometry/body/keypoints.h"
+#include "geometry/body/limb_lift.h"
 #include "geometry/body/mannequin_shape.h"
 #include "kernels/error.h"
 
@@ -224,27 +225,27 @@ struct SyntheticPose {
   double max_error_mm = 30; ///< the issue's bar, or a regression guard where the fit misses it
 };
 
-// Poses whose fit misses the issue's 30 mm bar (mean 3D joint error after Procrustes): limbs
-// bent towards or away from the camera project alike (monocular depth ambiguity), and where a
-// dropped wrist or elbow keypoint leaves a forearm unseen only the priors place it (a_pose: left
-// elbow and wrist dropped; back_view: both wrists; running: right elbow). Guarded at ~1.5 × the
-// error measured when the priors were last changed, so that regressions still fail; see the
-// report of issue 8. For all but basketball_shot the fit ends below the true pose's objective
-// (asserted below): those misses are the objective's preference, not the search's.
+// Poses whose fit misses the issue's 30 mm bar (mean 3D joint error after Procrustes), guarded
+// at ~1.3 × the error measured when the priors were last changed, so that regressions still
+// fail; see the report of issue 8. The fit of each is no worse a minimiser of its objective than
+// a fit started from the truth (asserted below), and for all but throw the fit started from the
+// truth ends within a few mm of the cold fit: the misses are where the objective's minimum lies
+// for these keypoints, not search failures. Why it lies there: a dropped limb keypoint leaves a
+// forearm or shin to the priors (a_pose: left elbow and wrist; back_view: both wrists; lunge,
+// squat: right wrist; walking, running: right elbow); elsewhere bones turned towards or away
+// from the camera foreshorten by a few pixels only, which the 3 px noise and the free limb
+// lengths absorb, and the pull toward the relaxed pose then wins (lunge's and walking's arm
+// swings, tree_pose's raised knee). throw's right arm (raised, bent 80°, seen end-on) fits its
+// keypoints equally well straight, which the priors prefer.
 double known_miss_mm(std::string_view name) {
   static const std::vector<std::pair<std::string_view, double>> guards = {
-      {"a_pose", 60},     {"walking", 60},   {"arms_forward", 50},    {"squat", 85},
-      {"torso_turned_right", 50}, {"back_view", 85}, {"lunge", 105}, {"throw", 205},
-      {"basketball_shot", 240}, {"running", 90}, {"bending_forward", 60}, {"tree_pose", 65},
-      {"boxing_guard", 55}, {"head_turned", 65}, {"walking_seen_from_above", 50}};
+      {"a_pose", 49},   {"walking", 58},      {"squat", 71},     {"back_view", 69},    {"lunge", 89},
+      {"throw", 120},   {"basketball_shot", 73}, {"running", 68}, {"tree_pose", 54},  {"boxing_guard", 42},
+      {"head_turned", 54}, {"walking_seen_from_above", 47}};
   for (const auto& [n, mm] : guards)
     if (n == name) return mm;
   return 30;
 }
-
-// basketball_shot ends in a local minimum above the truth's objective (right elbow left
-// straight, 2D 4.6 px): a search failure this test documents rather than hides.
-bool known_search_failure(std::string_view name) { return name == "basketball_shot"; }
 
 // Arms: `down_*` lowers each arm from the T-pose (rad; negative raises it), then `fwd_*` swings
 // it towards the front (+Z; negative: backwards) about the axis arm × Z; elbows flex forward.
@@ -412,15 +413,21 @@ TEST_P(SyntheticKeypointFit, RecoversJointsAndReprojectsWithin5px) {
   EXPECT_LE(1000 * err3d, poses[static_cast<std::size_t>(i)].max_error_mm) << poses[static_cast<std::size_t>(i)].name;
   EXPECT_LE(fit.mean_reprojection_px, 5.0) << poses[static_cast<std::size_t>(i)].name;
   // keypoint_fit_objective() is the function the last stage minimised (same terms, summed in
-  // the same order: relative 1e-9 covers rounding), and the fit is no worse a minimiser of it
-  // than the true pose: a fit above the truth's objective would be stuck in a local minimum.
+  // the same order: relative 1e-9 covers rounding).
   Pose truth_pose = poses[static_cast<std::size_t>(i)].pose;
   truth_pose.translation = s.translation;
   const double fit_objective = keypoint_fit_objective(kp, fit.pose, fit.shape);
   EXPECT_NEAR(fit_objective, fit.stages.back().cost, 1e-9 * fit_objective);
-  if (!known_search_failure(poses[static_cast<std::size_t>(i)].name)) {
-    EXPECT_LE(fit_objective, keypoint_fit_objective(kp, truth_pose, beta)) << poses[static_cast<std::size_t>(i)].name;
-  }
+  // The search found the objective's best basin near the truth: the same fit started from the
+  // true pose and shape (a local descent there, noise absorbed) ends no lower. 1 unit (½ px² of
+  // one keypoint) covers Levenberg–Marquardt's stopping tolerance in a flat valley.
+  KeypointFitOptions from_truth;
+  from_truth.initial_pose = truth_pose;
+  from_truth.initial_shape = beta;
+  const KeypointFit warm = fit_keypoints(kp, from_truth);
+  std::printf("[pose %-24s] started from the truth: 3D %.1f mm\n", poses[static_cast<std::size_t>(i)].name,
+              1000 * procrustes_errors(warm.joints, s.truth).mean());
+  EXPECT_LE(fit_objective, keypoint_fit_objective(kp, warm.pose, warm.shape) + 1.0) << poses[static_cast<std::size_t>(i)].name;
 }
 
 // A warm start skips stage 1 and the multi-start search and stays in the basin it is given:
@@ -443,6 +450,80 @@ TEST(KeypointFit, WarmStartFromTheTruthStaysNearIt) {
     EXPECT_LE(1000 * procrustes_errors(fit.joints, s.truth).mean(), 30.0) << poses[static_cast<std::size_t>(i)].name;
     EXPECT_LE(fit.mean_reprojection_px, 2.0) << "noise-free keypoints"; // 3 dropped; the rest fit to ~1 px
   }
+}
+
+// lift_limb() against a known bent limb: each of the 4 depth choices puts the middle and end
+// joints on their camera rays with a pure, non-negative flexion, and one of them is the truth.
+TEST(LimbLift, PutsJointsOnTheirRaysAndOneChoiceIsTheTruth) {
+  const JointPositions rest = mannequin_keypoint_model().rest_joints({0.4, -0.3, 0.2, 0.1});
+  Pose truth;
+  arms(truth, 0.6, 0.7, -0.5, -0.3, 1.1, 0.8);
+  legs(truth, 0.9, 1.2, -0.2, 0.4);
+  yaw(truth, 0.5);
+  truth.translation << 0.1, -0.2, -3.2;
+  const JointPositions want = posed_joints(rest, truth);
+  auto ray_of = [](const Eigen::Vector3d& x) -> Eigen::Vector3d { return x.normalized(); };
+  auto off_ray = [](const Eigen::Vector3d& x, const Eigen::Vector3d& r) { return (x - x.dot(r) * r).norm(); };
+  for (const HingeLimb& limb : hinge_limbs()) {
+    const Eigen::Vector3d middle_ray = ray_of(want.row(idx(limb.middle)).transpose());
+    const Eigen::Vector3d end_ray = ray_of(want.row(idx(limb.end)).transpose());
+    double best = 1e9;
+    double near_depth = 0, far_depth = 0;
+    for (LiftDepth m : {LiftDepth::NEAR, LiftDepth::FAR})
+      for (LiftDepth e : {LiftDepth::NEAR, LiftDepth::FAR}) {
+        Pose pose = truth;
+        pose.axis_angle.row(idx(limb.upper)).setZero(); // start from the T-pose limb
+        pose.axis_angle.row(idx(limb.middle)).setZero();
+        lift_limb(rest, limb, middle_ray, m, end_ray, e, pose);
+        const JointPositions got = posed_joints(rest, pose);
+        const Eigen::Vector3d M = got.row(idx(limb.middle)).transpose(), E = got.row(idx(limb.end)).transpose();
+        // Exact up to rounding where the ray meets the bone's sphere: always for the middle joint
+        // (the truth lies on both), for the end joint only when the middle one took its true side.
+        EXPECT_LT(off_ray(M, middle_ray), 1e-9) << joint_name(idx(limb.middle));
+        const double lower = (rest.row(idx(limb.end)) - rest.row(idx(limb.middle))).norm();
+        if (std::pow(end_ray.dot(M), 2) - M.squaredNorm() + lower * lower >= 0) {
+          EXPECT_LT(off_ray(E, end_ray), 1e-9) << joint_name(idx(limb.end));
+        }
+        const Eigen::Vector3d flexion = pose.axis_angle.row(idx(limb.middle)).transpose();
+        EXPECT_GE(flexion.dot(limb.flexion_axis), 0.0);
+        EXPECT_LT((flexion - flexion.dot(limb.flexion_axis) * limb.flexion_axis).norm(), 1e-9); // no twist, no side bend
+        (m == LiftDepth::NEAR ? near_depth : far_depth) = -M.z();
+        best = std::min(best, std::max((M - want.row(idx(limb.middle)).transpose()).norm(), (E - want.row(idx(limb.end)).transpose()).norm()));
+      }
+    EXPECT_LT(near_depth, far_depth) << joint_name(idx(limb.middle));
+    EXPECT_LT(best, 1e-6) << joint_name(idx(limb.upper)); // the truth's own depths give the truth back
+  }
+}
+
+// Poses never looked at while the priors were chosen: arms, legs, spine and view drawn at random
+// (fixed seed) over everyday ranges — arms from hanging to overhead, swung 35° back to 75°
+// forward, elbows and knees bent up to ~100°, the body turned ±115° and tipped −11°…23°. A guard
+// on the whole, not on each: some draws are monocularly ambiguous (a bent arm seen end-on).
+// Bars at ~1.3 × the values measured when the priors were last changed (median 51 mm, 6 of 16
+// within 30 mm); every fit reprojects within the issue's 5 px.
+TEST(KeypointFit, HeldOutRandomPoses) {
+  std::mt19937 rng(2026);
+  auto draw = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  std::vector<double> errors;
+  for (int n = 0; n < 16; ++n) {
+    Pose p;
+    arms(p, draw(-1.4, 1.5), draw(-0.6, 1.3), draw(-1.4, 1.5), draw(-0.6, 1.3), draw(0, 1.8), draw(0, 1.8));
+    legs(p, draw(-0.4, 1.2), draw(0, 1.6), draw(-0.4, 1.2), draw(0, 1.6));
+    spine(p, draw(-0.2, 0.5), draw(-0.5, 0.5), draw(-0.3, 0.3));
+    yaw(p, draw(-2.0, 2.0), draw(-0.2, 0.4));
+    const KeypointShape beta = {draw(-1, 1), draw(-1, 1), draw(-1, 1), draw(-1, 1)};
+    const Synthetic s = synthesise(p, beta, 5000u + static_cast<unsigned>(n));
+    const KeypointFit fit = fit_keypoints(parse_keypoints(s.json, "random"));
+    errors.push_back(1000 * procrustes_errors(fit.joints, s.truth).mean());
+    EXPECT_LE(fit.mean_reprojection_px, 5.0) << "random pose " << n;
+  }
+  std::vector<double> sorted = errors;
+  std::sort(sorted.begin(), sorted.end());
+  const auto within = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 30; });
+  std::printf("[random poses] 3D median %.1f mm, worst %.1f mm, %d of %zu within 30 mm\n", sorted[sorted.size() / 2], sorted.back(),
+              static_cast<int>(within), errors.size());
+  EXPECT_LE(sorted[sorted.size() / 2], 66.0);
+  EXPECT_GE(within, 4);
 }
 
 INSTANTIATE_TEST_SUITE_P(Poses, SyntheticKeypointFit, testing::Range(0, static_cast<int>(synthetic_poses().size())));
