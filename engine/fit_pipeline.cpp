@@ -192,6 +192,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   po.clearance = options.clearance;
   po.smoothness = options.smoothness;
   po.max_iterations = options.penetration_iterations;
+  if (options.penetration_iterations == 0) po.direct_rounds = 0; // detection only
   report.inner_layers = layers.size();
   const PenetrationReport removal = remove_penetration(mesh, body_index, crossings, layers, po);
   report.timings.penetration_ms = ms_since(t0);

@@ -59,7 +59,7 @@ struct FitOptions {
   SegmentOptions segmentation;
   SkeletonDrivingOptions driving;
   PartSkeletonOptions skeletons;
-  int penetration_iterations = 25; ///< PenetrationOptions::max_iterations
+  int penetration_iterations = 25; ///< PenetrationOptions::max_iterations; 0: detection only (no direct rounds either)
   double smoothness = 1.0;         ///< PenetrationOptions::smoothness (λ2/λ1)
   /// k of seed 001 eq. 7 (m): the gap a garment keeps outside the garments fitted before it.
   double layer_clearance = 0.003;

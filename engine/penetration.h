@@ -76,7 +76,7 @@ enum class PenetrationSolver : std::int8_t {
   /// by every round. A failed factorisation throws vfit::Error
   /// ("remove_penetration: the region's system is not positive definite").
   CHOLESKY = 0,
-  /// Jacobi-preconditioned conjugate gradients, the three columns together, to ‖r‖ ≤ 1e-7·‖b‖
+  /// Jacobi-preconditioned conjugate gradients, the three columns together, to ‖r‖ ≤ cg_tolerance·‖b‖
   /// per column or 200 iterations at most (a solve stopped by the cap is used as it is, with no
   /// error or status), no factorisation: memory linear in the region, but ~75 iterations per
   /// solve (the matrix's condition number is ~150 for λ = 1); products and dot products in
@@ -102,6 +102,13 @@ struct PenetrationOptions {
   /// the best state is returned. 0: never stop early.
   int stall_rounds = 8;
   double tolerance = 0.0005;  ///< stop when no vertex is deeper than this (m)
+  /// Rounds of direct pushes after the solved rounds when edges still cross the body and no
+  /// vertex is deeper than `tolerance`: each crossing edge's ends (and any vertex inside) move
+  /// by their pushes as they are, without the Laplacian solve that spreads a push over the
+  /// neighbours (there a push that a fan of edges shares can be undone by its neighbours' pull
+  /// round after round). The best state is kept; they stop after 2 × stall_rounds rounds in
+  /// a row that did not improve on it. 0: none.
+  int direct_rounds = 64;
   PenetrationMethod method = PenetrationMethod::SEED_000;
   double seed004_smoothing = 6.0; ///< ω_s (seed 004 §3.2.2)
   double seed004_damping = 0.8;   ///< ω_d (seed 004 §3.2.2)
@@ -109,6 +116,9 @@ struct PenetrationOptions {
   PenetrationSolver solver = PenetrationSolver::AUTO;
   /// With PenetrationSolver::AUTO: regions of at least this many unknowns are solved by CG.
   std::size_t direct_solve_limit = 20'000;
+  /// PenetrationSolver::CG (and AUTO above the limit) stops when every column's residual is
+  /// below this fraction of its right-hand side's norm (or after 200 iterations).
+  double cg_tolerance = 1e-7;
 };
 
 /// Before/after statistics of one remove_penetration() call.
@@ -120,6 +130,7 @@ struct PenetrationReport {
   /// grows to cover them), plus one each time a region of ≥ 2,000 vertices is rebuilt around
   /// a round that pushes fewer than 1/8 of the vertices it was grown from (it then shrinks).
   int region_builds = 0;
+  int direct_rounds = 0;   ///< rounds of direct pushes run (PenetrationOptions::direct_rounds)
   /// Conjugate-gradient iterations summed over all rounds (one count per solve of the three
   /// columns together); 0 with PenetrationSolver::CHOLESKY.
   long long solver_iterations = 0;
@@ -131,7 +142,10 @@ struct PenetrationReport {
 };
 
 /// Measures a garment (positions #V × 3, m) against a body index (a closed, outward-oriented
-/// mesh), with `clearance` κ (m) for near_count.
+/// mesh), with `clearance` κ (m) for near_count. Every vertex inside counts, however deep:
+/// vertices with no body point within 5 cm are queried again without a limit (~5 µs each;
+/// the overloads with an EdgeCrossingIndex, and remove_penetration(), first cast one ray from
+/// each to tell those outside, which are most, from those deep inside).
 PenetrationStats measure_penetration(std::span<const float> garment_positions, const ProximityIndex& body,
                                      double clearance);
 

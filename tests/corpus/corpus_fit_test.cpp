@@ -66,33 +66,6 @@ const char* const GARMENTS[] = {"female_casualsuit01__jeans",
 // the pipeline must refuse those.
 std::optional<GarmentType> expected_type(const std::string& name) { return test::corpus_garment_type(name); }
 
-// Known defects (issue 7's corpus run, measured when this test was written): garments left with
-// edges crossing the body in at least one of the poses after simulation and clean-up, every
-// vertex outside. Their crossing-edge bar is skipped, naming the defect, after every other bar
-// has been checked; they pass it when the crossings are gone.
-const std::map<std::string, std::string> KNOWN_CROSSINGS = {
-    {"female_casualsuit01__tshirt", "a few sleeve edges through the shoulder (seen with arms_raised)"},
-    {"female_casualsuit02__shorts", "leg edges through the thigh at the right hip"},
-    {"female_elegantsuit01__blazer", "cuff edges through the wrists"},
-    {"female_elegantsuit01__skirt", "hem edges through the bent leg (seen with knee_bent)"},
-    {"male_casualsuit02__longsleeve_tshirt", "cuff edges through the wrists"},
-    {"male_casualsuit03__longsleeve_shirt", "edges through shoulders, armpits, neck, elbows and wrists"},
-    {"male_casualsuit05__jacket", "cuff edges through the wrists"},
-    {"male_elegantsuit01__suit_jacket", "cuff edges through the wrists, collar edges through the neck"},
-    {"male_worksuit01__overalls", "hem edges through the feet"},
-    {"male_worksuit01__tshirt", "a few sleeve edges through the right shoulder (seen with arms_down)"},
-};
-
-// Known defect: garments whose depth bar fails in some runs and not others. Penetration removal
-// depends on thread scheduling (the same input gives 142 or 149 crossing edges after removal);
-// for the overalls it has, in some runs, stopped with vertices 40-50 mm inside, from where the
-// simulation diverged (runaway stretch) and the unresolved mesh was kept.
-const std::map<std::string, std::string> KNOWN_DEPTH = {
-    {"male_worksuit01__overalls",
-     "penetration removal intermittently leaves the bib/legs 40-50 mm inside (thread-scheduling dependent), "
-     "then the simulation diverges"},
-};
-
 // The rigged hm08 body, loaded once, and each pose's body with its indices, built once.
 struct PosedBody {
   Body body;
@@ -181,17 +154,7 @@ TEST_P(CorpusFit, MeetsIssue7sBars) {
   EXPECT_EQ(now.crossing_edges, g.after.crossing_edges);
   EXPECT_NE(g.simulation, SimulationOutcome::SKIPPED);
 
-  if (now.max_depth > MAX_INSIDE_DEPTH) {
-    if (const auto known = KNOWN_DEPTH.find(name); known != KNOWN_DEPTH.end() && !HasFailure())
-      GTEST_SKIP() << "known defect: " << now.max_depth * 1e3 << " mm inside the body (simulation "
-                   << g.simulation_status << "): " << known->second;
-  }
   EXPECT_LE(now.max_depth, MAX_INSIDE_DEPTH);
-
-  if (now.crossing_edges > 0) {
-    if (const auto known = KNOWN_CROSSINGS.find(name); known != KNOWN_CROSSINGS.end() && !HasFailure())
-      GTEST_SKIP() << "known defect: " << now.crossing_edges << " edges cross the body: " << known->second;
-  }
   EXPECT_EQ(now.crossing_edges, 0u);
 }
 
@@ -211,10 +174,6 @@ TEST(CorpusFitGarments, TheListIsEveryGarmentOfTheFolder) {
     found.push_back(path.stem().string());
   std::sort(listed.begin(), listed.end());
   EXPECT_EQ(found, listed);
-  for (const auto& [name, why] : KNOWN_DEPTH)
-    EXPECT_TRUE(std::find(listed.begin(), listed.end(), name) != listed.end()) << name;
-  for (const auto& [name, why] : KNOWN_CROSSINGS)
-    EXPECT_TRUE(std::find(listed.begin(), listed.end(), name) != listed.end()) << name;
 }
 
 } // namespace

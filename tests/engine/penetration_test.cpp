@@ -93,6 +93,72 @@ TEST(Penetration, ResolvesEdgesThroughAThinRodWhoseVerticesAreAllOutside) {
   EXPECT_EQ(check.inside_count, 0u);
 }
 
+TEST(Penetration, VerticesDeeperThanTheNearSearchCountAndArePushedOut) {
+  // A small tube (radius 2 cm, 4 cm long) 8–12.6 cm from the centre of a sphere of radius
+  // 0.2 m, so 7–12 cm inside (a crotch driven through a thigh): no body point within the 5 cm
+  // near search, yet every vertex is inside.
+  const Mesh body = make_uv_sphere(40, 80, 0.20f);
+  const ProximityIndex index(body.positions, body.triangles);
+  const EdgeCrossingIndex crossings(body.positions, body.triangles);
+  Mesh deep = make_tube(6, 12, 0.02f, 0.04f);
+  for (std::size_t v = 0; v < deep.vertex_count(); ++v) deep.positions[3 * v] += 0.10f;
+  const PenetrationStats plain = measure_penetration(deep.positions, index, 0.002);
+  const PenetrationStats with_rays = measure_penetration(deep, index, crossings, 0.002);
+  EXPECT_EQ(plain.inside_count, deep.vertex_count());
+  EXPECT_EQ(with_rays.inside_count, deep.vertex_count());
+  EXPECT_GT(plain.max_depth, 0.119);  // the innermost vertices, 0.08 m from the centre: 0.12 m
+  EXPECT_LT(plain.max_depth, 0.1201); // less the facets' sag (< 1 mm at 40 × 80 segments)
+  EXPECT_DOUBLE_EQ(with_rays.max_depth, plain.max_depth);
+  // Removal sees them and brings them out.
+  const PenetrationReport r = remove_penetration(deep, index, crossings);
+  EXPECT_EQ(r.before.inside_count, deep.vertex_count());
+  EXPECT_EQ(r.after.inside_count, 0u);
+  EXPECT_EQ(measure_penetration(deep.positions, index, 0.002).inside_count, 0u);
+  // Far outside stays outside: no ray or query turns it inside.
+  Mesh far = make_tube(6, 12, 0.02f, 0.04f);
+  for (std::size_t v = 0; v < far.vertex_count(); ++v) far.positions[3 * v] += 0.40f;
+  EXPECT_EQ(measure_penetration(far, index, crossings, 0.002).inside_count, 0u);
+  EXPECT_EQ(measure_penetration(far.positions, index, 0.002).inside_count, 0u);
+}
+
+TEST(Penetration, DirectRoundsClearChordsThatDipIntoTheBody) {
+  // A coarse sphere (edges ~10 cm) wrapped 0.3 mm outside a fine one of radius 0.2 m: every
+  // vertex is outside, but each edge's chord dips up to ~7 mm into the body (a coarse cuff
+  // lying on a wrist). With the solved rounds switched off (max_iterations = 0), only the
+  // direct rounds can act: they clear every chord; without them the crossings stay.
+  const Mesh body = make_uv_sphere(60, 120, 0.20f);
+  const ProximityIndex index(body.positions, body.triangles);
+  const EdgeCrossingIndex crossings(body.positions, body.triangles);
+  const Mesh start = make_uv_sphere(6, 12, 0.2003f);
+  PenetrationOptions o;
+  o.max_iterations = 0;
+
+  Mesh untouched = start;
+  o.direct_rounds = 0;
+  const PenetrationReport none = remove_penetration(untouched, index, crossings, o);
+  EXPECT_EQ(none.before.inside_count, 0u);
+  EXPECT_GT(none.before.crossing_edges, 20u);
+  EXPECT_EQ(none.after.crossing_edges, none.before.crossing_edges);
+  EXPECT_EQ(none.direct_rounds, 0);
+
+  Mesh pushed = start;
+  o.direct_rounds = 8;
+  const PenetrationReport r = remove_penetration(pushed, index, crossings, o);
+  EXPECT_GE(r.direct_rounds, 1);
+  EXPECT_EQ(r.after.crossing_edges, 0u);
+  EXPECT_EQ(r.after.inside_count, 0u);
+  const PenetrationStats check = measure_penetration(pushed, index, crossings, o.clearance);
+  EXPECT_EQ(check.crossing_edges, 0u); // the report describes the mesh returned
+  EXPECT_EQ(check.inside_count, 0u);
+  // The chords' sagitta is ~7 mm: the pushes stay of that order (no runaway).
+  for (std::size_t v = 0; v < pushed.vertex_count(); ++v) {
+    const double radius = std::sqrt(double(pushed.positions[3 * v]) * pushed.positions[3 * v] +
+                                    double(pushed.positions[3 * v + 1]) * pushed.positions[3 * v + 1] +
+                                    double(pushed.positions[3 * v + 2]) * pushed.positions[3 * v + 2]);
+    EXPECT_LT(radius, 0.2003 + 0.02) << v;
+  }
+}
+
 TEST(Penetration, CrossingCountSkipsNoEdgeThatCrosses) {
   // measure_penetration() casts rays only for edges with an end within half their length of
   // the body; the count must equal brute force over every edge. A coarse tube (long edges)
