@@ -164,21 +164,25 @@ const Table1Case& sweep_case(std::size_t vertices) {
 }
 
 // Part skeletons, driver setup and drive() of one case, with the per-limb stages as counters.
-void time_deformation(benchmark::State& state, const Table1Case& c) {
+void time_deformation(benchmark::State& state, const Table1Case& c, vfit::BandSolver solver = vfit::BandSolver::AUTO) {
   using Clock = std::chrono::steady_clock;
   const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   double skeleton_ms = 0, setup_ms = 0, drive_ms = 0;
   vfit::PartSkeletonTimings limb_sum; // per-limb stages summed over limbs and runs
   double iterations = 0, factorisations = 0, proxy = 0, area = 0, pieces = 0, caps = 0, free_vertices = 0;
+  double band_iterations = 0;
+  vfit::SkeletonDrivingOptions options;
+  options.band_solver = solver;
   for (auto _ : state) {
     const auto t0 = Clock::now();
     const std::vector<vfit::PartSkeleton> limbs = vfit::extract_limb_skeletons(c.garment.mesh, c.segmentation.vertex_parts);
     const auto t1 = Clock::now();
-    const vfit::SkeletonDriver driver(c.garment.mesh, c.segmentation, limbs);
+    const vfit::SkeletonDriver driver(c.garment.mesh, c.segmentation, limbs, options);
     const auto t2 = Clock::now();
     const vfit::SkeletonDriving d = driver.drive(c.body.joints);
     const auto t3 = Clock::now();
     benchmark::DoNotOptimize(d.positions.data());
+    band_iterations += d.laplacian_solve.iterations;
     free_vertices += double(c.garment.mesh.vertex_count() - driver.handles().size());
     for (const vfit::PartSkeleton& s : limbs) {
       iterations += s.contraction.iterations;
@@ -218,6 +222,7 @@ void time_deformation(benchmark::State& state, const Table1Case& c) {
   state.counters["piece_vertices"] = pieces / n; // summed over the limbs
   state.counters["cap_vertices"] = caps / n;
   state.counters["band_vertices"] = free_vertices / n; // the Laplacian's unknowns
+  state.counters["band_cg_iterations"] = band_iterations / n; // 0: factored (BandSolver::DIRECT)
   state.counters["worst_area_ratio"] = area;
 }
 
@@ -234,7 +239,18 @@ void BM_sweep_deformation(benchmark::State& state) {
   time_deformation(state, sweep_case(std::size_t(state.range(0))));
   state.SetLabel("tee");
 }
-BENCHMARK(BM_sweep_deformation)->Arg(10000)->Arg(31600)->Arg(100000)->Arg(316200)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sweep_deformation)->Arg(10000)->Arg(31600)->Arg(100000)->Arg(316200)->Arg(1000000)->Unit(benchmark::kMillisecond);
+
+// The same with the band solver forced (arg 0: the tee's vertex count; arg 1: the BandSolver,
+// 1 DIRECT, 2 SUPERNODAL, 3 MULTIGRID), to compare them at one size back to back.
+void BM_sweep_deformation_solver(benchmark::State& state) {
+  const auto solver = static_cast<vfit::BandSolver>(state.range(1));
+  time_deformation(state, sweep_case(std::size_t(state.range(0))), solver);
+  state.SetLabel(solver == vfit::BandSolver::DIRECT       ? "tee, simplicial LDLT"
+                 : solver == vfit::BandSolver::SUPERNODAL ? "tee, supernodal"
+                                                          : "tee, multigrid CG");
+}
+BENCHMARK(BM_sweep_deformation_solver)->ArgsProduct({{31600, 100000, 316200}, {1, 2, 3}})->Unit(benchmark::kMillisecond);
 
 #ifdef VFIT_BENCH_CGAL
 // CGAL's mean curvature flow skeleton of the same tube, closed by our hole filling (CGAL needs

@@ -5,6 +5,7 @@
 /// argmin ‖L x − δ‖² + w² Σ_c ‖x_c − t_c‖², solved per axis with one factorisation reused for
 /// every new set of targets and δ.
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -14,6 +15,8 @@
 
 #include "geometry/mesh/mesh.h"
 #include "kernels/least_squares.h"
+#include "kernels/smoothed_aggregation.h"
+#include "kernels/supernodal_least_squares.h"
 
 namespace vfit {
 
@@ -42,6 +45,33 @@ private:
   SparseLeastSquares m_solver;
 };
 
+/// How BandLaplacianDeformer solves its normal equations L_Fᵀ L_F x_F = L_Fᵀ b.
+enum class BandSolver {
+  /// DIRECT below BAND_SUPERNODAL_UNKNOWNS free vertices, SUPERNODAL from there on.
+  AUTO = 0,
+  /// Simplicial sparse LDLᵀ (SparseLeastSquares): exact; fastest for small bands (Table-1
+  /// garments have 600–3,300 free vertices), but its fill-in makes the factorisation grow about
+  /// as #F^1.8 (27 s for the 225,558-vertex band of a 10^6-vertex tee).
+  DIRECT = 1,
+  /// CHOLMOD's supernodal Cholesky (SupernodalLeastSquares): exact, the same fill-in worked in
+  /// dense blocks: 8.1 s for that band, still superlinear.
+  SUPERNODAL = 2,
+  /// Conjugate gradients preconditioned by a smoothed-aggregation V-cycle
+  /// (smoothed_aggregation.h) to BAND_MULTIGRID_TOLERANCE, from the caller's initial guess.
+  /// Opt-in, not chosen by AUTO: each iteration is linear in #F, but the iterations needed grow
+  /// with resolution on this fourth-order system (18, 29, 56 for bands of 22,523, 70,224 and
+  /// 225,558 vertices), so it is slower than SUPERNODAL at every size measured.
+  MULTIGRID = 3,
+};
+
+/// BandSolver::AUTO's switch: bands with at least this many free vertices are factored by
+/// SUPERNODAL (measured break-even: about 22,000 unknowns, 0.29 s either way).
+inline constexpr std::size_t BAND_SUPERNODAL_UNKNOWNS = 20000;
+/// BandSolver::MULTIGRID's stopping rule: ‖L_Fᵀ(b − L_F x)‖ ≤ this × ‖L_Fᵀ b‖ per axis. On
+/// driven tees it leaves the free vertices within 0.3 mm (22,523 free) and 1.6 mm (70,224 free)
+/// of the factored solution.
+inline constexpr double BAND_MULTIGRID_TOLERANCE = 1e-6;
+
 /// Laplacian surface deformation with the handles held exactly (hard constraints): only the
 /// free vertices are unknowns, argmin over x_F of ‖L x − δ‖² with x_H = t. Rows of L that touch
 /// no free vertex are constant and dropped, so the factorisation is of the free band's system
@@ -57,12 +87,20 @@ public:
   /// mesh: the rest surface (cotangent Laplacian; uniform when `uniform`). handles: vertex
   /// indices held at their targets, in any order, each once; throws vfit::Error("laplacian
   /// deformation", …) naming a handle out of range.
-  BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform = false);
+  /// solver: how the free band's system is solved (BandSolver); all give the same positions,
+  /// MULTIGRID up to BAND_MULTIGRID_TOLERANCE.
+  BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform = false,
+                        BandSolver solver = BandSolver::AUTO);
   ~BandLaplacianDeformer();
   BandLaplacianDeformer(BandLaplacianDeformer&&) noexcept;
   BandLaplacianDeformer& operator=(BandLaplacianDeformer&&) noexcept;
 
-  bool ok() const { return m_free.empty() || m_solver->ok(); }
+  bool ok() const {
+    return m_free.empty() || (m_solver ? m_solver->ok() : m_supernodal ? m_supernodal->ok() : m_multigrid->ok());
+  }
+
+  /// True when the free band is solved by BandSolver::MULTIGRID (after AUTO's choice).
+  bool iterative() const { return m_multigrid != nullptr; }
 
   /// δ = L · x for positions (#V × 3 flat, m) of this mesh: #V × 3. Only the rows deform()
   /// reads are kept (free vertices and their neighbours, built from the faces around them);
@@ -72,7 +110,11 @@ public:
   /// delta: #V × 3 target differential coordinates (only the rows that touch a free vertex
   /// are read); targets: #H × 3 (m), in `handles` order. Returns #V × 3 positions as floats
   /// (flat): handles at their targets exactly, free vertices from the least squares.
-  std::vector<float> deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets) const;
+  /// initial (optional, #V × 3, m; only the free rows are read): MULTIGRID's starting guess,
+  /// e.g. the vertices' rigid positions, which saves iterations; ignored by DIRECT. stats
+  /// (optional) receives MULTIGRID's iterations and residual (zeros for DIRECT).
+  std::vector<float> deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets,
+                            const Eigen::MatrixXd* initial = nullptr, IterativeSolveStats* stats = nullptr) const;
 
   /// The free vertices (not handles), ascending: the unknowns.
   const std::vector<std::int32_t>& free_vertices() const { return m_free; }
@@ -84,7 +126,10 @@ private:
   std::vector<std::int32_t> m_rows;    ///< rows of L with a free column, ascending
   SparseMatrix m_free_block;           ///< L[rows, F]
   SparseMatrix m_handle_block;         ///< L[rows, H] (columns in `handles` order)
-  std::unique_ptr<SparseLeastSquares> m_solver;
+  std::unique_ptr<SparseLeastSquares> m_solver;            ///< DIRECT
+  std::unique_ptr<SupernodalLeastSquares> m_supernodal;    ///< SUPERNODAL
+  SparseMatrix m_free_block_transpose;                     ///< MULTIGRID: L[rows, F]ᵀ
+  std::unique_ptr<SmoothedAggregationSolver> m_multigrid; ///< MULTIGRID, on L_Fᵀ L_F
 };
 
 } // namespace vfit

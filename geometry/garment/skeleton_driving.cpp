@@ -329,7 +329,7 @@ SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& s
   for (std::size_t v = 0; v < nv; ++v)
     if (m_seam_distance[v] > options.seam_radius) m_handles.push_back(static_cast<std::int32_t>(v));
 
-  m_deformer = std::make_unique<BandLaplacianDeformer>(garment, m_handles);
+  m_deformer = std::make_unique<BandLaplacianDeformer>(garment, m_handles, false, options.band_solver);
   if (!m_deformer->ok())
     throw Error("skeleton driving", 0,
                 "the Laplacian system is singular: a piece of the garment lies entirely within " +
@@ -529,10 +529,41 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
   Eigen::MatrixXd targets(static_cast<Eigen::Index>(m_handles.size()), 3);
   for (std::size_t c = 0; c < m_handles.size(); ++c)
     targets.row(static_cast<Eigen::Index>(c)) = rigid.row(m_handles[c]);
-  out.positions = m_deformer->deform(delta, targets);
+  // An iterative solve of a large band starts from the torso's and the limb's rigid
+  // placements blended smoothly across it (blended_guess()): the rigid positions themselves
+  // step at the seam, and a step is slow to smooth out.
+  Eigen::MatrixXd guess;
+  if (m_deformer->iterative()) guess = blended_guess(rigid, R, t, out.limbs, node_feet);
+  out.positions = m_deformer->deform(delta, targets, m_deformer->iterative() ? &guess : nullptr, &out.laplacian_solve);
   out.timings.laplacian_ms = ms_since(t2);
   out.timings.total_ms = out.timings.orientation_ms + out.timings.driving_ms + out.timings.laplacian_ms;
   return out;
+}
+
+Eigen::MatrixXd SkeletonDriver::blended_guess(const Eigen::MatrixXd& rigid, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                                             const std::vector<DrivenLimb>& limbs,
+                                             const std::vector<std::vector<Eigen::Vector3d>>& node_feet) const {
+  Eigen::MatrixXd guess = rigid;
+  const std::span<const float> x = m_garment.positions;
+  const double r = m_options.seam_radius;
+  for (std::size_t v = 0; v < m_garment.vertex_count(); ++v) {
+    const std::int32_t li = m_seam_limb[v];
+    if (m_seam_distance[v] >= r || li < 0) continue;
+    // Signed distance across the seam (limb side positive) mapped to a smoothstep weight: 0 at
+    // the band's torso edge, 1/2 on the seam, 1 at its limb edge, where the guess meets the
+    // handles' rigid positions.
+    const bool on_limb = m_vertex_limb[v] >= 0;
+    const double u = 0.5 + 0.5 * (on_limb ? m_seam_distance[v] : -m_seam_distance[v]) / r;
+    const double w = u * u * (3 - 2 * u);
+    const Eigen::Vector3d xv = R * point(x, v) + t;
+    const DrivenLimb& limb = limbs[static_cast<std::size_t>(li)];
+    const Eigen::Vector3d limb_side =
+        on_limb ? Eigen::Vector3d(rigid.row(static_cast<Eigen::Index>(v)).transpose())
+                : Eigen::Vector3d(limb.targets.front() +
+                                  limb.rotations.front() * (xv - node_feet[static_cast<std::size_t>(li)].front()));
+    guess.row(static_cast<Eigen::Index>(v)) = ((1 - w) * xv + w * limb_side).transpose();
+  }
+  return guess;
 }
 
 SkeletonDriving drive_garment(const Mesh& garment, const GarmentSegmentation& segmentation,

@@ -35,6 +35,10 @@ struct SkeletonDrivingOptions {
   /// Blend each vertex's rigid transform with the neighbouring node's by its position along
   /// the chain, so that consecutive nodes leave no steps in the sleeve.
   bool blend_nodes = true;
+  /// How the free band's Laplacian system is solved (laplacian_deformation.h): AUTO factors
+  /// small bands with a simplicial LDLᵀ and large ones (≥ BAND_SUPERNODAL_UNKNOWNS free
+  /// vertices, tees from about 90,000 vertices) with CHOLMOD's supernodal Cholesky.
+  BandSolver band_solver = BandSolver::AUTO;
 };
 
 /// Wall-clock time per stage (ms).
@@ -71,6 +75,9 @@ struct SkeletonDriving {
       Eigen::Vector3d::Zero();
   std::vector<DrivenLimb> limbs; ///< in the skeletons' order
   SkeletonDrivingTimings timings;
+  /// The band solve's iterations and residual when it ran iteratively (BandSolver::MULTIGRID,
+  /// on request); zeros when it was factored.
+  IterativeSolveStats laplacian_solve;
 };
 
 /// The garment's key joints and limb axes for orientation and placement (mesh units). For a
@@ -156,6 +163,14 @@ public:
   double setup_ms() const { return m_setup_ms; }
 
 private:
+  /// #V × 3 starting guess for an iterative band solve: `rigid` (the per-vertex rigid
+  /// positions) with each band vertex moved to the torso's placement (R x + t) and its seam's
+  /// limb placement (the limb's first node transform) blended by a smoothstep of its signed
+  /// distance across the seam.
+  Eigen::MatrixXd blended_guess(const Eigen::MatrixXd& rigid, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                                const std::vector<DrivenLimb>& limbs,
+                                const std::vector<std::vector<Eigen::Vector3d>>& node_feet) const;
+
   Mesh m_garment;
   std::vector<GarmentPart> m_parts;
   std::vector<PartSkeleton> m_skeletons;
