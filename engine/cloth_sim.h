@@ -156,9 +156,10 @@ struct ClothOptions {
   /// (5 more CG iterations at most), and left off for the next step; the contact's friction
   /// comes from the spring's impulse (apply_contact_friction), the contact pass still catches
   /// the particles arriving. On the 6,000-vertex tee drape benchmark the cloth comes to rest
-  /// after 1.06 instead of 1.81 simulated s (6,565 instead of 8,086 CG iterations, 2.0 instead
-  /// of 2.6 CPU s on one thread: bench/kernels/cloth_bench.cpp, BM_drape_tee_to_rest vs
-  /// BM_drape_tee_to_rest_contact_pass), and after 0.9–1.3 instead of 1.5–2.1 s on tees of
+  /// after 0.95 instead of 2.15 simulated s (6,313 instead of 9,236 CG iterations, 1.3 instead
+  /// of 2.2 CPU s on one thread: bench/kernels/cloth_bench.cpp, BM_drape_tee_to_rest vs
+  /// BM_drape_tee_to_rest_contact_pass; the rest times move by ~0.1 s with the float rounding
+  /// of the spring math), and, when it was added, after 0.9–1.3 instead of 1.5–2.1 s on tees of
   /// 3,000–9,000 vertices, at the same mean height within about a millimetre. It does not make
   /// longer steps pay: at 1/100 s either model rests erratically (after 1.5 to over 8 s).
   bool resting_contacts = true;

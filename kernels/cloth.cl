@@ -83,8 +83,9 @@ __kernel void cloth_rk4_stage(__global const float* xs, __global const float* vs
 
 // One work-item per particle: row i of the filtered implicit Euler matrix times p
 // (cloth_implicit.h's implicit_system_multiply): A_ii·p_i − Σ_e S_e·p_j over the CSR row, with
-// pinned entries of p read as zero and pinned rows written as zero. Blocks are vfit_sym3
-// (6 floats: xx, xy, xz, yy, yz, zz); the same order of operations as the C++ reference.
+// pinned entries of p read as zero and pinned rows written as zero. Diagonal blocks are
+// vfit_sym3 (6 floats: xx, xy, xz, yy, yz, zz); off-diagonal ones component-major (all xx,
+// then all xy, …); the same order of operations as the C++ reference.
 static vfit_sym3 vfit_cloth_load_sym(__global const float* s, int i) {
   vfit_sym3 r;
   r.xx = s[6 * i];
@@ -107,11 +108,19 @@ __kernel void cloth_implicit_multiply(__global const float* diagonal, __global c
   r.y = 0.0f;
   r.z = 0.0f;
   if (free_rows[i]) {
+    int entries = offsets[count]; /* off_diagonal is component-major over all entries */
     r = vfit_sym3_apply(vfit_cloth_load_sym(diagonal, i), vfit_cloth_load3(p, i));
     for (int e = offsets[i]; e < offsets[i + 1]; ++e) {
       int j = neighbors[e];
       if (!free_rows[j]) continue; // the filter: a pinned p_j reads as zero
-      vfit_vec3 t = vfit_sym3_apply(vfit_cloth_load_sym(off_diagonal, e), vfit_cloth_load3(p, j));
+      vfit_sym3 s;
+      s.xx = off_diagonal[e];
+      s.xy = off_diagonal[entries + e];
+      s.xz = off_diagonal[2 * entries + e];
+      s.yy = off_diagonal[3 * entries + e];
+      s.yz = off_diagonal[4 * entries + e];
+      s.zz = off_diagonal[5 * entries + e];
+      vfit_vec3 t = vfit_sym3_apply(s, vfit_cloth_load3(p, j));
       r.x -= t.x;
       r.y -= t.y;
       r.z -= t.z;

@@ -58,13 +58,19 @@ double chunk_sum(const std::vector<double>& partials, std::size_t chunks, std::s
   return s;
 }
 
+// Block e of ImplicitSystem::off_diagonal, stored component-major over its `entries` blocks.
+vfit_sym3 load_off_diagonal(const float* p, std::size_t entries, std::size_t e) {
+  return vfit_sym3{
+      p[e], p[entries + e], p[2 * entries + e], p[3 * entries + e], p[4 * entries + e], p[5 * entries + e]};
+}
+
 double dot3(vfit_vec3 a, vfit_vec3 b) { return double(a.x) * b.x + double(a.y) * b.y + double(a.z) * b.z; }
 
 // (A·p)_i for a free particle i: A_ii·p_i − Σ_e S_e·p_j (pinned p_j are zero by the filter).
 vfit_vec3 row_times(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p, std::size_t i) {
   vfit_vec3 r = vfit_sym3_apply(load_sym(s.diagonal.data(), i), load3(p, i));
   for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
-    const vfit_vec3 t = vfit_sym3_apply(load_sym(s.off_diagonal.data(), std::size_t(e)),
+    const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(s.off_diagonal.data(), adj.neighbors.size(), std::size_t(e)),
                                         load3(p, static_cast<std::size_t>(adj.neighbors[e])));
     r.x -= t.x;
     r.y -= t.y;
@@ -73,46 +79,207 @@ vfit_vec3 row_times(const ImplicitSystem& s, const SpringAdjacency& adj, const f
   return r;
 }
 
-void assemble_range(const float* x, const float* v, const SpringAdjacency& adj, const ClothParticles& particles,
-                    float h, ImplicitSystem& s, std::size_t begin, std::size_t end) {
-  const float* inv_mass = particles.inverse_masses.data();
-  for (std::size_t i = begin; i < end; ++i) {
-    const bool is_free = inv_mass[i] != 0.0f;
-    s.free[i] = is_free ? 1 : 0;
-    const float m = is_free ? 1.0f / inv_mass[i] : 0.0f;
-    const float md = m * (1.0f + h * particles.global_damping);
-    vfit_sym3 diag{md, 0.0f, 0.0f, md, 0.0f, md};
-    const vfit_vec3 xi = load3(x, i), vi = load3(v, i);
-    vfit_vec3 f{0.0f, 0.0f, 0.0f}, kv{0.0f, 0.0f, 0.0f}; // spring force, ∂f/∂x·v
-    for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
-      const auto j = static_cast<std::size_t>(adj.neighbors[e]);
-      const vfit_vec3 xj = load3(x, j), vj = load3(v, j);
-      const float L = adj.rest_lengths[e], k = adj.stiffness[e], c = adj.damping[e];
-      vfit_vec3 fs, ks;
-      vfit_sym3 block;
-      vfit_spring_implicit_terms(xi, xj, vi, vj, L, k, c, h, &fs, &ks, &block);
-      f.x += fs.x;
-      f.y += fs.y;
-      f.z += fs.z;
-      kv.x += ks.x;
-      kv.y += ks.y;
-      kv.z += ks.z;
-      store_sym(s.off_diagonal.data(), std::size_t(e), block);
-      add_sym(diag, block);
-    }
-    store_sym(s.diagonal.data(), i, diag);
-    if (!is_free) {
-      store_sym(s.preconditioner.data(), i, vfit_sym3{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f});
-      store3(s.rhs.data(), i, vfit_vec3{0.0f, 0.0f, 0.0f});
+// Adjacency entries per block of multiply_rows(): its scratch (3 floats per entry, 3 KB) stays
+// in the L1 cache.
+constexpr std::size_t PRODUCT_BLOCK_ENTRIES = 256;
+
+struct ProductBlock {
+  alignas(64) float pj[3][PRODUCT_BLOCK_ENTRIES]; // p_j of each entry of the block
+  alignas(64) float t[3][PRODUCT_BLOCK_ENTRIES];  // S_e·p_j
+};
+
+// Calls sink(i, row_times(s, adj, p, i)) for each particle i in [begin, end), in order, bit for
+// bit (pinned rows included: the caller filters). The off-diagonal products S_e·p_j of a block
+// of consecutive rows are formed in one loop over their entries, which vectorises; each row
+// then subtracts them from A_ii·p_i in adjacency order, as row_times does.
+template <typename Sink>
+VFIT_CLOTH_INLINE void multiply_rows(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p,
+                                     std::size_t begin, std::size_t end, ProductBlock& b, const Sink& sink) {
+  constexpr auto CAP = static_cast<std::int32_t>(PRODUCT_BLOCK_ENTRIES);
+  const std::int32_t* offsets = adj.offsets.data();
+  std::size_t i = begin;
+  while (i < end) {
+    const std::int32_t e0 = offsets[i];
+    if (offsets[i + 1] - e0 > CAP) {
+      sink(i, row_times(s, adj, p, i));
+      ++i;
       continue;
     }
-    store_sym(s.preconditioner.data(), i, vfit_sym3_inverse(diag));
-    // b = h·(f + m·g − μ·m·v + h·∂f/∂x·v)
-    const float g[3] = {particles.gravity[0], particles.gravity[1], particles.gravity[2]};
-    const float mu = particles.global_damping;
-    store3(s.rhs.data(), i,
-           vfit_vec3{h * (f.x + m * g[0] - mu * m * vi.x + h * kv.x), h * (f.y + m * g[1] - mu * m * vi.y + h * kv.y),
-                     h * (f.z + m * g[2] - mu * m * vi.z + h * kv.z)});
+    const std::size_t last = block_end(offsets, i, end, CAP);
+    const auto count = static_cast<std::size_t>(offsets[last] - e0);
+    const std::int32_t* neighbors = adj.neighbors.data() + e0;
+    const std::size_t entries = adj.neighbors.size();
+    const float* blocks = s.off_diagonal.data() + e0;
+    for (std::size_t k = 0; k < count; ++k) {
+      const auto j = static_cast<std::size_t>(neighbors[k]);
+      b.pj[0][k] = p[3 * j];
+      b.pj[1][k] = p[3 * j + 1];
+      b.pj[2][k] = p[3 * j + 2];
+    }
+    for (std::size_t k = 0; k < count; ++k) {
+      const vfit_vec3 t =
+          vfit_sym3_apply(load_off_diagonal(blocks, entries, k), vfit_vec3{b.pj[0][k], b.pj[1][k], b.pj[2][k]});
+      b.t[0][k] = t.x;
+      b.t[1][k] = t.y;
+      b.t[2][k] = t.z;
+    }
+    for (std::size_t row = i; row < last; ++row) {
+      vfit_vec3 r = vfit_sym3_apply(load_sym(s.diagonal.data(), row), load3(p, row));
+      for (std::int32_t e = offsets[row]; e < offsets[row + 1]; ++e) {
+        const auto k = static_cast<std::size_t>(e - e0);
+        r.x -= b.t[0][k];
+        r.y -= b.t[1][k];
+        r.z -= b.t[2][k];
+      }
+      sink(row, r);
+    }
+    i = last;
+  }
+}
+
+// B&W's filter S_i applied to a: 0 for a pinned particle, (I − n·nᵀ)·a for a constrained one
+// (normals non-null, row i nonzero), a otherwise.
+inline vfit_vec3 filter_row(const ImplicitSystem& s, const float* normals, std::size_t i, vfit_vec3 a) {
+  if (!s.free[i]) return vfit_vec3{0.0f, 0.0f, 0.0f};
+  if (normals == nullptr) return a;
+  const vfit_vec3 n = load3(normals, i);
+  const float an = vfit_v3_dot(a, n);
+  return vfit_vec3{a.x - an * n.x, a.y - an * n.y, a.z - an * n.z};
+}
+
+// The first pass of a CG iteration over the particles [begin, end): p = z + β·p and
+// q = S·A·z + β·q in place; returns Σ p·q over the range in particle order (double).
+VFIT_CLOTH_MULTIVERSION double direction_range(const ImplicitSystem& s, const SpringAdjacency& adj,
+                                               const float* normals, const float* z, float beta, float* p, float* q,
+                                               std::size_t begin, std::size_t end) {
+  double pq = 0;
+  ProductBlock scratch;
+  multiply_rows(s, adj, z, begin, end, scratch, [&](std::size_t i, vfit_vec3 az) {
+    az = filter_row(s, normals, i, az); // zero for a pinned row
+    const vfit_vec3 zi = load3(z, i), pi = load3(p, i), qi = load3(q, i);
+    const vfit_vec3 pn{zi.x + beta * pi.x, zi.y + beta * pi.y, zi.z + beta * pi.z};
+    const vfit_vec3 qn{az.x + beta * qi.x, az.y + beta * qi.y, az.z + beta * qi.z};
+    store3(p, i, pn);
+    store3(q, i, qn);
+    pq += dot3(pn, qn);
+  });
+  return pq;
+}
+
+// Per-entry results of the assembly of a block of rows (structure of arrays).
+struct AssemblyBlock {
+  GatherBlock states;                               // d, dv of each entry; f: its spring force
+  alignas(64) float kv[3][GATHER_BLOCK_ENTRIES];    // K·dv of each entry
+  alignas(64) float block[6][GATHER_BLOCK_ENTRIES]; // S_e of each entry, as off_diagonal
+};
+
+// Evaluates entry e (block slot k) from its relative state: force, K·dv and S_e into the slot.
+inline void assemble_entry(const float* rest, const float* stiffness, const float* damping, float h, std::size_t e,
+                           vfit_vec3 d, vfit_vec3 dv, AssemblyBlock& b, std::size_t k) {
+  vfit_vec3 fs, ks;
+  vfit_sym3 block;
+  vfit_spring_implicit_terms_relative(d, dv, rest[e], stiffness[e], damping[e], h, &fs, &ks, &block);
+  b.states.f[0][k] = fs.x;
+  b.states.f[1][k] = fs.y;
+  b.states.f[2][k] = fs.z;
+  b.kv[0][k] = ks.x;
+  b.kv[1][k] = ks.y;
+  b.kv[2][k] = ks.z;
+  b.block[0][k] = block.xx;
+  b.block[1][k] = block.xy;
+  b.block[2][k] = block.xz;
+  b.block[3][k] = block.yy;
+  b.block[4][k] = block.yz;
+  b.block[5][k] = block.zz;
+}
+
+// Copies the S_e of `count` slots from slot 0 into off_diagonal from entry e0.
+inline void store_blocks(const AssemblyBlock& b, float* off_diagonal, std::size_t entries, std::size_t e0,
+                         std::size_t count) {
+  for (std::size_t c = 0; c < 6; ++c)
+    std::copy_n(b.block[c], count, off_diagonal + c * entries + e0);
+}
+
+// Row i of the system from its entries' results: the diagonal block, its inverse and the
+// right-hand side, summed in adjacency order. entry(e) returns the slot of b holding entry e's
+// force, K·dv and S_e.
+template <typename EntrySlot>
+inline void assemble_row(const float* v, const SpringAdjacency& adj, const ClothParticles& particles, float h,
+                         ImplicitSystem& s, std::size_t i, const AssemblyBlock& b, const EntrySlot& entry) {
+  const float* inv_mass = particles.inverse_masses.data();
+  const bool is_free = inv_mass[i] != 0.0f;
+  s.free[i] = is_free ? 1 : 0;
+  const float m = is_free ? 1.0f / inv_mass[i] : 0.0f;
+  const float md = m * (1.0f + h * particles.global_damping);
+  vfit_sym3 diag{md, 0.0f, 0.0f, md, 0.0f, md};
+  vfit_vec3 f{0.0f, 0.0f, 0.0f}, kv{0.0f, 0.0f, 0.0f}; // spring force, ∂f/∂x·v
+  for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
+    const std::size_t k = entry(std::size_t(e));
+    f.x += b.states.f[0][k];
+    f.y += b.states.f[1][k];
+    f.z += b.states.f[2][k];
+    kv.x += b.kv[0][k];
+    kv.y += b.kv[1][k];
+    kv.z += b.kv[2][k];
+    add_sym(diag, vfit_sym3{b.block[0][k], b.block[1][k], b.block[2][k], b.block[3][k], b.block[4][k], b.block[5][k]});
+  }
+  store_sym(s.diagonal.data(), i, diag);
+  if (!is_free) {
+    store_sym(s.preconditioner.data(), i, vfit_sym3{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f});
+    store3(s.rhs.data(), i, vfit_vec3{0.0f, 0.0f, 0.0f});
+    return;
+  }
+  store_sym(s.preconditioner.data(), i, vfit_sym3_inverse(diag));
+  // b = h·(f + m·g − μ·m·v + h·∂f/∂x·v)
+  const vfit_vec3 vi = load3(v, i);
+  const float g[3] = {particles.gravity[0], particles.gravity[1], particles.gravity[2]};
+  const float mu = particles.global_damping;
+  store3(s.rhs.data(), i,
+         vfit_vec3{h * (f.x + m * g[0] - mu * m * vi.x + h * kv.x), h * (f.y + m * g[1] - mu * m * vi.y + h * kv.y),
+                   h * (f.z + m * g[2] - mu * m * vi.z + h * kv.z)});
+}
+
+// Assembles the rows [begin, end). The springs of a block of consecutive rows are evaluated in
+// one loop over their entries (vectorised, as cloth_gather.h's gather_spring_forces), then each
+// row sums its entries in adjacency order; a row longer than a block evaluates each entry just
+// before adding it (the same function, so the same bits).
+VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, const SpringAdjacency& adj,
+                                            const ClothParticles& particles, float h, ImplicitSystem& s,
+                                            std::size_t begin, std::size_t end) {
+  constexpr auto CAP = static_cast<std::int32_t>(GATHER_BLOCK_ENTRIES);
+  const std::int32_t* offsets = adj.offsets.data();
+  const float* rest = adj.rest_lengths.data();
+  const float* stiffness = adj.stiffness.data();
+  const float* damping = adj.damping.data();
+  float* off_diagonal = s.off_diagonal.data();
+  const std::size_t entries = adj.neighbors.size();
+  AssemblyBlock b;
+  std::size_t i = begin;
+  while (i < end) {
+    const std::int32_t e0 = offsets[i];
+    if (offsets[i + 1] - e0 > CAP) {
+      const vfit_vec3 xi = load3(x, i), vi = load3(v, i);
+      assemble_row(v, adj, particles, h, s, i, b, [&](std::size_t e) {
+        const auto j = static_cast<std::size_t>(adj.neighbors[e]);
+        assemble_entry(rest, stiffness, damping, h, e, vfit_v3_sub(load3(x, j), xi), vfit_v3_sub(load3(v, j), vi), b,
+                       0);
+        store_blocks(b, off_diagonal, entries, e, 1);
+        return std::size_t{0};
+      });
+      ++i;
+      continue;
+    }
+    const std::size_t last = block_end(offsets, i, end, CAP);
+    const auto count = static_cast<std::size_t>(offsets[last] - e0);
+    gather_relative_states(x, v, adj, i, last, e0, b.states);
+    for (std::size_t k = 0; k < count; ++k)
+      assemble_entry(rest, stiffness, damping, h, std::size_t(e0) + k,
+                     vfit_vec3{b.states.d[0][k], b.states.d[1][k], b.states.d[2][k]},
+                     vfit_vec3{b.states.dv[0][k], b.states.dv[1][k], b.states.dv[2][k]}, b, k);
+    store_blocks(b, off_diagonal, entries, std::size_t(e0), count);
+    for (std::size_t row = i; row < last; ++row)
+      assemble_row(v, adj, particles, h, s, row, b, [e0](std::size_t e) { return e - std::size_t(e0); });
+    i = last;
   }
 }
 
@@ -271,13 +438,7 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   double* part = w.partials.data();
   const float* precond = s.preconditioner.data();
   // B&W's filter S_i: 0 for a pinned particle, I − n·nᵀ for a contact, I otherwise.
-  const auto filter = [&](std::size_t i, vfit_vec3 a) {
-    if (!s.free[i]) return vfit_vec3{0.0f, 0.0f, 0.0f};
-    if (normals == nullptr) return a;
-    const vfit_vec3 n = load3(normals, i);
-    const float an = vfit_v3_dot(a, n);
-    return vfit_vec3{a.x - an * n.x, a.y - an * n.y, a.z - an * n.z};
-  };
+  const auto filter = [&](std::size_t i, vfit_vec3 a) { return filter_row(s, normals, i, a); };
 
   // Δv₀ = the constrained components, or the previous answer with a warm start (zero otherwise),
   // so r₀ = S·(b − A·Δv₀).
@@ -327,17 +488,7 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   while (scale > 0 && report.iterations < options.max_iterations && rr > stop) {
     // p = z + β·p, q = S·A·z + β·q; partial p·q.
     run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
-      double pq = 0;
-      for (std::size_t i = b; i < e; ++i) {
-        const vfit_vec3 az = s.free[i] ? filter(i, row_times(s, adjacency, z, i)) : vfit_vec3{0.0f, 0.0f, 0.0f};
-        const vfit_vec3 zi = load3(z, i), pi = load3(p, i), qi = load3(q, i);
-        const vfit_vec3 pn{zi.x + beta * pi.x, zi.y + beta * pi.y, zi.z + beta * pi.z};
-        const vfit_vec3 qn{az.x + beta * qi.x, az.y + beta * qi.y, az.z + beta * qi.z};
-        store3(p, i, pn);
-        store3(q, i, qn);
-        pq += dot3(pn, qn);
-      }
-      part[2 * c] = pq;
+      part[2 * c] = direction_range(s, adjacency, normals, z, beta, p, q, b, e);
     });
     const double pq = chunk_sum(w.partials, chunks, 2, 0);
     if (!(pq > 0)) break; // A is positive definite on the free rows: only a zero p gets here

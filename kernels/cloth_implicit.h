@@ -5,8 +5,10 @@
 ///   (M − h·∂f/∂v − h²·∂f/∂x)·Δv = h·(f₀ + h·∂f/∂x·v₀)                       (B&W eq. 16)
 /// for the velocity change Δv, then v₁ = v₀ + Δv, x₁ = x₀ + h·v₁. f is the cloth's force of
 /// kernels/cloth_rk4.h (springs, gravity m·g, global damping −μ·m·v); the spring Jacobian
-/// blocks come from cloth_math.h's vfit_spring_system_block (compressed springs' negative
-/// transverse stiffness clamped to zero, so the matrix is symmetric positive definite).
+/// blocks are cloth_math.h's vfit_spring_system_block (compressed springs' negative
+/// transverse stiffness clamped to zero, so the matrix is symmetric positive definite),
+/// evaluated with the force by vfit_spring_implicit_terms_relative in one vectorised loop per
+/// block of rows, as the RK4 gather (cloth_rk4.h); the product A·p in CG is formed the same way.
 ///
 /// The solve is a conjugate gradient preconditioned by the inverse 3×3 diagonal blocks (block
 /// Jacobi), matrix-free over the CSR spring adjacency: each particle gathers its own row, so no
@@ -50,7 +52,9 @@ struct ImplicitSolveOptions {
 /// A = M − h·∂f/∂v − h²·∂f/∂x is A_ii·p_i − Σ_e S_e·p_j over particle i's adjacency entries e
 /// (neighbour j); pinned rows are filtered out.
 struct ImplicitSystem {
-  std::vector<float> off_diagonal;   ///< #adjacency entries × 6: S_e (vfit_sym3, kg)
+  /// 6 × #adjacency entries: S_e (kg), component-major (xx of every entry, then xy, xz, yy,
+  /// yz, zz), so a loop over entries reads each component contiguously and vectorises.
+  std::vector<float> off_diagonal;
   std::vector<float> diagonal;       ///< #V × 6: A_ii = m_i·(1 + h·μ)·I + Σ_e S_e (kg)
   std::vector<float> preconditioner; ///< #V × 6: A_ii⁻¹ (1/kg), zero for pinned particles
   std::vector<float> rhs;            ///< #V × 3: b = h·(f₀ + h·∂f/∂x·v₀) (N·s), zero when pinned

@@ -16,30 +16,36 @@
  * edge (≥ 0.1 mm) yet far above the float noise of coincident points. */
 #define VFIT_SPRING_MIN_LENGTH 1e-9f
 
-/* Force on particle i (at xi, moving at vi) from the spring joining it to particle j:
- *   f_i = (k·(l − L) + c·((v_j − v_i)·u))·u,   u = (x_j − x_i)/l,  l = |x_j − x_i|,
+/* Force on particle i from the spring joining it to particle j, given their relative
+ * position d = x_j − x_i (m) and velocity dv = v_j − v_i (m/s):
+ *   f_i = (k·(l − L) + c·(dv·u))·u,   u = d/l,  l = |d|,
  * Hooke's force plus damping of the stretch rate along the spring (eq. 22's f^s + f^ds, or
- * f^b + f^db for a bending spring). The formula is exactly antisymmetric in float: swapping
- * i and j negates d and u bit for bit and leaves l and the dot product unchanged, so
+ * f^b + f^db for a bending spring), evaluated as f_i = t·d with w = 1/l and
+ * t = (k·(l − L) + c·(dv·d)·w)·w: one square root and one division per spring (the divider
+ * bounds a CPU's gather). No select: a spring shorter than VFIT_SPRING_MIN_LENGTH is handled
+ * by the 0/1 factor m (a select lets a compiler branch, and a loop with a branch does not
+ * vectorise); safe_l = 1 keeps its t finite, so its force is ±0. NaN inputs give NaN. */
+VFIT_INLINE vfit_vec3 vfit_spring_force_relative(vfit_vec3 d, vfit_vec3 dv, float rest_length, float stiffness,
+                                                 float damping) {
+  float l = sqrt(vfit_v3_dot(d, d));
+  float m = (float)(l > VFIT_SPRING_MIN_LENGTH);
+  float safe_l = m * l + (1.0f - m);
+  float w = 1.0f / safe_l;
+  float t = (stiffness * (safe_l - rest_length) + damping * vfit_v3_dot(dv, d) * w) * w * m;
+  vfit_vec3 f;
+  f.x = t * d.x;
+  f.y = t * d.y;
+  f.z = t * d.z;
+  return f;
+}
+
+/* Force on particle i (at xi, moving at vi) from the spring joining it to particle j:
+ * vfit_spring_force_relative(x_j − x_i, v_j − v_i, …). Exactly antisymmetric in float:
+ * swapping i and j negates d and dv bit for bit and leaves l, w, dv·d and t unchanged, so
  * f_j == −f_i exactly and a per-particle gather equals a per-spring scatter. */
 VFIT_INLINE vfit_vec3 vfit_spring_force(vfit_vec3 xi, vfit_vec3 xj, vfit_vec3 vi, vfit_vec3 vj, float rest_length,
                                         float stiffness, float damping) {
-  vfit_vec3 d = vfit_v3_sub(xj, xi);
-  float l = sqrt(vfit_v3_dot(d, d));
-  vfit_vec3 f;
-  f.x = 0.0f;
-  f.y = 0.0f;
-  f.z = 0.0f;
-  if (!(l > VFIT_SPRING_MIN_LENGTH)) return f;
-  vfit_vec3 u;
-  u.x = d.x / l;
-  u.y = d.y / l;
-  u.z = d.z / l;
-  float s = stiffness * (l - rest_length) + damping * vfit_v3_dot(vfit_v3_sub(vj, vi), u);
-  f.x = s * u.x;
-  f.y = s * u.y;
-  f.z = s * u.z;
-  return f;
+  return vfit_spring_force_relative(vfit_v3_sub(xj, xi), vfit_v3_sub(vj, vi), rest_length, stiffness, damping);
 }
 
 /* Acceleration of a particle (eq. 22–23): a = f_springs/m + g − μ·v, or zero when pinned
@@ -183,46 +189,38 @@ VFIT_INLINE vfit_sym3 vfit_spring_system_block(vfit_vec3 xi, vfit_vec3 xj, float
   return b;
 }
 
-/* Everything the implicit step's assembly needs from one spring, from one evaluation of its
- * length and direction (one sqrt where the three calls below take three):
- *   *force = vfit_spring_force(xi, xj, vi, vj, L, k, c),
- *   *stiffness_dv = K·(vj − vi), K = vfit_spring_system_block(xi, xj, L, k, 0, 1, 1),
+/* Everything the implicit step's assembly needs from one spring, given the relative position
+ * d = x_j − x_i (m) and velocity dv = v_j − v_i (m/s), from one square root and one division
+ * (where the three calls below take three square roots and seven divisions):
+ *   *force = vfit_spring_force_relative(d, dv, L, k, c),
+ *   *stiffness_dv = K·dv, K = vfit_spring_system_block(xi, xj, L, k, 0, 1, 1),
  *   *block = vfit_spring_system_block(xi, xj, L, k, c, h, 1),
- * the same expressions as those functions (compression clamped), so the same values up to
- * float rounding. Springs shorter than VFIT_SPRING_MIN_LENGTH give zeros. */
-VFIT_INLINE void vfit_spring_implicit_terms(vfit_vec3 xi, vfit_vec3 xj, vfit_vec3 vi, vfit_vec3 vj, float rest_length,
-                                            float stiffness, float damping, float h, vfit_vec3* force,
-                                            vfit_vec3* stiffness_dv, vfit_sym3* block) {
-  vfit_vec3 d = vfit_v3_sub(xj, xi);
+ * the same formulas (compression clamped), so the same values up to float rounding. Like
+ * vfit_spring_force_relative it has no select on the length (a loop over springs vectorises):
+ * springs shorter than VFIT_SPRING_MIN_LENGTH give ±0. */
+VFIT_INLINE void vfit_spring_implicit_terms_relative(vfit_vec3 d, vfit_vec3 dv, float rest_length, float stiffness,
+                                                     float damping, float h, vfit_vec3* force,
+                                                     vfit_vec3* stiffness_dv, vfit_sym3* block) {
   float l = sqrt(vfit_v3_dot(d, d));
-  force->x = 0.0f;
-  force->y = 0.0f;
-  force->z = 0.0f;
-  *stiffness_dv = *force;
-  block->xx = 0.0f;
-  block->xy = 0.0f;
-  block->xz = 0.0f;
-  block->yy = 0.0f;
-  block->yz = 0.0f;
-  block->zz = 0.0f;
-  if (!(l > VFIT_SPRING_MIN_LENGTH)) return;
+  float m = (float)(l > VFIT_SPRING_MIN_LENGTH);
+  float safe_l = m * l + (1.0f - m);
+  float w = 1.0f / safe_l;
   vfit_vec3 u;
-  u.x = d.x / l;
-  u.y = d.y / l;
-  u.z = d.z / l;
-  vfit_vec3 dvel = vfit_v3_sub(vj, vi);
-  float rate = vfit_v3_dot(dvel, u);
-  float s = stiffness * (l - rest_length) + damping * rate;
+  u.x = m * (d.x * w);
+  u.y = m * (d.y * w);
+  u.z = m * (d.z * w);
+  float rate = vfit_v3_dot(dv, u);
+  float s = stiffness * (safe_l - rest_length) + damping * rate;
   force->x = s * u.x;
   force->y = s * u.y;
   force->z = s * u.z;
-  float transverse = stiffness * (1.0f - rest_length / l);
-  if (transverse < 0.0f) transverse = 0.0f;
+  float transverse = m * (stiffness * (1.0f - rest_length * w));
+  transverse = transverse < 0.0f ? 0.0f : transverse;
   /* K·w = (k − t)·u·(u·w) + t·w */
   float along = (stiffness - transverse) * rate;
-  stiffness_dv->x = along * u.x + transverse * dvel.x;
-  stiffness_dv->y = along * u.y + transverse * dvel.y;
-  stiffness_dv->z = along * u.z + transverse * dvel.z;
+  stiffness_dv->x = along * u.x + transverse * dv.x;
+  stiffness_dv->y = along * u.y + transverse * dv.y;
+  stiffness_dv->z = along * u.z + transverse * dv.z;
   float t = h * h * transverse;
   float a = h * damping + h * h * (stiffness - transverse);
   block->xx = a * u.x * u.x + t;

@@ -24,23 +24,30 @@ struct StagePass {
   float* next_v;
 };
 
-void stage_range(const StagePass& p, const SpringAdjacency& adj, const ClothParticles& particles, float h, int stage,
-                 std::size_t begin, std::size_t end) {
+// One stage pass over the particles [begin, end): the spring gather fused with the stage
+// update. Stage 0 does not read the running sums (it starts them) and stage 3 does not write
+// them (it writes the step's result): 48 bytes per particle and step less to move.
+VFIT_CLOTH_MULTIVERSION void stage_range(const StagePass& p, const SpringAdjacency& adj,
+                                         const ClothParticles& particles, float h, int stage, std::size_t begin,
+                                         std::size_t end) {
   const vfit_vec3 g{particles.gravity[0], particles.gravity[1], particles.gravity[2]};
   const float* inv_mass = particles.inverse_masses.data();
-  for (std::size_t i = begin; i < end; ++i) {
+  GatherBlock scratch;
+  gather_spring_forces(p.xs, p.vs, adj, begin, end, scratch, [&](std::size_t i, vfit_vec3 force) {
     const vfit_vec3 vs = load3(p.vs, i);
-    const vfit_vec3 a = vfit_particle_acceleration(gather_spring_force(p.xs, p.vs, adj, i), vs, inv_mass[i], g,
-                                                   particles.global_damping);
-    vfit_vec3 acc_x = load3(p.acc_x, i), acc_v = load3(p.acc_v, i), nx, nv;
+    const vfit_vec3 a = vfit_particle_acceleration(force, vs, inv_mass[i], g, particles.global_damping);
+    const vfit_vec3 zero{0.0f, 0.0f, 0.0f};
+    vfit_vec3 acc_x = stage == 0 ? zero : load3(p.acc_x, i), acc_v = stage == 0 ? zero : load3(p.acc_v, i), nx, nv;
     // Pinned particles move with their given velocity in no stage: hold them at x0.
-    const vfit_vec3 slope_x = inv_mass[i] == 0.0f ? vfit_vec3{0.0f, 0.0f, 0.0f} : vs;
+    const vfit_vec3 slope_x = inv_mass[i] == 0.0f ? zero : vs;
     vfit_rk4_stage_update(load3(p.x0, i), load3(p.v0, i), slope_x, a, h, stage, &acc_x, &acc_v, &nx, &nv);
-    store3(p.acc_x, i, acc_x);
-    store3(p.acc_v, i, acc_v);
+    if (stage != 3) {
+      store3(p.acc_x, i, acc_x);
+      store3(p.acc_v, i, acc_v);
+    }
     store3(p.next_x, i, nx);
     store3(p.next_v, i, nv);
-  }
+  });
 }
 
 // Runs the four stage passes; `run(kernel)` runs kernel(begin, end) over all particles.

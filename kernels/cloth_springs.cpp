@@ -36,10 +36,10 @@ void add_spring(ClothSprings& s, std::span<const float> positions, std::int32_t 
 }
 
 // Per-particle gather over [begin, end): the serial range kernel of the force drivers.
-void gather_range(const float* x, const float* v, const SpringAdjacency& adj, float* out, std::size_t begin,
-                  std::size_t end) {
-  for (std::size_t i = begin; i < end; ++i)
-    store3(out, i, gather_spring_force(x, v, adj, i));
+VFIT_CLOTH_MULTIVERSION void gather_range(const float* x, const float* v, const SpringAdjacency& adj, float* out,
+                                          std::size_t begin, std::size_t end) {
+  GatherBlock scratch;
+  gather_spring_forces(x, v, adj, begin, end, scratch, [out](std::size_t i, vfit_vec3 f) { store3(out, i, f); });
 }
 } // namespace
 

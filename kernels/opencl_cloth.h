@@ -69,8 +69,8 @@ public:
   OpenClImplicitMultiply& operator=(const OpenClImplicitMultiply&) = delete;
 
   /// Uploads a system assembled by assemble_implicit_system() over the same adjacency: its
-  /// diagonal (#V × 6, kg), off_diagonal (#entries × 6, kg) and free flags (#V); the
-  /// preconditioner and rhs are not used. Blocks until uploaded.
+  /// diagonal (#V × 6, kg), off_diagonal (6 × #entries, component-major, kg) and free flags
+  /// (#V); the preconditioner and rhs are not used. Blocks until uploaded.
   void set_system(const ImplicitSystem& system);
   /// out = filtered A·p: p is #V × 3 (e.g. m/s); out is resized to #V × 3 (kg·p's units);
   /// rows of pinned particles (free = 0) are 0 and their entries of p ignored, as in

@@ -5,10 +5,13 @@
 // model_GBps is the traffic the step must move at least (below) per wall second, and
 // bw_fraction = model_GBps / triad_GBps.
 //
-// Traffic model per particle per stage, neighbours' positions assumed cached: the CSR row
-// (offset 4 B + 16 B per spring end: neighbour, rest length, k, c), own stage state (24 B),
-// step start (24 B), inverse mass (4 B), running sums read and written (48 B), next state
-// written (24 B).
+// Traffic model: the bytes the step as implemented must move at least, neighbours' stage states
+// assumed cached (they are rows of the same arrays a few rows away) and write-allocate not
+// counted (as STREAM does not). Per particle and stage: the CSR row (offset 4 B + 16 B per spring
+// end: neighbour, rest length, k, c, all 32-bit), its stage state (24 B), its inverse mass
+// (4 B), the next state written (24 B); per particle and step besides: the step start in stages
+// 1–3 (24 B each; at stage 0 it is the stage state) and the running sums of the slopes (24 B
+// written at stage 0, read and written at stages 1 and 2, read at stage 3).
 //
 // Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
 // time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
@@ -83,7 +86,8 @@ const Cloth& cloth(std::int64_t particles) {
 
 double model_bytes_per_step(const Cloth& c) {
   const double n = double(c.adjacency.particle_count());
-  return 4.0 * (n * (4 + 24 + 24 + 4 + 48 + 24) + 2.0 * double(c.springs) * 16.0);
+  const double per_stage = n * (4 + 24 + 4 + 24) + 2.0 * double(c.springs) * 16.0;
+  return 4.0 * per_stage + n * (3 * 24 + (24 + 48 + 48 + 24));
 }
 
 // Best-of-5 STREAM triad a = b + s·c over 3 × 128 MiB arrays with all threads (GB/s, counting
@@ -235,7 +239,8 @@ const Drape& drape() {
 }
 
 void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, double max_simulated_seconds,
-                 bool contacts_in_solve = false, bool contact_candidates = true, bool resting_contacts = true) {
+                 bool contacts_in_solve = false, bool contact_candidates = true, bool resting_contacts = true,
+                 double cg_tolerance = 0) {
   const Drape& d = drape();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
   vfit::ClothRestReport last;
@@ -245,6 +250,7 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
     o.integrator = integrator;
     o.contact_candidates = contact_candidates;
     o.resting_contacts = resting_contacts;
+    if (cg_tolerance > 0) o.cg_tolerance = cg_tolerance;
     if (contacts_in_solve) {
       o.contacts_in_solve = true;
       o.implicit_step = 1.0 / 60.0;
@@ -279,6 +285,17 @@ void BM_drape_tee_to_rest(benchmark::State& state) {
 }
 // One drape per thread count (each takes seconds); the garment and body are built once, untimed.
 BENCHMARK(BM_drape_tee_to_rest)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+// The same drape at CG tolerances of 1e-3 × the argument (ClothOptions::cg_tolerance; the
+// default is 1e-2): iterations, time and simulated time to rest against the tolerance.
+void BM_drape_tee_to_rest_cg_tolerance(benchmark::State& state) {
+  drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0, false, true, true, 1e-3 * double(state.range(1)));
+}
+BENCHMARK(BM_drape_tee_to_rest_cg_tolerance)
+    ->ArgsProduct({{2}, {5, 20, 50}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
 
 // The same drape with the resting contacts left to the contact pass after each step
 // (ClothOptions::resting_contacts off), the model before the contact springs: what they save.

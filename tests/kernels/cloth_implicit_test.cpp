@@ -103,6 +103,40 @@ TEST(ClothImplicit, SpringJacobianMatchesFiniteDifferencesOfTheForce) {
   }
 }
 
+// The assembly evaluates each spring once through vfit_spring_implicit_terms_relative (one
+// square root, one division) where the reference formulas take three calls: its force, K·dv
+// and S_e must be those of vfit_spring_force and vfit_spring_system_block up to float rounding
+// (a few ulp of the largest term: relative 1e-5 of k·l, of k·|dv| and of h·c + h²·k), for a
+// stretched and a compressed spring (clamped transverse term), and exactly zero for a spring
+// shorter than VFIT_SPRING_MIN_LENGTH.
+TEST(ClothImplicit, ImplicitTermsMatchTheForceAndTheSystemBlock) {
+  const vfit_vec3 xi{0.1f, -0.2f, 0.05f}, xj{0.9f, 0.3f, -0.3f}, vi{0.3f, -0.1f, 0.2f}, vj{-0.2f, 0.4f, 0.1f};
+  const float k = 300.0f, c = 0.7f, h = 1.0f / 120.0f;
+  for (const float rest : {0.8f, 1.3f}) {
+    vfit_vec3 f, kdv;
+    vfit_sym3 block;
+    vfit_spring_implicit_terms_relative(vfit_v3_sub(xj, xi), vfit_v3_sub(vj, vi), rest, k, c, h, &f, &kdv, &block);
+    const vfit_vec3 f_ref = vfit_spring_force(xi, xj, vi, vj, rest, k, c);
+    const Eigen::Matrix3d K = dense(vfit_spring_system_block(xi, xj, rest, k, 0.0f, 1.0f, 1));
+    const Eigen::Vector3d kdv_ref = K * Eigen::Vector3d(vj.x - vi.x, vj.y - vi.y, vj.z - vi.z);
+    const Eigen::Matrix3d S_ref = dense(vfit_spring_system_block(xi, xj, rest, k, c, h, 1));
+    const Eigen::Matrix3d S = dense(block);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR((&f.x)[a], (&f_ref.x)[a], 1e-5 * k) << "rest " << rest;
+      EXPECT_NEAR((&kdv.x)[a], kdv_ref(a), 1e-5 * k) << "rest " << rest;
+      for (int b = 0; b < 3; ++b)
+        EXPECT_NEAR(S(a, b), S_ref(a, b), 1e-5 * (h * c + h * h * k)) << "rest " << rest;
+    }
+  }
+  vfit_vec3 f, kdv;
+  vfit_sym3 block;
+  vfit_spring_implicit_terms_relative(vfit_vec3{1e-10f, 0.0f, 0.0f}, vfit_vec3{1.0f, 2.0f, 3.0f}, 0.5f, k, c, h, &f,
+                                      &kdv, &block);
+  EXPECT_EQ(std::fabs(f.x) + std::fabs(f.y) + std::fabs(f.z), 0.0f);
+  EXPECT_EQ(std::fabs(kdv.x) + std::fabs(kdv.y) + std::fabs(kdv.z), 0.0f);
+  EXPECT_EQ(dense(block).norm(), 0.0);
+}
+
 // The assembled operator is symmetric positive definite on the free particles, and CG
 // (tolerance 1e-6) matches a dense LDLT solve in double. Float CG on a system of condition
 // ~10² (h²k/m ≈ 0.3 against m): the recursively updated residual can drift from the true one by
@@ -143,6 +177,77 @@ TEST(ClothImplicit, ConjugateGradientMatchesADenseSolve) {
   EXPECT_LT((cg - exact).norm(), 1e-4 * exact.norm()) << "after " << r.iterations << " iterations";
   for (std::size_t k = 0; k < 3; ++k) // pinned particles get no velocity change
     EXPECT_EQ(w.dv[k], 0.0f);
+}
+
+// The assembly and the CG product evaluate blocks of rows (≤ 256 adjacency entries) in one
+// vectorised loop and a longer row alone. A fan whose hub has 600 spring ends takes both paths:
+// every assembled block S_e must be vfit_spring_system_block's up to float rounding (relative
+// 1e-5 of h·c + h²·k, as ImplicitTermsMatchTheForceAndTheSystemBlock), the hub's diagonal block
+// m·(1 + h·μ)·I + Σ S_e (float sums of 600 terms: relative 1e-4), and CG at tolerance 1e-6 must
+// leave a residual b − A·Δv, measured with implicit_system_multiply() (the per-row reference),
+// below 1e-4·|b| (the float drift margin of ConjugateGradientMatchesADenseSolve).
+TEST(ClothImplicit, FanWithARowLongerThanABlockAssemblesAndSolves) {
+  const int rim = 300;
+  std::mt19937 rng(13u);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), kd(100.0f, 500.0f), cd(0.0f, 0.05f);
+  std::vector<float> x = {0.0f, 0.0f, 0.0f};
+  std::vector<std::int32_t> tris;
+  for (int k = 0; k < rim; ++k) {
+    const float a = 2.0f * 3.14159265f * float(k) / float(rim), r = 0.3f + 0.05f * u(rng);
+    x.insert(x.end(), {r * std::cos(a), 0.02f * u(rng), r * std::sin(a)});
+    tris.insert(tris.end(), {0, 1 + k, 1 + (k + 1) % rim});
+  }
+  ClothSprings springs = build_cloth_springs(x, tris);
+  for (std::size_t i = 0; i < springs.size(); ++i) {
+    springs.stiffness[i] = kd(rng);
+    springs.damping[i] = cd(rng);
+  }
+  const std::size_t nv = x.size() / 3;
+  Cloth c;
+  c.adjacency = build_spring_adjacency(springs, nv);
+  ASSERT_GT(c.adjacency.offsets[1] - c.adjacency.offsets[0], 256);
+  c.x = x;
+  for (float& p : c.x)
+    p += 0.01f * u(rng);
+  c.v.resize(c.x.size());
+  for (float& q : c.v)
+    q = 0.5f * u(rng);
+  c.particles.inverse_masses.assign(nv, 1.0f / 2e-3f);
+  c.particles.inverse_masses[1] = 0.0f;
+  c.particles.global_damping = 0.5f;
+  const float h = 0.005f;
+  ImplicitWorkspace w;
+  assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, h, w.system, false);
+  const std::size_t entries = c.adjacency.neighbors.size();
+  const auto block = [&](std::size_t e) {
+    const float* o = w.system.off_diagonal.data();
+    return vfit_sym3{o[e], o[entries + e], o[2 * entries + e], o[3 * entries + e], o[4 * entries + e],
+                     o[5 * entries + e]};
+  };
+  Eigen::Matrix3d hub = Eigen::Matrix3d::Identity() * (2e-3 * (1.0 + h * 0.5));
+  for (std::size_t i = 0; i < nv; ++i)
+    for (std::int32_t e = c.adjacency.offsets[i]; e < c.adjacency.offsets[i + 1]; ++e) {
+      const auto j = static_cast<std::size_t>(c.adjacency.neighbors[e]);
+      const vfit_vec3 xi{c.x[3 * i], c.x[3 * i + 1], c.x[3 * i + 2]}, xj{c.x[3 * j], c.x[3 * j + 1], c.x[3 * j + 2]};
+      const float k = c.adjacency.stiffness[e], d = c.adjacency.damping[e];
+      const Eigen::Matrix3d ref = dense(vfit_spring_system_block(xi, xj, c.adjacency.rest_lengths[e], k, d, h, 1));
+      EXPECT_LT((dense(block(std::size_t(e))) - ref).norm(), 1e-5 * (h * d + h * h * k)) << "entry " << e;
+      if (i == 0) hub += ref;
+    }
+  const float* diag = w.system.diagonal.data();
+  EXPECT_LT((dense(vfit_sym3{diag[0], diag[1], diag[2], diag[3], diag[4], diag[5]}) - hub).norm(), 1e-4 * hub.norm());
+
+  const ImplicitSolveReport r = solve_implicit_system(c.adjacency, ImplicitSolveOptions{1e-6, 500}, w, false);
+  EXPECT_TRUE(r.converged) << r.relative_residual;
+  std::vector<float> product;
+  implicit_system_multiply(w.system, c.adjacency, w.dv, product);
+  double residual = 0, rhs = 0;
+  for (std::size_t k = 0; k < 3 * nv; ++k) {
+    if (!w.system.free[k / 3]) continue;
+    residual += std::pow(double(w.system.rhs[k]) - product[k], 2);
+    rhs += std::pow(double(w.system.rhs[k]), 2);
+  }
+  EXPECT_LT(std::sqrt(residual), 1e-4 * std::sqrt(rhs));
 }
 
 // Random unit normals and targets on every third free particle: the contact constraints of a

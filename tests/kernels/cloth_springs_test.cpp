@@ -154,6 +154,45 @@ TEST(ClothSprings, GatherEqualsScatterBitForBit) {
     EXPECT_NEAR(n, 0.0, 1e-3);
 }
 
+// The gather evaluates the springs of a block of rows (at most 256 adjacency entries) in one
+// vectorised loop and gathers a longer row alone: a fan whose hub has 600 spring ends (300
+// rim vertices: one structural spring to each, bending springs across the spokes, and the rim
+// springs) takes both paths, with short spokes below VFIT_SPRING_MIN_LENGTH mixed in (zero
+// force). Both must add each particle's springs in the scatter's order: the same bits.
+TEST(ClothSprings, GatherEqualsScatterBitForBitWithARowLongerThanABlock) {
+  const int rim = 300;
+  std::mt19937 rng(11u);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), kd(50.0f, 500.0f), cd(0.0f, 0.5f);
+  std::vector<float> x = {0.0f, 0.0f, 0.0f};
+  std::vector<std::int32_t> tris;
+  for (int k = 0; k < rim; ++k) {
+    const float a = 2.0f * 3.14159265f * float(k) / float(rim), r = 0.3f + 0.05f * u(rng);
+    x.insert(x.end(), {r * std::cos(a), 0.02f * u(rng), r * std::sin(a)});
+    tris.insert(tris.end(), {0, 1 + k, 1 + (k + 1) % rim});
+  }
+  ClothSprings springs = build_cloth_springs(x, tris);
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    springs.stiffness[s] = kd(rng);
+    springs.damping[s] = cd(rng);
+  }
+  const std::size_t nv = x.size() / 3;
+  const SpringAdjacency adj = build_spring_adjacency(springs, nv);
+  ASSERT_GT(adj.offsets[1] - adj.offsets[0], 256) << "the hub's row must exceed a gather block";
+  std::vector<float> v(x.size());
+  for (float& q : v)
+    q = u(rng);
+  for (int k = 0; k < 3; ++k)
+    x[3 * 7 + k] = x[k] + 1e-11f * float(k); // rim vertex 6 sits on the hub: a zero-length spoke
+  std::vector<float> scatter, gather, tbb;
+  spring_forces_scatter(x, v, springs, scatter);
+  spring_forces_serial(x, v, adj, gather);
+  spring_forces_tbb(x, v, adj, tbb);
+  EXPECT_TRUE(same_bits(scatter, gather));
+  EXPECT_TRUE(same_bits(gather, tbb));
+  for (float q : gather)
+    EXPECT_TRUE(std::isfinite(q));
+}
+
 TEST(ClothSprings, TbbEqualsSerialBitForBit) {
   const Fixture f = jittered_cloth(120, 5u, true); // 14,400 particles: several TBB chunks
   const SpringAdjacency adj = build_spring_adjacency(f.springs, f.mesh.vertex_count());
