@@ -16,6 +16,7 @@
 #include "kernels/proximity.h"
 #include "mannequin.h"
 #include "scan_pose_search.h"
+#include "scan_skin_transfer.h"
 
 namespace vfit {
 namespace {
@@ -578,7 +579,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     mannequin_keypoint_model();
     builds.wait();
   }
-  fit.stages.push_back({"template", 0, 0, elapsed_ms(t0), 0, 0});
+  fit.stages.push_back({"template", 0, 0, elapsed_ms(t0), 0, 0, {}});
   Fitter f{scan_fit_template(), {}, {}, scan.positions, scan.triangles, {}, {}, {}, {}};
   f.model.mean = f.tmpl.joints;
   const KeypointBodyModel& kp = mannequin_keypoint_model();
@@ -596,15 +597,16 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   // on the scan's feet at its height.
   t0 = Clock::now();
   // Closes a stage that moved the template: its distances to the scan, then its wall time.
-  auto finish_stage = [&](ScanFitStage stage) {
+  auto finish_stage = [&](ScanFitStage stage, const State& state) {
     const Distances d = f.scan_distances();
+    stage.joints = posed_joints(rest_joints_of(f.model, state.shape.data()), pose_of(state));
     stage.ms = elapsed_ms(t0);
     stage.mean_distance = d.mean;
     stage.p95_distance = d.p95;
     fit.stages.push_back(stage);
     return d;
   };
-  ScanFitStage init{"init", 0, 0, 0, 0, 0};
+  ScanFitStage init{"init", 0, 0, 0, 0, 0, {}};
   State s;
   double lo = INFINITY, hi = -INFINITY, tmpl_lo = INFINITY, tmpl_hi = -INFINITY;
   Vec3 centre = Vec3::Zero();
@@ -657,7 +659,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     s.trans = {t.x(), t.y(), t.z()};
   }
   f.pose_template(s);
-  finish_stage(init);
+  finish_stage(init, s);
 
   // Stage 2: each part's orientation searched in turn (a walking or arms-raised scan is far
   // from any A- or T-pose start, and ICP only finds the nearest minimum).
@@ -673,12 +675,12 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
         s.body[static_cast<std::size_t>(3 * (j - 1) + a)] = found.pose.axis_angle(j, a);
     s.shape[0] = std::clamp(found.log_scale, -LOG_SCALE_LIMIT, LOG_SCALE_LIMIT);
     f.pose_template(s);
-    finish_stage({"search", 0, found.evaluations, 0, 0, 0});
+    finish_stage({"search", 0, found.evaluations, 0, 0, 0, {}}, s);
   }
 
   // Stage 3: ICP rounds.
   t0 = Clock::now();
-  ScanFitStage icp{"icp", 0, 0, 0, 0, 0};
+  ScanFitStage icp{"icp", 0, 0, 0, 0, 0, {}};
   const auto scan_samples = spread_indices(scan.vertex_count(), options.scan_samples);
   const auto tmpl_samples = spread_indices(f.rest.size(), options.template_samples);
   const int rounds = std::max(1, options.icp_rounds);
@@ -693,7 +695,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     icp.iterations += solve(f.model, pairs, s, std::max(1, options.iterations_per_round), options.threads);
     f.pose_template(s);
   }
-  const Distances d_icp = finish_stage(icp);
+  const Distances d_icp = finish_stage(icp, s);
 
   // Results.
   fit.pose = pose_of(s);
@@ -705,16 +707,18 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   fit.rest_joints = rest_joints_of(f.model, s.shape.data());
   fit.joints = posed_joints(fit.rest_joints, fit.pose);
 
-  // Stage 4: the scan's skin weights from the posed template (seed 001 §5.2).
+  // Stage 4: the scan's skin weights from the posed template (seed 001 §5.2), side- and
+  // part-aware (scan_skin_transfer.h): plain closest points hand an arm held against the torso
+  // the torso's weights, and folded hands each other's, which unposing then tears apart.
   t0 = Clock::now();
   Mesh posed_template = f.tmpl.mesh;
   posed_template.positions = f.posed;
   fit.rigged.mesh = scan;
   fit.rigged.joints = fit.joints;
-  fit.rigged.weights = interpolate_skin_weights(posed_template, f.tmpl.weights, scan.positions);
+  fit.rigged.weights = transfer_skin_weights(posed_template, f.tmpl.weights, scan);
   fit.rigged.rest_pose = classify_rest_pose(fit.joints);
   fit.rigged.source = source;
-  fit.stages.push_back({"weights", 0, 0, elapsed_ms(t0), d_icp.mean, d_icp.p95});
+  fit.stages.push_back({"weights", 0, 0, elapsed_ms(t0), d_icp.mean, d_icp.p95, {}});
 
   // Stage 5: the joints. The template's joints follow the mannequin's conventions, which put a
   // joint a few cm from where rigs put it inside another body's surface (collars, head, elbows);
@@ -732,32 +736,47 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     const auto B = skinning_transforms(fit.rest_joints, apose);
     for (std::size_t k = 0; k < A.size(); ++k)
       A[k] = A[k] * B[k].inverse();
-    Mesh unposed = scan;
-    const SkinWeights& w = fit.rigged.weights;
-    for (std::size_t v = 0; v < scan.vertex_count(); ++v) {
-      Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
-      for (int k = 0; k < 4; ++k)
-        M += w.weights[4 * v + k] * A[static_cast<std::size_t>(w.joints[4 * v + k])].matrix().topRows<3>();
-      const Vec3 p = M.leftCols<3>().inverse() *
-                     (Vec3(scan.positions[3 * v], scan.positions[3 * v + 1], scan.positions[3 * v + 2]) - M.col(3));
-      for (int a = 0; a < 3; ++a)
-        unposed.positions[3 * v + a] = static_cast<float>(p[a]);
+    auto unpose = [&](const SkinWeights& w) {
+      Mesh unposed = scan;
+      for (std::size_t v = 0; v < scan.vertex_count(); ++v) {
+        Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
+        for (int k = 0; k < 4; ++k)
+          M += w.weights[4 * v + k] * A[static_cast<std::size_t>(w.joints[4 * v + k])].matrix().topRows<3>();
+        const Vec3 p = M.leftCols<3>().inverse() *
+                       (Vec3(scan.positions[3 * v], scan.positions[3 * v + 1], scan.positions[3 * v + 2]) - M.col(3));
+        for (int a = 0; a < 3; ++a)
+          unposed.positions[3 * v + a] = static_cast<float>(p[a]);
+      }
+      return unposed;
+    };
+    // With the rigged scan's weights; where the estimator rejects that unposed scan (a limb the
+    // fit left far off unposes into no A-pose), once more with plain closest-point weights,
+    // which drag such a limb's skin along with the part it lies against instead.
+    std::optional<JointEstimate> rest;
+    std::string failure;
+    for (int attempt = 0; attempt < 2 && !rest; ++attempt) {
+      try {
+        rest = estimate_joints(unpose(attempt == 0
+                                          ? fit.rigged.weights
+                                          : interpolate_skin_weights(posed_template, f.tmpl.weights, scan.positions)));
+      } catch (const Error& e) {
+        if (attempt == 0) failure = e.what();
+      }
     }
-    try {
-      const JointEstimate rest = estimate_joints(unposed);
+    if (rest) {
       for (int j = 0; j < JOINT_COUNT; ++j) {
         const auto bone = static_cast<std::size_t>(j == 0 ? 0 : joint_parent(j));
-        fit.joints.row(j) = (A[bone] * Vec3(rest.joints.row(j).transpose())).transpose();
+        fit.joints.row(j) = (A[bone] * Vec3(rest->joints.row(j).transpose())).transpose();
       }
       fit.joints_estimated_unposed = true;
-    } catch (const Error& e) {
+    } else {
       fit.warnings.push_back(
-          std::string("joint estimation failed on the unposed scan; the template's joints are kept: ") + e.what());
+          std::string("joint estimation failed on the unposed scan; the template's joints are kept: ") + failure);
     }
   }
   fit.rigged.joints = fit.joints;
   fit.rigged.rest_pose = classify_rest_pose(fit.joints);
-  fit.stages.push_back({"joints", 0, 0, elapsed_ms(t0), d_icp.mean, d_icp.p95});
+  fit.stages.push_back({"joints", 0, 0, elapsed_ms(t0), d_icp.mean, d_icp.p95, fit.joints});
   fit.total_ms = elapsed_ms(t_start);
   return fit;
 }

@@ -7,8 +7,9 @@
 /// closest template point, template vertex → closest scan point), far and opposite-facing pairs
 /// rejected, Geman–McClure weights (iteratively reweighted), then Levenberg–Marquardt with
 /// Ceres over θ, t, s and β; alternated a bounded number of rounds. Then each scan vertex takes
-/// the skin weights of its closest template point, interpolated barycentrically in the closest
-/// template triangle (seed 001 §5.2), so the scan becomes a rigged Body.
+/// the skin weights of its closest template point facing its way on its own body part,
+/// interpolated barycentrically (seed 001 §5.2; transfer_skin_weights(), scan_skin_transfer.h),
+/// so the scan becomes a rigged Body.
 /// Conventions: metres, Y up, the body facing +Z, +X = the body's left.
 
 #include <cstddef>
@@ -44,6 +45,9 @@ struct ScanFitStage {
   double ms = 0;            ///< wall time
   double mean_distance = 0; ///< mean distance (m) from the scan's vertices to the posed template after the stage
   double p95_distance = 0;  ///< its 95th percentile (m)
+  /// The joints after the stage (m): the posed template's for "init", "search" and "icp", the
+  /// final ScanFit::joints for "joints"; zero for the others.
+  JointPositions joints = JointPositions::Zero();
 };
 
 /// The fitted body and the rigged scan.
@@ -54,8 +58,8 @@ struct ScanFit {
   /// Shape: a global scale s of the template (stature and girths together) and the keypoint
   /// model's β (keypoint_fit.h; β[0], stature, is held at 0 since s carries it; β[1] leg, β[2]
   /// arm length, β[3] shoulder width, in population σ).
-  double scale = 1.0;    ///< s (dimensionless; 1 = the template's size)
-  KeypointShape shape{}; ///< β (population σ; β[0] = 0, see above)
+  double scale = 1.0;                                  ///< s (dimensionless; 1 = the template's size)
+  KeypointShape shape{};                               ///< β (population σ; β[0] = 0, see above)
   BodyMeasurements measurements;                       ///< of the fitted shape (the mannequin's, scaled)
   JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the fitted shape (m)
   /// The joints in the scan (m): estimate_joints() run on the scan unposed into the fitted
@@ -69,9 +73,9 @@ struct ScanFit {
   /// pose_body() by rotations relative to this pose. rest_pose from classify_rest_pose().
   Body rigged;
   bool initialised_from_joints = false; ///< estimate_joints() worked on the scan (else an A-pose start)
-  std::vector<ScanFitStage> stages;  ///< the stages run, in order
-  double total_ms = 0;               ///< wall time of the whole fit (ms)
-  std::vector<std::string> warnings; ///< e.g. the A-pose fallback start; one line each
+  std::vector<ScanFitStage> stages;     ///< the stages run, in order
+  double total_ms = 0;                  ///< wall time of the whole fit (ms)
+  std::vector<std::string> warnings;    ///< e.g. the A-pose fallback start; one line each
 };
 
 /// The template body of the scan fit: the mannequin of average measurements in T-pose, 3,000

@@ -36,8 +36,8 @@ public:
     }
     for (int a = 0; a < 3; ++a)
       m_dims[a] = n == 0 ? 0 : static_cast<int>((hi[a] - m_lo[a]) / m_cell) + 1;
-    const auto cells = static_cast<std::size_t>(m_dims[0]) * static_cast<std::size_t>(m_dims[1]) *
-                       static_cast<std::size_t>(m_dims[2]);
+    const auto cells =
+        static_cast<std::size_t>(m_dims[0]) * static_cast<std::size_t>(m_dims[1]) * static_cast<std::size_t>(m_dims[2]);
     m_start.assign(cells + 1, 0);
     m_cell_of.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -396,6 +396,29 @@ ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, c
           out.log_scale = ls;
         }
       }
+    }
+  // Local refinement: each limb joint turned about the parent frame's three axes by a step that
+  // halves, keeping improvements. The candidate grids above are 20-45° apart; this brings each
+  // bone within a few degrees of the best score, so that ICP (whose robust weights discount
+  // pairs a few cm apart) starts nearer its basin.
+  const std::array<Joint, 8> refined = {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER, Joint::LEFT_ELBOW,
+                                        Joint::RIGHT_ELBOW,   Joint::LEFT_HIP,       Joint::RIGHT_HIP,
+                                        Joint::LEFT_KNEE,     Joint::RIGHT_KNEE};
+  for (double step : options.refine_steps_deg)
+    for (Joint joint : refined) {
+      const int j = idx(joint);
+      Pose base = out.pose;
+      scorer.begin_part(base, out.log_scale, {j});
+      for (int axis = 0; axis < 3; ++axis)
+        for (double sign : {-1.0, 1.0}) {
+          Pose p = out.pose;
+          set_joint(p, j, compose(sign * step * DEG * Vec3::Unit(axis), p.axis_angle.row(j).transpose()));
+          const double s = scorer.score_part(p);
+          if (s < out.score) {
+            out.score = s;
+            out.pose = p;
+          }
+        }
     }
   out.evaluations = scorer.evaluations();
   return out;

@@ -17,22 +17,25 @@ namespace vfit {
 
 /// Settings of search_scan_pose().
 struct ScanPoseSearchOptions {
-  std::size_t scan_samples = 700;     ///< scan points scored (fixed-seed even subset)
+  std::size_t scan_samples = 700;      ///< scan points scored (fixed-seed even subset)
   std::size_t scan_grid_points = 4000; ///< scan points the template's points are matched to
-  std::size_t template_samples = 700; ///< template vertices scored
+  std::size_t template_samples = 700;  ///< template vertices scored
   /// Distances are truncated here (m): a part farther than this off the scan counts the same
   /// wherever it is, so a wrong limb cannot outweigh the rest of the body.
   double cap = 0.08;
   int passes = 2; ///< sweeps over all parts (each keeps only improvements)
+  /// Then each limb joint (shoulders, elbows, hips, knees) is turned about its parent's three
+  /// axes by each of these steps (degrees) in turn, keeping improvements.
+  std::vector<double> refine_steps_deg = {16, 8, 4};
 };
 
 /// The result of search_scan_pose().
 struct ScanPoseSearch {
-  Pose pose;                ///< T-pose-relative pose and translation (m) of the template
-  double log_scale = 0;     ///< log of the template's global scale
-  double start_score = 0;   ///< score of the starting pose (m: mean truncated distance, both ways)
-  double score = 0;         ///< score of the returned pose (m)
-  int evaluations = 0;      ///< candidate poses scored
+  Pose pose;              ///< T-pose-relative pose and translation (m) of the template
+  double log_scale = 0;   ///< log of the template's global scale
+  double start_score = 0; ///< score of the starting pose (m: mean truncated distance, both ways)
+  double score = 0;       ///< score of the returned pose (m)
+  int evaluations = 0;    ///< candidate poses scored
 };
 
 /// Evenly spread indices into [0, n): min(n, max(count, 1)) of them, i·n/m for i < m (the
@@ -46,9 +49,10 @@ std::vector<std::size_t> spread_indices(std::size_t n, std::size_t count);
 /// rewarded both for explaining scan points and for lying on the scan. Each part is tried in a
 /// fixed set of orientations (upper arms over 35 directions and 3 twists, elbows 0–120°,
 /// thighs over 24 directions, knees 0–100°, torso bend and twist, global yaw ±30°, x/z shifts,
-/// scale ±15 %), every candidate placed on the scan's floor (lowest points level); a candidate
-/// replaces the current value only when it scores better, so the result never scores worse
-/// than `start`. Deterministic. Needs at least one scan point; never throws for finite input.
+/// scale ±15 %), every candidate placed on the scan's floor (lowest points level); then each
+/// limb joint is turned about its parent's axes by options.refine_steps_deg in turn. A
+/// candidate replaces the current value only when it scores better, so the result never
+/// scores worse than `start`. Deterministic. Needs at least one scan point; never throws for finite input.
 ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,
                                 const ScanPoseSearchOptions& options = {});
 

