@@ -791,6 +791,12 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
   int last_improvement = -1;
   std::vector<std::size_t> requery;
   std::vector<double> response(nv, 1.0); // per vertex: see PUSH_GAIN_INSIDE; 1 until pushed
+  std::vector<char> crossings_pending(crossings ? nv : 0, 0); // moved since their edges' last check
+  auto check_pending_crossings = [&] {
+    detect_crossings(garment.positions, detection.body, detection.drift, *crossings, *edge_list, &crossings_pending,
+                     detection);
+    std::fill(crossings_pending.begin(), crossings_pending.end(), char(0));
+  };
   // Queries again the vertices skipped since their last query (may_have_changed()) and takes
   // the statistics afresh. The skip is exact where the body's signed distance is continuous; a
   // posed body that intersects itself (skin folded at an armpit) makes the side jump, so a
@@ -865,7 +871,15 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
       else detection.drift[v] += moved;
     }
     timed(report.detection_ms, [&] {
-      detect(garment.positions, body, crossings, edge_list, layers, &region.vertices, &region.moves, &requery, detection);
+      detect(garment.positions, body, nullptr, edge_list, layers, &region.vertices, &region.moves, &requery, detection);
+      if (!crossings) return;
+      // While a vertex is deeper than the tolerance the next round pushes no crossing edge
+      // (propose()), so the edges' check waits: the vertices moved meanwhile are remembered
+      // and their edges checked once it is needed (Table-1 Shorts 1: two rounds of ~18k edge
+      // checks saved). Meanwhile the statistics carry the last crossing count.
+      for (std::size_t v : region.vertices) crossings_pending[v] = 1;
+      if (vertex_stats(detection.body, 0.0).max_depth > o.tolerance) return;
+      check_pending_crossings();
     });
     report.after = stats_of(detection, o.clearance);
     // clearance is a target, not a requirement
@@ -877,6 +891,10 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
     } else if (o.stall_rounds > 0 && iter - last_improvement >= o.stall_rounds) {
       break;
     }
+  }
+  if (std::find(crossings_pending.begin(), crossings_pending.end(), char(1)) != crossings_pending.end()) {
+    timed(report.detection_ms, check_pending_crossings);
+    report.after = stats_of(detection, o.clearance);
   }
   if (!resolved(report.after) && badness(best) < badness(report.after)) {
     if (!best_positions.empty()) {
