@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "geometry/mesh/primitives.h"
+#include "test_support.h"
 #include "kernels/cloth_collision.h"
 #include "kernels/cloth_gather.h"
 #include "kernels/proximity.h"
@@ -190,13 +191,9 @@ TEST(ClothImplicit, FanWithARowLongerThanABlockAssemblesAndSolves) {
   const int rim = 300;
   std::mt19937 rng(13u);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f), kd(100.0f, 500.0f), cd(0.0f, 0.05f);
-  std::vector<float> x = {0.0f, 0.0f, 0.0f};
-  std::vector<std::int32_t> tris;
-  for (int k = 0; k < rim; ++k) {
-    const float a = 2.0f * 3.14159265f * float(k) / float(rim), r = 0.3f + 0.05f * u(rng);
-    x.insert(x.end(), {r * std::cos(a), 0.02f * u(rng), r * std::sin(a)});
-    tris.insert(tris.end(), {0, 1 + k, 1 + (k + 1) % rim});
-  }
+  const Mesh fan = test::random_fan(rim, rng);
+  std::vector<float> x = fan.positions;
+  const std::vector<std::int32_t> tris = fan.triangles;
   ClothSprings springs = build_cloth_springs(x, tris);
   for (std::size_t i = 0; i < springs.size(); ++i) {
     springs.stiffness[i] = kd(rng);

@@ -118,6 +118,18 @@ Mesh unit_square() {
   return m;
 }
 
+Mesh random_fan(int rim, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  Mesh fan;
+  fan.positions = {0.0f, 0.0f, 0.0f};
+  for (int k = 0; k < rim; ++k) {
+    const float a = 2.0f * 3.14159265f * float(k) / float(rim), r = 0.3f + 0.05f * u(rng);
+    fan.positions.insert(fan.positions.end(), {r * std::cos(a), 0.02f * u(rng), r * std::sin(a)});
+    fan.triangles.insert(fan.triangles.end(), {0, 1 + k, 1 + (k + 1) % rim});
+  }
+  return fan;
+}
+
 double mean_edge_length_change(const Mesh& before, const Mesh& after) {
   double sum = 0;
   std::size_t n = 0;

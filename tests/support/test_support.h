@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,11 @@ Mesh unit_square();
 /// Mean over the triangles' edges of |length after / length before − 1| (same topology): how
 /// much a deformation stretched or shrank the cloth.
 double mean_edge_length_change(const Mesh& before, const Mesh& after);
+
+/// A fan of `rim` triangles around hub vertex 0 at the origin: rim vertex k at angle 2πk/rim,
+/// radius 0.3 + 0.05·u m and height 0.02·u m (u uniform in [−1, 1) from `rng`, radius then
+/// height per vertex, in vertex order). Its hub's spring row is longer than a gather block.
+Mesh random_fan(int rim, std::mt19937& rng);
 
 /// A closed, outward-oriented octahedron (6 vertices, 8 triangles).
 Mesh octahedron();
