@@ -289,13 +289,7 @@ struct ClothSim::Impl {
       query_body(requery_points, options.contact_search_radius, requery_hits);
     for (std::size_t r = 0; r < requeried.size(); ++r) {
       const auto i = static_cast<std::size_t>(requeried[r]);
-      for (int k = 0; k < 3; ++k)
-        hits.points[3 * i + k] = requery_hits.points[3 * r + k];
-      hits.triangles[i] = requery_hits.triangles[r];
-      hits.barycentrics[2 * i] = requery_hits.barycentrics[2 * r];
-      hits.barycentrics[2 * i + 1] = requery_hits.barycentrics[2 * r + 1];
-      hits.signed_distances[i] = requery_hits.signed_distances[r];
-      hits.features[i] = requery_hits.features[r];
+      hits.copy_row(i, requery_hits, r);
       record_query(i, reach);
     }
   }

@@ -125,14 +125,7 @@ void closest_points_of(const ProximityIndex& index, std::span<const float> posit
   }
   ClosestHits part;
   index.closest_points(queries, radii, part);
-  for (std::size_t k = 0; k < moved->size(); ++k) {
-    const std::size_t v = (*moved)[k];
-    for (int c = 0; c < 3; ++c) all.points[3 * v + std::size_t(c)] = part.points[3 * k + std::size_t(c)];
-    for (int c = 0; c < 2; ++c) all.barycentrics[2 * v + std::size_t(c)] = part.barycentrics[2 * k + std::size_t(c)];
-    all.triangles[v] = part.triangles[k];
-    all.signed_distances[v] = part.signed_distances[k];
-    all.features[v] = part.features[k];
-  }
+  for (std::size_t k = 0; k < moved->size(); ++k) all.copy_row((*moved)[k], part, k);
 }
 
 // A vertex with no body point within NEAR_SEARCH is far outside, or deeper inside than that
@@ -185,14 +178,7 @@ void resolve_far_vertices(std::span<const float> positions, const ProximityIndex
   for (std::size_t v : inside) queries.insert(queries.end(), {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]});
   ClosestHits part;
   body.closest_points(queries, INFINITY, part);
-  for (std::size_t k = 0; k < inside.size(); ++k) {
-    const std::size_t v = inside[k];
-    for (int c = 0; c < 3; ++c) all.points[3 * v + std::size_t(c)] = part.points[3 * k + std::size_t(c)];
-    for (int c = 0; c < 2; ++c) all.barycentrics[2 * v + std::size_t(c)] = part.barycentrics[2 * k + std::size_t(c)];
-    all.triangles[v] = part.triangles[k];
-    all.signed_distances[v] = part.signed_distances[k];
-    all.features[v] = part.features[k];
-  }
+  for (std::size_t k = 0; k < inside.size(); ++k) all.copy_row(inside[k], part, k);
 }
 
 // Signed distance of each vertex to a layer, +∞ where the layer does not count (out of reach,

@@ -192,6 +192,15 @@ void ClosestHits::resize(std::size_t query_count) {
   features.resize(query_count);
 }
 
+void ClosestHits::copy_row(std::size_t row, const ClosestHits& from, std::size_t from_row) {
+  for (std::size_t c = 0; c < 3; ++c) points[3 * row + c] = from.points[3 * from_row + c];
+  triangles[row] = from.triangles[from_row];
+  barycentrics[2 * row] = from.barycentrics[2 * from_row];
+  barycentrics[2 * row + 1] = from.barycentrics[2 * from_row + 1];
+  signed_distances[row] = from.signed_distances[from_row];
+  features[row] = from.features[from_row];
+}
+
 ProximityIndex::ProximityIndex(std::span<const float> positions, std::span<const std::int32_t> triangles,
                                OpenMeshSide open_side)
     : m_impl(std::make_unique<Impl>()) {

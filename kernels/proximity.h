@@ -47,6 +47,10 @@ struct ClosestHits {
   std::size_t size() const { return triangles.size(); }
   /// Resizes every array for `query_count` queries (contents unspecified until written).
   void resize(std::size_t query_count);
+  /// Copies row `from_row` of `from` into row `row` (both in range): point, triangle,
+  /// barycentrics, signed distance and feature, e.g. a re-queried subset back into the hits of
+  /// all queries.
+  void copy_row(std::size_t row, const ClosestHits& from, std::size_t from_row);
 };
 
 /// Queries per TBB task in ProximityIndex::closest_points (each query is ~1 µs of traversal).

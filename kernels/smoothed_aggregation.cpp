@@ -383,14 +383,6 @@ SmoothedAggregationSolver& SmoothedAggregationSolver::operator=(SmoothedAggregat
 
 bool SmoothedAggregationSolver::ok() const { return m_impl->ok; }
 
-int SmoothedAggregationSolver::levels() const { return static_cast<int>(m_impl->levels.size()); }
-
-std::size_t SmoothedAggregationSolver::level_size(int level) const {
-  return static_cast<std::size_t>(m_impl->levels.at(static_cast<std::size_t>(level)).A.rows());
-}
-
-Eigen::MatrixXd SmoothedAggregationSolver::precondition(const Eigen::MatrixXd& R) const { return m_impl->vcycle(0, R); }
-
 IterativeSolveStats SmoothedAggregationSolver::solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X, double tolerance,
                                                      int max_iterations) const {
   const SparseMatrix& A = m_impl->levels.front().A;

@@ -65,27 +65,23 @@ public:
   SmoothedAggregationSolver(SmoothedAggregationSolver&&) noexcept;
   SmoothedAggregationSolver& operator=(SmoothedAggregationSolver&&) noexcept;
 
+  /// Whether the coarsest level's factorisation succeeded (see the constructor).
   bool ok() const;
-  /// Number of levels, the finest and the factored coarsest included (1 when A is small).
-  int levels() const;
-  /// Unknowns on each level, finest first.
-  std::size_t level_size(int level) const;
 
   /// Solves A X = B column by column (B: #N × k), starting from X (#N × k, the initial guess;
   /// resized to zeros when its shape differs), until ‖B_c − A X_c‖ ≤ tolerance · ‖B_c‖ for every
-  /// column c or after max_iterations. A zero column of B gives a zero column of X.
+  /// column c or after max_iterations. A zero column of B gives a zero column of X. Only when
+  /// ok(): otherwise the coarse solves, and so X, are undefined.
   IterativeSolveStats solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X, double tolerance, int max_iterations) const;
-
-  /// One V-cycle applied to R (#N × k) from a zero guess: the preconditioner M⁻¹ R, an SPD
-  /// approximation of A⁻¹ R. Exposed for tests.
-  Eigen::MatrixXd precondition(const Eigen::MatrixXd& R) const;
 
 private:
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
 
-/// Y = A X for a row-major sparse A and dense X (#cols(A) × k), rows in parallel chunks.
+/// Y = A X for a compressed row-major sparse A (#R × #C) and dense X (#C × k); Y is resized to
+/// #R × k. Rows in parallel chunks, each row summed in storage order (the same bits for any
+/// thread count).
 void parallel_multiply(const SparseMatrix& A, const Eigen::MatrixXd& X, Eigen::MatrixXd& Y);
 
 } // namespace vfit

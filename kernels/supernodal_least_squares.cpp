@@ -26,8 +26,9 @@ SupernodalLeastSquares::SupernodalLeastSquares(const SparseMatrix& A) : m_impl(s
   const Eigen::SparseMatrix<double> AtA = m_impl->At * A;
   m_impl->llt.compute(AtA);
   m_impl->ok = m_impl->llt.info() == Eigen::Success;
-  // A singular PSD matrix often "succeeds" with round-off pivots: the same bar as
-  // SparseLeastSquares' smallest LDLᵀ pivot, 1e-12 of the largest (rcond is its square root).
+  // A singular PSD matrix often "succeeds" with round-off pivots. cholmod_rcond squares its
+  // diagonal ratio for an LLᵀ factor, so this is a pivot ratio of AᵀA: 1e-6, stricter than
+  // SparseLeastSquares' 1e-12 (see the header).
   if (m_impl->ok) m_impl->ok = m_impl->llt.reciprocal_condition() > 1e-6;
 }
 

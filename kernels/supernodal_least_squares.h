@@ -22,15 +22,18 @@ namespace vfit {
 /// unknowns 8.1 s (about 27 s); no faster below ~20,000 unknowns.
 class SupernodalLeastSquares {
 public:
-  /// Factors AᵀA. ok() is false when CHOLMOD finds it not positive definite, or its factor's
-  /// diagonal spans more than 10^6 (pivots, its square, more than 10^12, the bar of
-  /// SparseLeastSquares): A lacks full column rank, e.g. a Laplacian system with an
-  /// unconstrained connected piece — a status.
+  /// Factors AᵀA. ok() is false when CHOLMOD finds it not positive definite, or when CHOLMOD's
+  /// reciprocal condition estimate (the smallest over the largest pivot of AᵀA, its LLᵀ
+  /// factor's diagonal ratio squared) is at most 10^-6: A lacks full column rank, e.g. a
+  /// Laplacian system with an unconstrained connected piece — a status. That bar is stricter
+  /// than SparseLeastSquares' (smallest LDLᵀ pivot ≤ 10^-12 of the largest): systems with
+  /// pivot ratios between 10^-12 and 10^-6 are refused here and accepted there.
   explicit SupernodalLeastSquares(const SparseMatrix& A);
   ~SupernodalLeastSquares();
   SupernodalLeastSquares(SupernodalLeastSquares&&) noexcept;
   SupernodalLeastSquares& operator=(SupernodalLeastSquares&&) noexcept;
 
+  /// Whether the factorisation succeeded (see the constructor); solve() only when true.
   bool ok() const;
   /// x = argmin ‖A x − b‖² for each column of b (#R × k); returns #N × k.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;

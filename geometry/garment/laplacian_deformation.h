@@ -111,8 +111,8 @@ public:
   /// are read); targets: #H × 3 (m), in `handles` order. Returns #V × 3 positions as floats
   /// (flat): handles at their targets exactly, free vertices from the least squares.
   /// initial (optional, #V × 3, m; only the free rows are read): MULTIGRID's starting guess,
-  /// e.g. the vertices' rigid positions, which saves iterations; ignored by DIRECT. stats
-  /// (optional) receives MULTIGRID's iterations and residual (zeros for DIRECT).
+  /// e.g. the vertices' rigid positions, which saves iterations; ignored by DIRECT and SUPERNODAL. stats
+  /// (optional) receives MULTIGRID's iterations and residual (zeros for DIRECT and SUPERNODAL).
   std::vector<float> deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets,
                             const Eigen::MatrixXd* initial = nullptr, IterativeSolveStats* stats = nullptr) const;
 
