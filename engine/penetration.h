@@ -87,7 +87,8 @@ enum class PenetrationSolver : std::int8_t {
   /// CONJUGATE_GRADIENT from there on: the factorisation (its ordering, fill and the
   /// elimination itself) grows faster than the region and runs on one core, CG's products
   /// run on all of them in memory linear in the region. Measured on 2 cores, quiet machine,
-  /// same run, Table-1 twins (removal medians, factoring vs CG to a 1e-3 residual): Dress
+  /// same run, Table-1 twins with the regions of 8 rings then used (removal medians,
+  /// factoring vs CG to a 1e-3 residual): Dress
   /// (first region 882 unknowns) 7.6 vs 8.9 ms and Shirt 1 (1,966) 10.2 vs 14.0 ms favour the
   /// factorisation; Shirt 2 (2,712) 17.4 vs 15.1, Pant 1 (3.4–4k) 16.6–22.2 vs 11.4–12.3 and
   /// Shorts 1 (6,124) 33.3 vs 15.7 ms favour CG, with the same rounds and end states; at 10^6
@@ -165,7 +166,7 @@ PenetrationStats measure_penetration(const Mesh& garment, const ProximityIndex& 
 /// Removes penetration in place. garment: positions and triangles (its uniform Laplacian keeps
 /// the shape: argmin_y Σ_i ‖y_i − t_i‖² + λ ‖L (y − y⁰)‖², y⁰ the round's start, t_i = closest
 /// body point + κ·outward for vertices inside (or, in the first round only, within κ), t_i = y⁰_i
-/// elsewhere). Only the vertices within 8 rings of a pushed vertex are unknowns; the rest of
+/// elsewhere). Only the vertices within 6 rings of a pushed vertex are unknowns; the rest of
 /// the garment is the fixed region and does not move. The matrix I + λ L_RᵀL_R of that region is
 /// factored once and reused every round, as seed 004 does (a later round pushing a vertex
 /// outside the region grows it, and a large region is rebuilt around a much smaller later push
