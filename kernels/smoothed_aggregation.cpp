@@ -8,6 +8,7 @@
 
 #include <Eigen/SparseCholesky>
 
+#include "least_squares.h"
 #include "parallel.h"
 
 namespace vfit {
@@ -368,13 +369,7 @@ SmoothedAggregationSolver::SmoothedAggregationSolver(const SparseMatrix& A, cons
     m_impl->levels.push_back(std::move(l));
     break;
   }
-  m_impl->ok = m_impl->coarsest.info() == Eigen::Success;
-  if (m_impl->ok && m_impl->coarsest.vectorD().size() > 0) {
-    // As SparseLeastSquares: LDLᵀ of a singular PSD matrix "succeeds" with zero pivots.
-    const auto pivots = m_impl->coarsest.vectorD();
-    const double scale = std::max(1.0, pivots.cwiseAbs().maxCoeff());
-    m_impl->ok = pivots.minCoeff() > 1e-12 * scale;
-  }
+  m_impl->ok = m_impl->coarsest.info() == Eigen::Success && ldlt_pivots_regular(m_impl->coarsest.vectorD());
 }
 
 SmoothedAggregationSolver::~SmoothedAggregationSolver() = default;

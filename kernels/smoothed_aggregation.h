@@ -53,7 +53,7 @@ struct IterativeSolveStats {
 class SmoothedAggregationSolver {
 public:
   /// Builds the hierarchy. ok() is false when the coarsest level's factorisation finds A
-  /// singular (a near-zero pivot: for a Laplacian system, a connected piece with no
+  /// singular (ldlt_pivots_regular() fails: for a Laplacian system, a connected piece with no
   /// constraint) — a status, as for SparseLeastSquares. Asserts A is square.
   /// near_null: #N × m vectors A nearly annihilates, which the coarse levels must represent
   /// exactly; empty for the constant vector alone. For LᵀL of a mesh Laplacian pass the

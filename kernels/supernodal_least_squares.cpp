@@ -2,6 +2,8 @@
 
 #include <Eigen/CholmodSupport>
 
+#include "normal_equations.h"
+
 namespace vfit {
 
 namespace {
@@ -13,24 +15,19 @@ public:
   double reciprocal_condition() { return m_cholmodFactor ? cholmod_rcond(m_cholmodFactor, &cholmod()) : 0.0; }
 };
 
+// cholmod_rcond squares its diagonal ratio for an LLᵀ factor, so this is a pivot ratio of AᵀA:
+// stricter than SparseLeastSquares' LDLT_PIVOT_RATIO (see the header).
+constexpr double SUPERNODAL_RCOND = 1e-6;
+
 } // namespace
 
-struct SupernodalLeastSquares::Impl {
-  Eigen::SparseMatrix<double> At; // Aᵀ, column-major: Aᵀ b is a fast product
-  Factor llt;
-  bool ok = false;
+struct SupernodalLeastSquares::Impl : NormalEquations<Factor> {
+  // A singular PSD matrix often "succeeds" with round-off pivots, hence the condition bar.
+  explicit Impl(const SparseMatrix& A) : NormalEquations(A), ok(factored && factor.reciprocal_condition() > SUPERNODAL_RCOND) {}
+  bool ok;
 };
 
-SupernodalLeastSquares::SupernodalLeastSquares(const SparseMatrix& A) : m_impl(std::make_unique<Impl>()) {
-  m_impl->At = A.transpose();
-  const Eigen::SparseMatrix<double> AtA = m_impl->At * A;
-  m_impl->llt.compute(AtA);
-  m_impl->ok = m_impl->llt.info() == Eigen::Success;
-  // A singular PSD matrix often "succeeds" with round-off pivots. cholmod_rcond squares its
-  // diagonal ratio for an LLᵀ factor, so this is a pivot ratio of AᵀA: 1e-6, stricter than
-  // SparseLeastSquares' 1e-12 (see the header).
-  if (m_impl->ok) m_impl->ok = m_impl->llt.reciprocal_condition() > 1e-6;
-}
+SupernodalLeastSquares::SupernodalLeastSquares(const SparseMatrix& A) : m_impl(std::make_unique<Impl>(A)) {}
 
 SupernodalLeastSquares::~SupernodalLeastSquares() = default;
 SupernodalLeastSquares::SupernodalLeastSquares(SupernodalLeastSquares&&) noexcept = default;
@@ -38,9 +35,6 @@ SupernodalLeastSquares& SupernodalLeastSquares::operator=(SupernodalLeastSquares
 
 bool SupernodalLeastSquares::ok() const { return m_impl->ok; }
 
-Eigen::MatrixXd SupernodalLeastSquares::solve(const Eigen::MatrixXd& b) const {
-  const Eigen::MatrixXd rhs = m_impl->At * b;
-  return m_impl->llt.solve(rhs);
-}
+Eigen::MatrixXd SupernodalLeastSquares::solve(const Eigen::MatrixXd& b) const { return m_impl->factor.solve(Eigen::MatrixXd(m_impl->At * b)); }
 
 } // namespace vfit

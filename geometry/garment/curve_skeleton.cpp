@@ -398,9 +398,7 @@ Eigen::MatrixXd contract_mesh(const Mesh& mesh, const ContractionOptions& option
         ++s.factorisations;
         since_factor = 0;
         // AᵀA is positive definite for w_H > 0; a failure (or a vanishing pivot) means w_H ≤ 0 or NaNs.
-        if (ldlt.info() != Eigen::Success) break;
-        const auto d = ldlt.vectorD();
-        if (!(d.minCoeff() > 1e-12 * std::max(1.0, d.cwiseAbs().maxCoeff()))) break;
+        if (ldlt.info() != Eigen::Success || !ldlt_pivots_regular(ldlt.vectorD())) break;
       }
       // Aᵀb = [w_L Lᵀ, w_H I]·[0; w_H x_prev] = w_H² x_prev.
       const Eigen::MatrixXd rhs = wh * wh * x;

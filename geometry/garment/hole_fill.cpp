@@ -13,6 +13,10 @@
 namespace vfit {
 namespace {
 
+// Fewest vertices of a cap's first ring when HoleFillOptions::edge_length thins it: a hexagon
+// still reads as a round opening to the contraction.
+constexpr std::size_t MIN_SPACED_RING = 6;
+
 std::uint64_t directed_key(std::int32_t a, std::int32_t b) {
   return (std::uint64_t(std::uint32_t(a)) << 32) | std::uint32_t(b);
 }
@@ -67,7 +71,7 @@ std::vector<std::vector<std::int32_t>> boundary_loops(const Mesh& mesh) {
 }
 
 // Appends one cap over `polygon` (the cap's own traversal: counter-clockwise seen from outside).
-void add_cap(const std::vector<std::int32_t>& polygon, double dome_height, std::size_t max_ring, Mesh& out) {
+void add_cap(const std::vector<std::int32_t>& polygon, const HoleFillOptions& options, Mesh& out) {
   const std::size_t n = polygon.size();
   std::vector<Eigen::Vector3d> rim(n);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -92,7 +96,8 @@ void add_cap(const std::vector<std::int32_t>& polygon, double dome_height, std::
   param[n] = 1.0;
   const double area_norm = area.norm();
   // A loop with no area (collinear) has no outward side: its cap is flat.
-  const Eigen::Vector3d lift = area_norm > 0 ? Eigen::Vector3d(area / area_norm * dome_height * radius) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d lift =
+      area_norm > 0 ? Eigen::Vector3d(area / area_norm * options.dome_height * radius) : Eigen::Vector3d::Zero();
 
   auto rim_at = [&](double u) {
     const auto it = std::upper_bound(param.begin(), param.end(), u);
@@ -124,8 +129,11 @@ void add_cap(const std::vector<std::int32_t>& polygon, double dome_height, std::
     }
   };
 
-  // Ring sizes follow the rim's (n), bounded by max_ring: square triangles either way.
-  const double ring_size = max_ring > 0 ? std::min(double(n), double(max_ring)) : double(n);
+  // Ring sizes follow the rim's (n), bounded by max_ring_vertices and by the requested
+  // spacing: square triangles either way.
+  double ring_size = options.max_ring_vertices > 0 ? std::min(double(n), double(options.max_ring_vertices)) : double(n);
+  if (options.edge_length > 0)
+    ring_size = std::min(ring_size, std::max(double(MIN_SPACED_RING), std::round(perimeter / options.edge_length)));
   const int rings = std::max(1, int(std::lround(ring_size / 4.0)));
   std::vector<std::int32_t> outer = polygon;
   std::vector<double> outer_param(param.begin(), param.begin() + std::ptrdiff_t(n));
@@ -158,7 +166,7 @@ FilledMesh fill_holes(const Mesh& open_mesh, const HoleFillOptions& options) {
   for (const auto& loop : loops) {
     // The cap runs against the boundary edges (b → a where the part has a → b).
     std::vector<std::int32_t> polygon(loop.rbegin(), loop.rend());
-    add_cap(polygon, options.dome_height, options.max_ring_vertices, result.mesh);
+    add_cap(polygon, options, result.mesh);
   }
   result.loops_filled = loops.size();
   return result;

@@ -22,6 +22,13 @@ struct HoleFillOptions {
   /// whatever its resolution. Loops of up to this many vertices (every corpus and Table-1
   /// garment's) get the same caps as unbounded.
   std::size_t max_ring_vertices = 128;
+  /// Spacing of a cap's rings and of the vertices along them (mesh units); 0: the rim's own
+  /// (about n vertices per ring for a loop of n). A spacing longer than the rim's thins the
+  /// rings to about perimeter / edge_length vertices (at least 6) and their count to a
+  /// quarter of that: a cap as coarse as the skeleton's proxy will be, where the rim's
+  /// spacing would give it vertices that the proxy then collapses again
+  /// (extract_part_skeleton()). A spacing at or below the rim's changes nothing.
+  double edge_length = 0;
 };
 
 /// A watertight mesh made from an open one: the input's vertices first, in their order, then
@@ -38,8 +45,8 @@ struct FilledMesh {
 /// ring the loop scaled by cos θ_k towards its centroid and lifted by sin θ_k·dome height;
 /// rings thin out towards the apex (about n·cos θ_k vertices for a loop of n) and neighbouring
 /// rings are zipped by arc-length parameter, so caps have no slivers. R ≈ n/4 (at least 1):
-/// about square triangles; options.max_ring_vertices bounds both for long loops (the rim is
-/// then zipped to a first ring with fewer vertices). The caps' triangles are oriented like the
+/// about square triangles; options.max_ring_vertices and options.edge_length bound both for
+/// long or finely sampled loops (the rim is then zipped to a first ring with fewer vertices). The caps' triangles are oriented like the
 /// input's, so an outward-oriented part gives an outward-oriented closed surface. A mesh without boundary is
 /// returned unchanged. Throws vfit::Error("hole filling", …) naming the vertex where a boundary
 /// is not a simple loop (a vertex with two outgoing boundary edges: non-manifold or

@@ -7,6 +7,8 @@
 #include <numeric>
 #include <unordered_map>
 
+#include <Eigen/Geometry>
+
 #include "kernels/error.h"
 #include "kernels/parallel.h"
 
@@ -106,6 +108,19 @@ PartPiece cut_part(const Mesh& garment, const std::vector<std::int32_t>& faces) 
   return piece;
 }
 
+// Mean edge length of a closed mesh of `vertices` vertices spread evenly over the piece's area:
+// about two equilateral triangles per vertex.
+double proxy_spacing(const Mesh& piece, std::size_t vertices) {
+  double area = 0;
+  for (std::size_t f = 0; f < piece.face_count(); ++f) {
+    const Eigen::Vector3d a = point(piece.positions, std::size_t(piece.triangles[3 * f])),
+                          b = point(piece.positions, std::size_t(piece.triangles[3 * f + 1])),
+                          c = point(piece.positions, std::size_t(piece.triangles[3 * f + 2]));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return std::sqrt(2 * area / (std::sqrt(3.0) * double(vertices)));
+}
+
 } // namespace
 
 PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentPart> vertex_parts, GarmentPart part,
@@ -131,7 +146,10 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
   result.timings.cut_ms = ms_since(start);
 
   auto stage = Clock::now();
-  const FilledMesh closed = fill_holes(piece.mesh, options.hole_fill);
+  HoleFillOptions hole_fill = options.hole_fill;
+  if (options.caps_at_proxy_spacing && hole_fill.edge_length == 0 && options.skeleton.proxy_vertices > 0)
+    hole_fill.edge_length = proxy_spacing(piece.mesh, options.skeleton.proxy_vertices);
+  const FilledMesh closed = fill_holes(piece.mesh, hole_fill);
   result.timings.fill_ms = ms_since(stage);
   result.piece_vertices = closed.original_vertices;
   result.cap_vertices = closed.mesh.vertex_count() - closed.original_vertices;

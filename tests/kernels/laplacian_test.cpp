@@ -1,5 +1,6 @@
 #include "kernels/laplacian.h"
 
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -7,6 +8,7 @@
 #include "geometry/garment/laplacian_deformation.h"
 #include "geometry/mesh/primitives.h"
 #include "kernels/least_squares.h"
+#include "kernels/supernodal_least_squares.h"
 
 namespace vfit {
 namespace {
@@ -99,6 +101,43 @@ TEST(SparseLeastSquares, MatchesADenseQrOracleAndReportsRankDeficiency) {
   rank_deficient.insert(0, 0) = 1.0;
   rank_deficient.insert(1, 1) = 1.0; // column 2 is empty
   EXPECT_FALSE(SparseLeastSquares(rank_deficient).ok());
+}
+
+TEST(SparseLeastSquares, PivotsAreRegularOnlyAboveTheRatioOfTheLargest) {
+  EXPECT_TRUE(ldlt_pivots_regular(Eigen::Vector3d(1, 2, 3)));
+  EXPECT_TRUE(ldlt_pivots_regular(Eigen::VectorXd()));               // a 0 × 0 system
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, 0)));          // a zero pivot: singular
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, -1e-3)));      // PSD input never pivots below 0
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1e6, 1e-7)));     // ratio 1e-13
+  EXPECT_TRUE(ldlt_pivots_regular(Eigen::Vector2d(1e6, 1e-5)));      // ratio 1e-11
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1e-3, 1e-13)));   // the scale is at least 1
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, std::nan("")))); // NaNs: not regular
+}
+
+// CHOLMOD's supernodal factor solves the same normal equations; its own singularity bar
+// (reciprocal condition 1e-6) refuses the same rank-deficient system.
+TEST(SupernodalLeastSquares, AgreesWithTheSimplicialSolverAndReportsRankDeficiency) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int r = 0; r < 90; ++r)
+    for (int c = 0; c < 30; ++c)
+      if (u(rng) > 0.6) t.emplace_back(r, c, u(rng));
+  for (int c = 0; c < 30; ++c) t.emplace_back(90 + c, c, 1.0); // full column rank
+  SparseMatrix A(120, 30);
+  A.setFromTriplets(t.begin(), t.end());
+  Eigen::MatrixXd b(120, 3);
+  for (int i = 0; i < b.size(); ++i) b.data()[i] = u(rng);
+  const SupernodalLeastSquares supernodal(A);
+  const SparseLeastSquares simplicial(A);
+  ASSERT_TRUE(supernodal.ok());
+  ASSERT_TRUE(simplicial.ok());
+  // Well conditioned (the identity rows): both factorisations agree to round-off.
+  EXPECT_LT((supernodal.solve(b) - simplicial.solve(b)).cwiseAbs().maxCoeff(), 1e-9);
+  SparseMatrix rank_deficient(10, 3);
+  rank_deficient.insert(0, 0) = 1.0;
+  rank_deficient.insert(1, 1) = 1.0; // column 2 is empty
+  EXPECT_FALSE(SupernodalLeastSquares(rank_deficient).ok());
 }
 
 TEST(LaplacianDeformer, KeepsTheShapeFollowsHandlesAndReusesItsFactorisation) {
