@@ -151,10 +151,10 @@ public:
   /// body as `body_joints` (m); it is queried, not modified. Throws vfit::Error ("proximity
   /// queries: …") when the placed garment has a non-finite coordinate; `body_joints` is not
   /// validated.
-  /// Opt-in: engine/fit_pipeline.cpp does not pass a surface, because on posed bodies the
-  /// contact translation picks up flesh that is not the garment's (lowered arms lift a tee by
-  /// ~4 cm), costs 20–60 ms per top, and left the corpus fit with more crossing edges (848
-  /// against 798 over 63 garment × pose cases).
+  /// Opt-in: engine/fit_pipeline.cpp does not pass a surface, because the contact translation
+  /// costs 20–60 ms per top, moves garments modelled a few mm into their body by centimetres
+  /// (it slides a tight torso along a tapering trunk until nothing is inside), and left the
+  /// corpus fit with more crossing edges (848 against 798 over 63 garment × pose cases).
   SkeletonDriving drive(const JointPositions& body_joints, const ProximityIndex* body_surface = nullptr) const;
   /// Vertex ids held as handles in the Laplacian solve, ascending.
   const std::vector<std::int32_t>& handles() const { return m_handles; }

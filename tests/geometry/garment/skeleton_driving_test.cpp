@@ -28,20 +28,25 @@ struct Fixture {
   std::vector<PartSkeleton> skeletons;
 };
 
+// A T-pose catalogue garment of about `vertices` vertices, its segmentation and skeletons.
+Fixture make_fixture(GarmentType type, std::size_t vertices) {
+  GarmentOptions o;
+  o.type = type;
+  o.pose = RestPose::TPOSE;
+  o.target_vertices = vertices;
+  Fixture f;
+  f.garment = make_garment(o);
+  f.segmentation = segment_garment(f.garment.mesh);
+  f.skeletons = extract_limb_skeletons(f.garment.mesh, f.segmentation.vertex_parts);
+  return f;
+}
+
 // Generated once per process (a garment, its segmentation and skeletons: about a second).
 const Fixture& fixture(GarmentType type) {
   static std::map<GarmentType, Fixture> cache;
   auto it = cache.find(type);
   if (it != cache.end()) return it->second;
-  GarmentOptions o;
-  o.type = type;
-  o.pose = RestPose::TPOSE;
-  o.target_vertices = 4000;
-  Fixture f;
-  f.garment = make_garment(o);
-  f.segmentation = segment_garment(f.garment.mesh);
-  f.skeletons = extract_limb_skeletons(f.garment.mesh, f.segmentation.vertex_parts);
-  return cache.emplace(type, std::move(f)).first->second;
+  return cache.emplace(type, make_fixture(type, 4000)).first->second;
 }
 
 // The rest joints of the T-pose mannequin the catalogue's garments are built around (same
@@ -91,6 +96,13 @@ double worst_node_distance(const PartSkeleton& s, const std::vector<float>& x, c
     worst = std::max(worst, std::min(first_bone_distance(p, a, b), segment_distance(p, b, c)) - rest_offset_of(n));
   }
   return worst;
+}
+
+// How far vertex v of `rest` moved to `after` (#V × 3, m).
+double displacement(const Mesh& rest, const std::vector<float>& after, std::size_t v) {
+  return (Eigen::Vector3d(after[3 * v], after[3 * v + 1], after[3 * v + 2]) -
+          Eigen::Vector3d(rest.positions[3 * v], rest.positions[3 * v + 1], rest.positions[3 * v + 2]))
+      .norm();
 }
 
 // Mean |length after / length before − 1| over the edges whose two ends are both `keep`.
@@ -162,10 +174,7 @@ TEST_P(OwnPose, GarmentStaysPut) {
   ASSERT_EQ(d.positions.size(), f.garment.mesh.positions.size());
   double mean = 0;
   for (std::size_t v = 0; v < f.garment.mesh.vertex_count(); ++v)
-    mean += (Eigen::Vector3d(d.positions[3 * v], d.positions[3 * v + 1], d.positions[3 * v + 2]) -
-             Eigen::Vector3d(f.garment.mesh.positions[3 * v], f.garment.mesh.positions[3 * v + 1],
-                             f.garment.mesh.positions[3 * v + 2]))
-                .norm();
+    mean += displacement(f.garment.mesh, d.positions, v);
   mean /= double(f.garment.mesh.vertex_count());
   std::printf("own pose: mean move %.4f m, torso angle %.4f rad, translation %.4f m\n", mean,
               Eigen::AngleAxisd(d.torso_rotation).angle(), d.torso_translation.norm());
@@ -190,10 +199,7 @@ TEST_P(OwnPose, GarmentStaysPutWithTheBodySurface) {
   double mean = 0, torso = 0;
   std::size_t torso_n = 0;
   for (std::size_t v = 0; v < f.garment.mesh.vertex_count(); ++v) {
-    const double e = (Eigen::Vector3d(d.positions[3 * v], d.positions[3 * v + 1], d.positions[3 * v + 2]) -
-                      Eigen::Vector3d(f.garment.mesh.positions[3 * v], f.garment.mesh.positions[3 * v + 1],
-                                      f.garment.mesh.positions[3 * v + 2]))
-                         .norm();
+    const double e = displacement(f.garment.mesh, d.positions, v);
     mean += e;
     if (f.segmentation.vertex_parts[v] == GarmentPart::TORSO) {
       torso += e;
@@ -310,12 +316,17 @@ TEST_P(DrivenOntoPose, LimbsFollowTheBonesWithoutStretching) {
 // The same bars with the posed mannequin's surface given to drive().
 TEST_P(DrivenOntoPose, LimbsFollowTheBonesWithTheBodySurface) {
   const PoseCase& c = GetParam();
-  // Known defect, measured when this test was written: with the arms lowered, the posed
-  // mannequin's shoulders and upper arms reach into the tee's torso handles, and the contact
-  // translation lifts the whole tee by 3.6-4.3 cm; the sleeves follow it and end 2.4-3.4 cm
-  // further from the bones than in the rest pose (bar: 2 cm), edge change 3.3 % (bar: 3 %).
+  // Known defect (diagnosed, not fixed): lowering the arms drops the mannequin's shoulder
+  // joints 5.9 cm (the collars turn), so the key joints place the tee that much lower, into the
+  // shoulders' and hips' surface; the contact translation lifts it back 4.25 cm (arms_down;
+  // elbows_bent 3.6 cm), and the sleeves, whose offsets are measured after that step, follow
+  // it and end 2.4-3.4 cm from the bones (bar: 2 cm), edge change 3.3 % (bar: 3 %). Keeping
+  // the limbs out of the contact step puts the sleeves within 0.6-0.9 cm but leaves 3.03 %
+  // edge change on arms_down and moves corpus garments whose key joints are wrong (the step
+  // then no longer corrects their sleeves and legs).
   if (c.type == GarmentType::TEE && std::string(c.pose) != "arms_raised")
-    GTEST_SKIP() << "known defect: the contact translation lifts a tee on a body with lowered arms by ~4 cm";
+    GTEST_SKIP() << "known defect: lowered arms drop the shoulder joints ~6 cm; the contact lifts the tee ~4 cm and "
+                    "the sleeves with it";
   const Body posed = pose_body(test::mannequin(RestPose::TPOSE, 6000), named_pose(c.pose, RestPose::TPOSE));
   const ProximityIndex surface(posed.mesh.positions, posed.mesh.triangles);
   expect_limbs_follow_the_bones(c, posed.joints, &surface, &test::mannequin(RestPose::TPOSE, 6000).joints);
@@ -347,6 +358,16 @@ struct BandCase {
       const float y = tube.positions[3 * v + 1];
       if (y < 0.09f || y > 0.31f) handles.push_back(static_cast<std::int32_t>(v));
     }
+  }
+  // The tube and a copy of it 1 m along +X, the copy without a handle.
+  Mesh two_tubes() const {
+    Mesh two = tube;
+    const auto offset = static_cast<std::int32_t>(two.vertex_count());
+    for (std::size_t i = 0; i < tube.positions.size(); ++i)
+      two.positions.push_back(tube.positions[i] + (i % 3 == 0 ? 1.0f : 0.0f));
+    for (std::int32_t v : tube.triangles)
+      two.triangles.push_back(v + offset);
+    return two;
   }
   Eigen::MatrixXd targets(const std::vector<float>& x) const {
     Eigen::MatrixXd t(static_cast<Eigen::Index>(handles.size()), 3);
@@ -410,12 +431,7 @@ TEST(BandLaplacianDeformer, HoldsHandlesExactlyAndAgreesWithStiffSoftHandles) {
 
 TEST(BandLaplacianDeformer, ReportsAFreePieceWithoutHandlesAndRejectsBadHandles) {
   const BandCase c;
-  Mesh two = c.tube;
-  const auto offset = static_cast<std::int32_t>(two.vertex_count());
-  for (std::size_t i = 0; i < c.tube.positions.size(); ++i)
-    two.positions.push_back(c.tube.positions[i] + (i % 3 == 0 ? 1.0f : 0.0f));
-  for (std::int32_t v : c.tube.triangles)
-    two.triangles.push_back(v + offset);
+  const Mesh two = c.two_tubes();
   EXPECT_FALSE(BandLaplacianDeformer(two, c.handles).ok()); // the second tube has no handle
   std::vector<std::int32_t> all(c.tube.vertex_count());
   for (std::size_t v = 0; v < all.size(); ++v)
@@ -431,7 +447,7 @@ TEST(BandLaplacianDeformer, ReportsAFreePieceWithoutHandlesAndRejectsBadHandles)
   for (std::size_t i = 0; i < out.size(); ++i)
     EXPECT_EQ(out[i], static_cast<float>(everywhere(Eigen::Index(i / 3), Eigen::Index(i % 3))));
   std::vector<std::int32_t> bad = c.handles;
-  bad.push_back(offset);
+  bad.push_back(static_cast<std::int32_t>(c.tube.vertex_count())); // a vertex of the copy, not of the tube
   EXPECT_THROW(BandLaplacianDeformer(c.tube, bad), Error);
   bad = c.handles;
   bad.push_back(c.handles.front());
@@ -469,12 +485,7 @@ TEST(BandLaplacianDeformer, SolversAgreeOnAShearedTube) {
   // A 1e-6 relative residual on this 320-unknown system: well under 0.1 mm.
   EXPECT_LT(worst_m, 1e-4);
   // A free piece with no handle is reported by every solver.
-  Mesh two = c.tube;
-  const auto offset = static_cast<std::int32_t>(two.vertex_count());
-  for (std::size_t i = 0; i < c.tube.positions.size(); ++i)
-    two.positions.push_back(c.tube.positions[i] + (i % 3 == 0 ? 1.0f : 0.0f));
-  for (std::int32_t v : c.tube.triangles)
-    two.triangles.push_back(v + offset);
+  const Mesh two = c.two_tubes();
   EXPECT_FALSE(BandLaplacianDeformer(two, c.handles, false, BandSolver::SUPERNODAL).ok());
   EXPECT_FALSE(BandLaplacianDeformer(two, c.handles, false, BandSolver::MULTIGRID).ok());
 }
@@ -484,13 +495,10 @@ TEST(BandLaplacianDeformer, SolversAgreeOnAShearedTube) {
 // factorisation and the multigrid CG against the simplicial factorisation (the solver the
 // quality tests above exercise at 4,000 vertices).
 TEST(SkeletonDriving, BandSolversAgreeOnAMidSizeTee) {
-  GarmentOptions o;
-  o.type = GarmentType::TEE;
-  o.pose = RestPose::TPOSE;
-  o.target_vertices = 20000;
-  const Garment g = make_garment(o);
-  const GarmentSegmentation seg = segment_garment(g.mesh);
-  const std::vector<PartSkeleton> skeletons = extract_limb_skeletons(g.mesh, seg.vertex_parts);
+  const Fixture f = make_fixture(GarmentType::TEE, 20000);
+  const Garment& g = f.garment;
+  const GarmentSegmentation& seg = f.segmentation;
+  const std::vector<PartSkeleton>& skeletons = f.skeletons;
   const JointPositions joints = joints_in("arms_down");
   std::vector<std::vector<float>> positions;
   for (BandSolver solver : {BandSolver::DIRECT, BandSolver::SUPERNODAL, BandSolver::MULTIGRID}) {
