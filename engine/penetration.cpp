@@ -527,7 +527,7 @@ Region make_region(const SparseMatrix& L, const std::vector<char>& seeds) {
 // its eigenvalues lie in [c, c + w·(2·max degree)²] (Gershgorin on the graph Laplacian), so its
 // condition number reaches ~150 for λ = 1 on a triangle mesh and CG needs ~75 iterations to a
 // 1e-7 residual, ~35 to the default 1e-3; the LDLᵀ factorisation, reused over the rounds, is
-// faster below ~2,500 unknowns (PenetrationSolver::AUTO).
+// faster below ~2,000 unknowns (PenetrationSolver::AUTO).
 class RegionSystem {
 public:
   RegionSystem(const SparseMatrix& L, const Region& region, double c, double w, bool cholesky, double cg_tolerance)

@@ -118,9 +118,12 @@ struct PenetrationOptions {
   double seed004_damping = 0.8;   ///< ω_d (seed 004 §3.2.2)
   int seed004_iterations = 3;     ///< seed 004 repeats the fix at most 3 times
   PenetrationSolver solver = PenetrationSolver::AUTO;
-  /// With PenetrationSolver::AUTO: regions of at least this many unknowns are solved by CG
-  /// (the crossover measured above lies between 2,000 and 2,700 unknowns).
-  std::size_t direct_solve_limit = 2'500;
+  /// With PenetrationSolver::AUTO: regions of at least this many unknowns are solved by CG.
+  /// The crossover measured above lay between 2,000 and 2,700 unknowns; with the 6-ring
+  /// regions (same run, 2 cores, medians of 15, sum over the nine Table-1 twins): limit 1,500
+  /// 93.1 ms, 2,000 89.2, 2,500 94.6, 3,000 98.1 (Shirt 2's 2,237-unknown and Pant 2's
+  /// 2,103-unknown regions are solved faster by CG: 12.3 → 11.0 and 9.0 → 6.2 ms).
+  std::size_t direct_solve_limit = 2'000;
   /// PenetrationSolver::CONJUGATE_GRADIENT (and AUTO from the limit) stops when every
   /// column's residual is below this fraction of its right-hand side's norm (or after 200
   /// iterations). A round's solve need not be exact: the next round detects what is still
