@@ -1,7 +1,9 @@
 #pragma once
-// Private to kernels/cloth_*.cpp: the shared C-subset math (cloth_math.h) brought into C++, and
-// the per-particle spring gather every CPU cloth kernel uses. Not a public header.
+// Private to kernels/cloth_*.cpp: the shared C-subset math (cloth_math.h) brought into C++, the
+// per-particle spring gather of the force and RK4 kernels (over sliced rows) and the row loop
+// of the implicit solver's kernels (over CSR rows). Not a public header.
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -33,6 +35,14 @@ inline void store3(float* p, std::size_t i, vfit_vec3 v) {
 #define VFIT_CLOTH_INLINE inline
 #endif
 
+// Marks a lambda to be inlined into its caller: the lambdas handed to the row loops below run
+// inside a multiversioned kernel, and called instead they run in the default build, per row.
+#if defined(__GNUC__)
+#define VFIT_CLOTH_LAMBDA __attribute__((always_inline))
+#else
+#define VFIT_CLOTH_LAMBDA
+#endif
+
 // Σ of the spring forces on particle i (N) at the state (x, v), in adjacency order.
 inline vfit_vec3 gather_spring_force(const float* x, const float* v, const SpringAdjacency& adj, std::size_t i) {
   const vfit_vec3 xi = load3(x, i), vi = load3(v, i);
@@ -48,11 +58,53 @@ inline vfit_vec3 gather_spring_force(const float* x, const float* v, const Sprin
   return f;
 }
 
-// Adjacency entries per block of gather_spring_forces(): its scratch (9 floats per entry,
-// 9 KB) stays in the L1 cache.
+// The spring forces (N) of one slice's particles, lane l for particle W·slice + l.
+struct SliceForces {
+  alignas(64) float f[3][CLOTH_SLICE_WIDTH];
+};
+
+// Lane l of `out` = gather_spring_force(x, v, adj, W·slice + l), bit for bit (lanes past #V:
+// garbage). One particle per lane: each column of the slice's sliced rows (SpringAdjacency::
+// slice_offsets) evaluates one entry of every lane's row, gathering x_j and v_j, with the
+// branch-free vfit_spring_force_relative, and adds it to the lane's running sum, so every
+// lane sums its row in adjacency order from +0 (the padding adds ±0: no change).
+VFIT_CLOTH_INLINE void slice_spring_forces(const float* x, const float* v, const SpringAdjacency& adj,
+                                           std::size_t slice, SliceForces& out) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t last = adj.particle_count() - 1;
+  alignas(64) float xi[3][W], vi[3][W];
+  for (std::size_t l = 0; l < W; ++l) {
+    const std::size_t i = std::min(W * slice + l, last);
+    for (std::size_t c = 0; c < 3; ++c) {
+      xi[c][l] = x[3 * i + c];
+      vi[c][l] = v[3 * i + c];
+      out.f[c][l] = 0.0f;
+    }
+  }
+  const auto first = static_cast<std::size_t>(adj.slice_offsets[slice]);
+  const auto end = static_cast<std::size_t>(adj.slice_offsets[slice + 1]);
+  for (std::size_t column = first; column < end; column += W) {
+    const std::int32_t* neighbors = adj.slice_neighbor_offsets.data() + column;
+    const float* rest = adj.slice_rest_lengths.data() + column;
+    const float* stiffness = adj.slice_stiffness.data() + column;
+    const float* damping = adj.slice_damping.data() + column;
+    for (std::size_t l = 0; l < W; ++l) {
+      const std::int32_t j3 = neighbors[l]; // 3·j: a 32-bit gather index, unscaled
+      const vfit_vec3 d{x[j3] - xi[0][l], x[j3 + 1] - xi[1][l], x[j3 + 2] - xi[2][l]};
+      const vfit_vec3 dv{v[j3] - vi[0][l], v[j3 + 1] - vi[1][l], v[j3 + 2] - vi[2][l]};
+      const vfit_vec3 fs = vfit_spring_force_relative(d, dv, rest[l], stiffness[l], damping[l]);
+      out.f[0][l] += fs.x;
+      out.f[1][l] += fs.y;
+      out.f[2][l] += fs.z;
+    }
+  }
+}
+
+// Adjacency entries per block of for_each_row_block() in the implicit solver's kernels: their
+// per-entry scratch (≤ 21 floats per entry) stays in the L1 cache.
 inline constexpr std::size_t GATHER_BLOCK_ENTRIES = 256;
 
-// The gather's scratch, structure of arrays over a block's entries.
+// Relative states of a block's entries, structure of arrays.
 struct GatherBlock {
   alignas(64) float d[3][GATHER_BLOCK_ENTRIES];  // x_j − x_i
   alignas(64) float dv[3][GATHER_BLOCK_ENTRIES]; // v_j − v_i
@@ -79,59 +131,27 @@ VFIT_CLOTH_INLINE void gather_relative_states(const float* x, const float* v, co
   }
 }
 
-// The end of the block of rows that starts at row `first` (< end) of a CSR adjacency: the
-// longest run [first, last) of rows within [first, end) holding at most `cap` entries in all.
-// The caller handles a first row longer than cap alone.
-inline std::size_t block_end(const std::int32_t* offsets, std::size_t first, std::size_t end, std::int32_t cap) {
-  std::size_t last = first + 1;
-  while (last < end && offsets[last + 1] - offsets[first] <= cap)
-    ++last;
-  return last;
-}
-
-// Calls sink(i, f) for each particle i in [begin, end), in order, with f = gather_spring_force(x,
-// v, adj, i), bit for bit. The springs of a block of consecutive particles are evaluated in one
-// loop over their entries, whose relative positions and velocities are gathered into
-// structure-of-arrays scratch first, so that loop vectorises (vfit_spring_force_relative has
-// no branch); each particle then adds its entries' forces in adjacency order, as
-// gather_spring_force does. A row longer than a block is gathered alone.
-template <typename Sink>
-VFIT_CLOTH_INLINE void gather_spring_forces(const float* x, const float* v, const SpringAdjacency& adj,
-                                            std::size_t begin, std::size_t end, GatherBlock& s, const Sink& sink) {
-  constexpr auto CAP = static_cast<std::int32_t>(GATHER_BLOCK_ENTRIES);
-  const std::int32_t* offsets = adj.offsets.data();
+// The row loop of the CSR kernels: the rows [begin, end) in order, in blocks of consecutive
+// rows holding at most `cap` entries in all, block(first, last, e0, count) for the rows
+// [first, last) whose entries are [e0, e0 + count); a row longer than cap alone, by
+// long_row(i). A block lets the caller evaluate its entries in one loop that vectorises, then
+// sum each row's entries in adjacency order.
+template <typename LongRow, typename Block>
+VFIT_CLOTH_INLINE void for_each_row_block(const std::int32_t* offsets, std::size_t begin, std::size_t end,
+                                          std::size_t cap, const LongRow& long_row, const Block& block) {
+  const auto cap32 = static_cast<std::int32_t>(cap);
   std::size_t i = begin;
   while (i < end) {
     const std::int32_t e0 = offsets[i];
-    if (offsets[i + 1] - e0 > CAP) {
-      sink(i, gather_spring_force(x, v, adj, i));
+    if (offsets[i + 1] - e0 > cap32) {
+      long_row(i);
       ++i;
       continue;
     }
-    const std::size_t last = block_end(offsets, i, end, CAP);
-    const auto count = static_cast<std::size_t>(offsets[last] - e0);
-    gather_relative_states(x, v, adj, i, last, e0, s);
-    const float* rest = adj.rest_lengths.data() + e0;
-    const float* stiffness = adj.stiffness.data() + e0;
-    const float* damping = adj.damping.data() + e0;
-    for (std::size_t k = 0; k < count; ++k) {
-      const vfit_vec3 fs =
-          vfit_spring_force_relative(vfit_vec3{s.d[0][k], s.d[1][k], s.d[2][k]},
-                                     vfit_vec3{s.dv[0][k], s.dv[1][k], s.dv[2][k]}, rest[k], stiffness[k], damping[k]);
-      s.f[0][k] = fs.x;
-      s.f[1][k] = fs.y;
-      s.f[2][k] = fs.z;
-    }
-    for (std::size_t p = i; p < last; ++p) {
-      vfit_vec3 f{0.0f, 0.0f, 0.0f};
-      for (std::int32_t e = offsets[p]; e < offsets[p + 1]; ++e) {
-        const auto k = static_cast<std::size_t>(e - e0);
-        f.x += s.f[0][k];
-        f.y += s.f[1][k];
-        f.z += s.f[2][k];
-      }
-      sink(p, f);
-    }
+    std::size_t last = i + 1;
+    while (last < end && offsets[last + 1] - e0 <= cap32)
+      ++last;
+    block(i, last, e0, static_cast<std::size_t>(offsets[last] - e0));
     i = last;
   }
 }

@@ -4,6 +4,8 @@
 #include <cassert>
 #include <cmath>
 
+#include <tbb/partitioner.h>
+
 #include "cloth_gather.h"
 #include "parallel.h"
 
@@ -26,6 +28,30 @@ void store_sym(float* p, std::size_t i, vfit_sym3 s) {
   d[5] = s.zz;
 }
 
+// Block i of ImplicitSystem::preconditioner, stored by slices: component c of particle i at
+// 6·W·(i / W) + W·c + i % W.
+std::size_t sliced_sym_index(std::size_t i) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  return 6 * (i - i % W) + i % W;
+}
+
+vfit_sym3 load_sliced_sym(const float* p, std::size_t i) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const float* s = p + sliced_sym_index(i);
+  return vfit_sym3{s[0], s[W], s[2 * W], s[3 * W], s[4 * W], s[5 * W]};
+}
+
+void store_sliced_sym(float* p, std::size_t i, vfit_sym3 s) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  float* d = p + sliced_sym_index(i);
+  d[0] = s.xx;
+  d[W] = s.xy;
+  d[2 * W] = s.xz;
+  d[3 * W] = s.yy;
+  d[4 * W] = s.yz;
+  d[5 * W] = s.zz;
+}
+
 void add_sym(vfit_sym3& a, vfit_sym3 b) {
   a.xx += b.xx;
   a.xy += b.xy;
@@ -38,16 +64,24 @@ void add_sym(vfit_sym3& a, vfit_sym3 b) {
 std::size_t chunk_count(std::size_t n) { return (n + CLOTH_IMPLICIT_CHUNK - 1) / CLOTH_IMPLICIT_CHUNK; }
 
 // Runs kernel(chunk, begin, end) over the fixed chunks of [0, n): in order, or in parallel.
-template <typename Kernel> void run_chunks(std::size_t n, bool parallel, const Kernel& kernel) {
+// With `affinity`, the passes that share it hand each chunk to the thread that ran it last,
+// where it can (the CG's passes: a thread's part of the system then stays in its own cache
+// from pass to pass, as far as it fits).
+template <typename Kernel>
+void run_chunks(std::size_t n, bool parallel, const Kernel& kernel, tbb::affinity_partitioner* affinity = nullptr) {
   const std::size_t chunks = chunk_count(n);
   const auto body = [&](std::size_t c0, std::size_t c1) {
     for (std::size_t c = c0; c < c1; ++c)
       kernel(c, c * CLOTH_IMPLICIT_CHUNK, std::min(n, (c + 1) * CLOTH_IMPLICIT_CHUNK));
   };
-  if (parallel)
+  if (!parallel)
+    body(0, chunks);
+  else if (affinity == nullptr)
     parallel_for_range(chunks, 1, body);
   else
-    body(0, chunks);
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, chunks, 1),
+        [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); }, *affinity);
 }
 
 // Σ over chunks, in chunk order, of partials[stride·c + k].
@@ -79,61 +113,39 @@ vfit_vec3 row_times(const ImplicitSystem& s, const SpringAdjacency& adj, const f
   return r;
 }
 
-// Adjacency entries per block of multiply_rows(): its scratch (3 floats per entry, 3 KB) stays
-// in the L1 cache.
-constexpr std::size_t PRODUCT_BLOCK_ENTRIES = 256;
-
-struct ProductBlock {
-  alignas(64) float pj[3][PRODUCT_BLOCK_ENTRIES]; // p_j of each entry of the block
-  alignas(64) float t[3][PRODUCT_BLOCK_ENTRIES];  // S_e·p_j
+// Row i of (A·p) for the particles of one slice, lane l for particle W·slice + l (lanes past
+// #V: garbage): A_ii·p_i − Σ_e S_e·p_j in adjacency order, as row_times, from the sliced
+// off-diagonal blocks, one particle per SIMD lane (as cloth_gather.h's slice_spring_forces).
+// The null slots' blocks are zero; their S·p_j (p_j the particle's own) is ±0, which changes
+// no nonzero sum: the values of row_times, a zero's sign aside.
+struct SliceProduct {
+  alignas(64) float r[3][CLOTH_SLICE_WIDTH];
 };
 
-// Calls sink(i, row_times(s, adj, p, i)) for each particle i in [begin, end), in order, bit for
-// bit (pinned rows included: the caller filters). The off-diagonal products S_e·p_j of a block
-// of consecutive rows are formed in one loop over their entries, which vectorises; each row
-// then subtracts them from A_ii·p_i in adjacency order, as row_times does.
-template <typename Sink>
-VFIT_CLOTH_INLINE void multiply_rows(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p,
-                                     std::size_t begin, std::size_t end, ProductBlock& b, const Sink& sink) {
-  constexpr auto CAP = static_cast<std::int32_t>(PRODUCT_BLOCK_ENTRIES);
-  const std::int32_t* offsets = adj.offsets.data();
-  std::size_t i = begin;
-  while (i < end) {
-    const std::int32_t e0 = offsets[i];
-    if (offsets[i + 1] - e0 > CAP) {
-      sink(i, row_times(s, adj, p, i));
-      ++i;
-      continue;
+VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p,
+                                     std::size_t slice, SliceProduct& out) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t last = adj.particle_count() - 1;
+  for (std::size_t l = 0; l < W; ++l) {
+    const std::size_t i = std::min(W * slice + l, last);
+    const vfit_vec3 r = vfit_sym3_apply(load_sym(s.diagonal.data(), i), load3(p, i));
+    out.r[0][l] = r.x;
+    out.r[1][l] = r.y;
+    out.r[2][l] = r.z;
+  }
+  const std::size_t slots = adj.slice_neighbor_offsets.size();
+  const auto first = static_cast<std::size_t>(adj.slice_offsets[slice]);
+  const auto end = static_cast<std::size_t>(adj.slice_offsets[slice + 1]);
+  for (std::size_t column = first; column < end; column += W) {
+    const std::int32_t* neighbors = adj.slice_neighbor_offsets.data() + column;
+    const float* blocks = s.sliced_off_diagonal.data() + column;
+    for (std::size_t l = 0; l < W; ++l) {
+      const std::int32_t j3 = neighbors[l];
+      const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(blocks, slots, l), vfit_vec3{p[j3], p[j3 + 1], p[j3 + 2]});
+      out.r[0][l] -= t.x;
+      out.r[1][l] -= t.y;
+      out.r[2][l] -= t.z;
     }
-    const std::size_t last = block_end(offsets, i, end, CAP);
-    const auto count = static_cast<std::size_t>(offsets[last] - e0);
-    const std::int32_t* neighbors = adj.neighbors.data() + e0;
-    const std::size_t entries = adj.neighbors.size();
-    const float* blocks = s.off_diagonal.data() + e0;
-    for (std::size_t k = 0; k < count; ++k) {
-      const auto j = static_cast<std::size_t>(neighbors[k]);
-      b.pj[0][k] = p[3 * j];
-      b.pj[1][k] = p[3 * j + 1];
-      b.pj[2][k] = p[3 * j + 2];
-    }
-    for (std::size_t k = 0; k < count; ++k) {
-      const vfit_vec3 t =
-          vfit_sym3_apply(load_off_diagonal(blocks, entries, k), vfit_vec3{b.pj[0][k], b.pj[1][k], b.pj[2][k]});
-      b.t[0][k] = t.x;
-      b.t[1][k] = t.y;
-      b.t[2][k] = t.z;
-    }
-    for (std::size_t row = i; row < last; ++row) {
-      vfit_vec3 r = vfit_sym3_apply(load_sym(s.diagonal.data(), row), load3(p, row));
-      for (std::int32_t e = offsets[row]; e < offsets[row + 1]; ++e) {
-        const auto k = static_cast<std::size_t>(e - e0);
-        r.x -= b.t[0][k];
-        r.y -= b.t[1][k];
-        r.z -= b.t[2][k];
-      }
-      sink(row, r);
-    }
-    i = last;
   }
 }
 
@@ -147,23 +159,114 @@ inline vfit_vec3 filter_row(const ImplicitSystem& s, const float* normals, std::
   return vfit_vec3{a.x - an * n.x, a.y - an * n.y, a.z - an * n.z};
 }
 
-// The first pass of a CG iteration over the particles [begin, end): p = z + β·p and
-// q = S·A·z + β·q in place; returns Σ p·q over the range in particle order (double).
+// Σ of a pass's per-lane partial sums, in lane order. A pass over a range sums each lane's
+// particles (the range's W·s + l) in particle order, one running sum per lane, so the W sums
+// run in parallel (a single running sum over the particles is a chain of dependent additions
+// that bounds the pass); the order depends on the range only, never on the thread count.
+double lane_sum(const double (&lanes)[CLOTH_SLICE_WIDTH]) {
+  double s = 0;
+  for (double x : lanes)
+    s += x;
+  return s;
+}
+
+// Per-particle results of one slice in a CG pass, lane l for particle W·slice + l.
+struct SliceDots {
+  alignas(64) float a[3][CLOTH_SLICE_WIDTH]; // the filtered S·A·z (first pass) or S·P⁻¹·r (second)
+  alignas(64) double first[CLOTH_SLICE_WIDTH], second[CLOTH_SLICE_WIDTH];
+};
+
+// Lane l of `out` = filter_row(s, normals, i, a_l) for the `count` particles from `first`, a in
+// out.a (in place). Without contact normals the filter is a select (pinned rows → +0), which
+// vectorises; with them, the projection row by row.
+VFIT_CLOTH_INLINE void filter_slice(const ImplicitSystem& s, const float* normals, std::size_t first, std::size_t count,
+                                    SliceDots& out) {
+  const unsigned char* is_free = s.free.data() + first;
+  if (normals == nullptr) {
+    for (std::size_t c = 0; c < 3; ++c)
+      for (std::size_t l = 0; l < count; ++l)
+        out.a[c][l] = is_free[l] ? out.a[c][l] : 0.0f;
+    return;
+  }
+  for (std::size_t l = 0; l < count; ++l) {
+    const vfit_vec3 f = filter_row(s, normals, first + l, vfit_vec3{out.a[0][l], out.a[1][l], out.a[2][l]});
+    out.a[0][l] = f.x;
+    out.a[1][l] = f.y;
+    out.a[2][l] = f.z;
+  }
+}
+
+// The first pass of a CG iteration over the particles [begin, end) (whole slices, or up to
+// #V): p = z + β·p and q = S·A·z + β·q in place; returns Σ p·q over the range (double, in
+// lane_sum's order). The per-particle work of a slice runs lane-parallel (it vectorises).
 VFIT_CLOTH_MULTIVERSION double direction_range(const ImplicitSystem& s, const SpringAdjacency& adj,
                                                const float* normals, const float* z, float beta, float* p, float* q,
                                                std::size_t begin, std::size_t end) {
-  double pq = 0;
-  ProductBlock scratch;
-  multiply_rows(s, adj, z, begin, end, scratch, [&](std::size_t i, vfit_vec3 az) {
-    az = filter_row(s, normals, i, az); // zero for a pinned row
-    const vfit_vec3 zi = load3(z, i), pi = load3(p, i), qi = load3(q, i);
-    const vfit_vec3 pn{zi.x + beta * pi.x, zi.y + beta * pi.y, zi.z + beta * pi.z};
-    const vfit_vec3 qn{az.x + beta * qi.x, az.y + beta * qi.y, az.z + beta * qi.z};
-    store3(p, i, pn);
-    store3(q, i, qn);
-    pq += dot3(pn, qn);
-  });
-  return pq;
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  assert(begin % W == 0 && "a range of whole slices");
+  alignas(64) double pq_lanes[W] = {};
+  SliceProduct product;
+  SliceDots lanes;
+  for (std::size_t first = begin; first < end; first += W) {
+    const std::size_t count = std::min(W, end - first);
+    slice_product(s, adj, z, first / W, product);
+    for (std::size_t c = 0; c < 3; ++c)
+      std::copy_n(product.r[c], W, lanes.a[c]);
+    filter_slice(s, normals, first, count, lanes); // zero for a pinned row
+    float* pb = p + 3 * first;
+    float* qb = q + 3 * first;
+    const float* zb = z + 3 * first;
+    for (std::size_t l = 0; l < count; ++l) {
+      const vfit_vec3 pn{zb[3 * l] + beta * pb[3 * l], zb[3 * l + 1] + beta * pb[3 * l + 1],
+                         zb[3 * l + 2] + beta * pb[3 * l + 2]};
+      const vfit_vec3 qn{lanes.a[0][l] + beta * qb[3 * l], lanes.a[1][l] + beta * qb[3 * l + 1],
+                         lanes.a[2][l] + beta * qb[3 * l + 2]};
+      store3(pb, l, pn);
+      store3(qb, l, qn);
+      lanes.first[l] = dot3(pn, qn);
+    }
+    for (std::size_t l = 0; l < count; ++l)
+      pq_lanes[l] += lanes.first[l];
+  }
+  return lane_sum(pq_lanes);
+}
+
+// The second pass of a CG iteration over the particles [begin, end): Δv += α·p, r −= α·q,
+// z = S·P⁻¹·r; writes r·r and r·z over the range to rr and rz (double, in lane_sum's order),
+// lane-parallel per slice as direction_range.
+VFIT_CLOTH_MULTIVERSION void update_range(const ImplicitSystem& s, const float* normals, float alpha, const float* p,
+                                          const float* q, float* dv, float* r, float* z, std::size_t begin,
+                                          std::size_t end, double& rr, double& rz) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const float* precond = s.preconditioner.data();
+  SliceDots lanes;
+  alignas(64) double rr_lanes[W] = {}, rz_lanes[W] = {};
+  for (std::size_t first = begin; first < end; first += W) {
+    const std::size_t count = std::min(W, end - first);
+    for (std::size_t k = 3 * first; k < 3 * (first + count); ++k) {
+      dv[k] += alpha * p[k];
+      r[k] -= alpha * q[k];
+    }
+    for (std::size_t l = 0; l < count; ++l) {
+      const vfit_vec3 zi = vfit_sym3_apply(load_sliced_sym(precond, first + l), load3(r, first + l));
+      lanes.a[0][l] = zi.x;
+      lanes.a[1][l] = zi.y;
+      lanes.a[2][l] = zi.z;
+    }
+    filter_slice(s, normals, first, count, lanes);
+    for (std::size_t l = 0; l < count; ++l) {
+      const vfit_vec3 ri = load3(r, first + l), zi{lanes.a[0][l], lanes.a[1][l], lanes.a[2][l]};
+      store3(z, first + l, zi);
+      lanes.first[l] = dot3(ri, ri);
+      lanes.second[l] = dot3(ri, zi);
+    }
+    for (std::size_t l = 0; l < count; ++l) {
+      rr_lanes[l] += lanes.first[l];
+      rz_lanes[l] += lanes.second[l];
+    }
+  }
+  rr = lane_sum(rr_lanes);
+  rz = lane_sum(rz_lanes);
 }
 
 // Per-entry results of the assembly of a block of rows (structure of arrays).
@@ -201,8 +304,9 @@ inline void store_blocks(const AssemblyBlock& b, float* off_diagonal, std::size_
 }
 
 // Row i of the system from its entries' results: the diagonal block, its inverse and the
-// right-hand side, summed in adjacency order. entry(e) returns the slot of b holding entry e's
-// force, K·dv and S_e.
+// right-hand side, summed in adjacency order, and the row's S_e copied into its lane of the
+// sliced off-diagonal blocks (zero past its end). entry(e) returns the slot of b holding entry
+// e's force, K·dv and S_e.
 template <typename EntrySlot>
 inline void assemble_row(const float* v, const SpringAdjacency& adj, const ClothParticles& particles, float h,
                          ImplicitSystem& s, std::size_t i, const AssemblyBlock& b, const EntrySlot& entry) {
@@ -213,7 +317,12 @@ inline void assemble_row(const float* v, const SpringAdjacency& adj, const Cloth
   const float md = m * (1.0f + h * particles.global_damping);
   vfit_sym3 diag{md, 0.0f, 0.0f, md, 0.0f, md};
   vfit_vec3 f{0.0f, 0.0f, 0.0f}, kv{0.0f, 0.0f, 0.0f}; // spring force, ∂f/∂x·v
-  for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t slots = adj.slice_neighbor_offsets.size();
+  const auto slice_first = static_cast<std::size_t>(adj.slice_offsets[i / W]);
+  const auto slice_end = static_cast<std::size_t>(adj.slice_offsets[i / W + 1]);
+  std::size_t slot = slice_first + i % W; // entry k's: slice_first + W·k + lane
+  for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e, slot += W) {
     const std::size_t k = entry(std::size_t(e));
     f.x += b.states.f[0][k];
     f.y += b.states.f[1][k];
@@ -222,14 +331,19 @@ inline void assemble_row(const float* v, const SpringAdjacency& adj, const Cloth
     kv.y += b.kv[1][k];
     kv.z += b.kv[2][k];
     add_sym(diag, vfit_sym3{b.block[0][k], b.block[1][k], b.block[2][k], b.block[3][k], b.block[4][k], b.block[5][k]});
+    for (std::size_t c = 0; c < 6; ++c)
+      s.sliced_off_diagonal[c * slots + slot] = b.block[c][k];
   }
+  for (; slot < slice_end; slot += W)
+    for (std::size_t c = 0; c < 6; ++c)
+      s.sliced_off_diagonal[c * slots + slot] = 0.0f;
   store_sym(s.diagonal.data(), i, diag);
   if (!is_free) {
-    store_sym(s.preconditioner.data(), i, vfit_sym3{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f});
+    store_sliced_sym(s.preconditioner.data(), i, vfit_sym3{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f});
     store3(s.rhs.data(), i, vfit_vec3{0.0f, 0.0f, 0.0f});
     return;
   }
-  store_sym(s.preconditioner.data(), i, vfit_sym3_inverse(diag));
+  store_sliced_sym(s.preconditioner.data(), i, vfit_sym3_inverse(diag));
   // b = h·(f + m·g − μ·m·v + h·∂f/∂x·v)
   const vfit_vec3 vi = load3(v, i);
   const float g[3] = {particles.gravity[0], particles.gravity[1], particles.gravity[2]};
@@ -240,53 +354,46 @@ inline void assemble_row(const float* v, const SpringAdjacency& adj, const Cloth
 }
 
 // Assembles the rows [begin, end). The springs of a block of consecutive rows are evaluated in
-// one loop over their entries (vectorised, as cloth_gather.h's gather_spring_forces), then each
+// one loop over their entries (vectorised; cloth_gather.h's for_each_row_block), then each
 // row sums its entries in adjacency order; a row longer than a block evaluates each entry just
 // before adding it (the same function, so the same bits).
 VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, const SpringAdjacency& adj,
                                             const ClothParticles& particles, float h, ImplicitSystem& s,
                                             std::size_t begin, std::size_t end) {
-  constexpr auto CAP = static_cast<std::int32_t>(GATHER_BLOCK_ENTRIES);
-  const std::int32_t* offsets = adj.offsets.data();
   const float* rest = adj.rest_lengths.data();
   const float* stiffness = adj.stiffness.data();
   const float* damping = adj.damping.data();
   float* off_diagonal = s.off_diagonal.data();
   const std::size_t entries = adj.neighbors.size();
   AssemblyBlock b;
-  std::size_t i = begin;
-  while (i < end) {
-    const std::int32_t e0 = offsets[i];
-    if (offsets[i + 1] - e0 > CAP) {
-      const vfit_vec3 xi = load3(x, i), vi = load3(v, i);
-      assemble_row(v, adj, particles, h, s, i, b, [&](std::size_t e) {
-        const auto j = static_cast<std::size_t>(adj.neighbors[e]);
-        assemble_entry(rest, stiffness, damping, h, e, vfit_v3_sub(load3(x, j), xi), vfit_v3_sub(load3(v, j), vi), b,
-                       0);
-        store_blocks(b, off_diagonal, entries, e, 1);
-        return std::size_t{0};
-      });
-      ++i;
-      continue;
-    }
-    const std::size_t last = block_end(offsets, i, end, CAP);
-    const auto count = static_cast<std::size_t>(offsets[last] - e0);
-    gather_relative_states(x, v, adj, i, last, e0, b.states);
+  const auto long_row = [&](std::size_t i) VFIT_CLOTH_LAMBDA {
+    const vfit_vec3 xi = load3(x, i), vi = load3(v, i);
+    assemble_row(v, adj, particles, h, s, i, b, [&](std::size_t e) VFIT_CLOTH_LAMBDA {
+      const auto j = static_cast<std::size_t>(adj.neighbors[e]);
+      assemble_entry(rest, stiffness, damping, h, e, vfit_v3_sub(load3(x, j), xi), vfit_v3_sub(load3(v, j), vi), b, 0);
+      store_blocks(b, off_diagonal, entries, e, 1);
+      return std::size_t{0};
+    });
+  };
+  const auto block = [&](std::size_t first, std::size_t last, std::int32_t e0, std::size_t count) VFIT_CLOTH_LAMBDA {
+    gather_relative_states(x, v, adj, first, last, e0, b.states);
     for (std::size_t k = 0; k < count; ++k)
       assemble_entry(rest, stiffness, damping, h, std::size_t(e0) + k,
                      vfit_vec3{b.states.d[0][k], b.states.d[1][k], b.states.d[2][k]},
                      vfit_vec3{b.states.dv[0][k], b.states.dv[1][k], b.states.dv[2][k]}, b, k);
     store_blocks(b, off_diagonal, entries, std::size_t(e0), count);
-    for (std::size_t row = i; row < last; ++row)
-      assemble_row(v, adj, particles, h, s, row, b, [e0](std::size_t e) { return e - std::size_t(e0); });
-    i = last;
-  }
+    for (std::size_t row = first; row < last; ++row)
+      assemble_row(v, adj, particles, h, s, row, b,
+                   [e0](std::size_t e) VFIT_CLOTH_LAMBDA { return e - std::size_t(e0); });
+  };
+  for_each_row_block(adj.offsets.data(), begin, end, GATHER_BLOCK_ENTRIES, long_row, block);
 }
 
-void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries) {
+void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries, std::size_t slots) {
   s.off_diagonal.resize(6 * entries);
+  s.sliced_off_diagonal.resize(6 * slots);
   s.diagonal.resize(6 * nv);
-  s.preconditioner.resize(6 * nv);
+  s.preconditioner.resize(6 * CLOTH_SLICE_WIDTH * ((nv + CLOTH_SLICE_WIDTH - 1) / CLOTH_SLICE_WIDTH));
   s.rhs.resize(3 * nv);
   s.free.resize(nv);
 }
@@ -311,7 +418,7 @@ void add_contact_spring(ImplicitSystem& s, const ImplicitContactSprings& c, cons
   d.yz += a * n.y * n.z;
   d.zz += a * n.z * n.z;
   store_sym(s.diagonal.data(), i, d);
-  store_sym(s.preconditioner.data(), i, vfit_sym3_inverse(d));
+  store_sliced_sym(s.preconditioner.data(), i, vfit_sym3_inverse(d));
   const float along = sign * (-h * k * c.gaps[i]) - a * vfit_v3_dot(n, load3(v, i));
   const vfit_vec3 b = load3(s.rhs.data(), i);
   store3(s.rhs.data(), i, vfit_vec3{b.x + along * n.x, b.y + along * n.y, b.z + along * n.z});
@@ -398,7 +505,7 @@ void assemble_implicit_system(std::span<const float> positions, std::span<const 
   const std::size_t nv = adjacency.particle_count();
   assert(positions.size() == 3 * nv && velocities.size() == 3 * nv && "state and adjacency sizes differ");
   assert(particles.inverse_masses.size() == nv && "one inverse mass per particle");
-  resize_system(system, nv, adjacency.neighbors.size());
+  resize_system(system, nv, adjacency.neighbors.size(), adjacency.slice_neighbor_offsets.size());
   run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
     assemble_range(positions.data(), velocities.data(), adjacency, particles, h, system, b, e);
   });
@@ -459,7 +566,7 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
       vfit_vec3 ri = bi;
       if ((constrained || warm) && s.free[i])
         ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), row_times(s, adjacency, dv, i)));
-      const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sym(precond, i), ri));
+      const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sliced_sym(precond, i), ri));
       store3(r, i, ri);
       store3(z, i, zi);
       bb += dot3(bi, bi);
@@ -485,31 +592,28 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   // linear), so the product gathers z, which is complete before the pass, and p and q are
   // updated in place row by row. p and q start at zero, so β = 0 gives p = z, q = S·A·z.
   float beta = 0.0f;
+  tbb::affinity_partitioner affinity;
   while (scale > 0 && report.iterations < options.max_iterations && rr > stop) {
     // p = z + β·p, q = S·A·z + β·q; partial p·q.
-    run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
-      part[2 * c] = direction_range(s, adjacency, normals, z, beta, p, q, b, e);
-    });
+    run_chunks(
+        nv, parallel,
+        [&](std::size_t c, std::size_t b, std::size_t e) {
+          part[2 * c] = direction_range(s, adjacency, normals, z, beta, p, q, b, e);
+        },
+        &affinity);
     const double pq = chunk_sum(w.partials, chunks, 2, 0);
     if (!(pq > 0)) break; // A is positive definite on the free rows: only a zero p gets here
     const auto alpha = static_cast<float>(rz / pq);
     // Δv += α·p, r −= α·q, z = S·P⁻¹·r; partials r·r, r·z.
-    run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
-      double rr_c = 0, rz_c = 0;
-      for (std::size_t i = b; i < e; ++i) {
-        for (std::size_t k = 3 * i; k < 3 * i + 3; ++k) {
-          dv[k] += alpha * p[k];
-          r[k] -= alpha * q[k];
-        }
-        const vfit_vec3 ri = load3(r, i);
-        const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sym(precond, i), ri));
-        store3(z, i, zi);
-        rr_c += dot3(ri, ri);
-        rz_c += dot3(ri, zi);
-      }
-      part[2 * c] = rr_c;
-      part[2 * c + 1] = rz_c;
-    });
+    run_chunks(
+        nv, parallel,
+        [&](std::size_t c, std::size_t b, std::size_t e) {
+          double rr_c, rz_c;
+          update_range(s, normals, alpha, p, q, dv, r, z, b, e, rr_c, rz_c);
+          part[2 * c] = rr_c;
+          part[2 * c + 1] = rz_c;
+        },
+        &affinity);
     rr = chunk_sum(w.partials, chunks, 2, 0);
     const double rz_next = chunk_sum(w.partials, chunks, 2, 1);
     ++report.iterations;

@@ -8,16 +8,18 @@
 /// blocks are cloth_math.h's vfit_spring_system_block (compressed springs' negative
 /// transverse stiffness clamped to zero, so the matrix is symmetric positive definite),
 /// evaluated with the force by vfit_spring_implicit_terms_relative in one vectorised loop per
-/// block of rows, as the RK4 gather (cloth_rk4.h); the product A·p in CG is formed the same way.
+/// block of rows; the product A·p in CG runs over the adjacency's sliced rows, one particle per
+/// SIMD lane, as the RK4 gather (cloth_rk4.h).
 ///
 /// The solve is a conjugate gradient preconditioned by the inverse 3×3 diagonal blocks (block
 /// Jacobi), matrix-free over the CSR spring adjacency: each particle gathers its own row, so no
 /// atomics. Pinned particles (inverse mass 0) are constraints handled by B&W's filter (§5.3):
 /// their rows and columns are projected out, their Δv is 0 and they never move. Body contacts
 /// enter either as the same filter (ImplicitConstraints) or as stiff one-sided springs on the
-/// diagonal (ImplicitContactSprings). Dot products
-/// are summed per fixed chunk of particles in double and the chunk sums added in chunk order,
-/// so the serial and TBB drivers give the same bits for any thread count.
+/// diagonal (ImplicitContactSprings). Dot products are summed in double per fixed chunk of
+/// particles (within a chunk one running sum per SIMD lane, the lanes then added in order) and
+/// the chunk sums added in chunk order, so the serial and TBB drivers give the same bits for any
+/// thread count.
 
 #include <cstddef>
 #include <span>
@@ -33,6 +35,7 @@ namespace vfit {
 /// 512: a 6,000-particle garment splits into 12 chunks, which two threads share evenly (2,048
 /// gave 3 chunks, one thread doing two of them).
 inline constexpr std::size_t CLOTH_IMPLICIT_CHUNK = 512;
+static_assert(CLOTH_IMPLICIT_CHUNK % CLOTH_SLICE_WIDTH == 0, "a chunk covers whole slices");
 
 /// Stopping rule of the conjugate gradient.
 struct ImplicitSolveOptions {
@@ -55,10 +58,17 @@ struct ImplicitSystem {
   /// 6 × #adjacency entries: S_e (kg), component-major (xx of every entry, then xy, xz, yy,
   /// yz, zz), so a loop over entries reads each component contiguously and vectorises.
   std::vector<float> off_diagonal;
-  std::vector<float> diagonal;       ///< #V × 6: A_ii = m_i·(1 + h·μ)·I + Σ_e S_e (kg)
-  std::vector<float> preconditioner; ///< #V × 6: A_ii⁻¹ (1/kg), zero for pinned particles
-  std::vector<float> rhs;            ///< #V × 3: b = h·(f₀ + h·∂f/∂x·v₀) (N·s), zero when pinned
-  std::vector<unsigned char> free;   ///< #V: 1 = free particle, 0 = pinned (filtered)
+  /// The same blocks in the adjacency's sliced rows (SpringAdjacency::slice_offsets): 6 ×
+  /// #slots, component-major as off_diagonal, zero in the null slots. The CG's product reads
+  /// these, one particle per SIMD lane.
+  std::vector<float> sliced_off_diagonal;
+  std::vector<float> diagonal; ///< #V × 6: A_ii = m_i·(1 + h·μ)·I + Σ_e S_e (kg)
+  /// A_ii⁻¹ (1/kg), zero for pinned particles, by slices of CLOTH_SLICE_WIDTH particles (so a
+  /// slice's lanes read each component contiguously): 6 × W floats per slice, component c of
+  /// particle i at 6·W·⌊i / W⌋ + W·c + (i mod W), components ordered as `diagonal`'s.
+  std::vector<float> preconditioner;
+  std::vector<float> rhs;          ///< #V × 3: b = h·(f₀ + h·∂f/∂x·v₀) (N·s), zero when pinned
+  std::vector<unsigned char> free; ///< #V: 1 = free particle, 0 = pinned (filtered)
 };
 
 /// Contact constraints of one step (Baraff & Witkin §5.3's filter, for particles resting on a

@@ -24,33 +24,39 @@ struct StagePass {
   float* next_v;
 };
 
-// One stage pass over the particles [begin, end): the spring gather fused with the stage
-// update. Stage 0 does not read the running sums (it starts them) and stage 3 does not write
-// them (it writes the step's result): 48 bytes per particle and step less to move.
+// One stage pass over the slices [begin, end) of the particles: the spring gather fused with
+// the stage update. Stage 0 does not read the running sums (it starts them) and stage 3 does not
+// write them (it writes the step's result): 48 bytes per particle and step less to move.
 VFIT_CLOTH_MULTIVERSION void stage_range(const StagePass& p, const SpringAdjacency& adj,
                                          const ClothParticles& particles, float h, int stage, std::size_t begin,
                                          std::size_t end) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t n = adj.particle_count();
   const vfit_vec3 g{particles.gravity[0], particles.gravity[1], particles.gravity[2]};
   const float* inv_mass = particles.inverse_masses.data();
-  GatherBlock scratch;
-  gather_spring_forces(p.xs, p.vs, adj, begin, end, scratch, [&](std::size_t i, vfit_vec3 force) {
-    const vfit_vec3 vs = load3(p.vs, i);
-    const vfit_vec3 a = vfit_particle_acceleration(force, vs, inv_mass[i], g, particles.global_damping);
-    const vfit_vec3 zero{0.0f, 0.0f, 0.0f};
-    vfit_vec3 acc_x = stage == 0 ? zero : load3(p.acc_x, i), acc_v = stage == 0 ? zero : load3(p.acc_v, i), nx, nv;
-    // Pinned particles move with their given velocity in no stage: hold them at x0.
-    const vfit_vec3 slope_x = inv_mass[i] == 0.0f ? zero : vs;
-    vfit_rk4_stage_update(load3(p.x0, i), load3(p.v0, i), slope_x, a, h, stage, &acc_x, &acc_v, &nx, &nv);
-    if (stage != 3) {
-      store3(p.acc_x, i, acc_x);
-      store3(p.acc_v, i, acc_v);
+  const vfit_vec3 zero{0.0f, 0.0f, 0.0f};
+  SliceForces forces;
+  for (std::size_t slice = begin; slice < end; ++slice) {
+    slice_spring_forces(p.xs, p.vs, adj, slice, forces);
+    for (std::size_t l = 0, i = W * slice; l < W && i < n; ++l, ++i) {
+      const vfit_vec3 vs = load3(p.vs, i);
+      const vfit_vec3 a = vfit_particle_acceleration(vfit_vec3{forces.f[0][l], forces.f[1][l], forces.f[2][l]}, vs,
+                                                     inv_mass[i], g, particles.global_damping);
+      vfit_vec3 acc_x = stage == 0 ? zero : load3(p.acc_x, i), acc_v = stage == 0 ? zero : load3(p.acc_v, i), nx, nv;
+      // Pinned particles move with their given velocity in no stage: hold them at x0.
+      const vfit_vec3 slope_x = inv_mass[i] == 0.0f ? zero : vs;
+      vfit_rk4_stage_update(load3(p.x0, i), load3(p.v0, i), slope_x, a, h, stage, &acc_x, &acc_v, &nx, &nv);
+      if (stage != 3) {
+        store3(p.acc_x, i, acc_x);
+        store3(p.acc_v, i, acc_v);
+      }
+      store3(p.next_x, i, nx);
+      store3(p.next_v, i, nv);
     }
-    store3(p.next_x, i, nx);
-    store3(p.next_v, i, nv);
-  });
+  }
 }
 
-// Runs the four stage passes; `run(kernel)` runs kernel(begin, end) over all particles.
+// Runs the four stage passes; `run(kernel)` runs kernel(begin, end) over all slices.
 template <typename Driver>
 void rk4_step(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
               const ClothParticles& particles, float h, Rk4Workspace& w, const Driver& run) {
@@ -91,16 +97,17 @@ void cloth_accelerations_serial(std::span<const float> positions, std::span<cons
 
 void rk4_step_serial(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                      const ClothParticles& particles, float h, Rk4Workspace& workspace) {
-  const std::size_t nv = adjacency.particle_count();
+  const std::size_t slices = adjacency.slice_count();
   rk4_step(positions, velocities, adjacency, particles, h, workspace,
-           [nv](const auto& kernel) { kernel(std::size_t{0}, nv); });
+           [slices](const auto& kernel) { kernel(std::size_t{0}, slices); });
 }
 
 void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                   const ClothParticles& particles, float h, Rk4Workspace& workspace) {
-  const std::size_t nv = adjacency.particle_count();
-  rk4_step(positions, velocities, adjacency, particles, h, workspace,
-           [nv](const auto& kernel) { parallel_for_range(nv, CLOTH_PARTICLE_GRAIN, kernel); });
+  const std::size_t slices = adjacency.slice_count();
+  rk4_step(positions, velocities, adjacency, particles, h, workspace, [slices](const auto& kernel) {
+    parallel_for_range(slices, CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH, kernel);
+  });
 }
 
 Rk4StepBound rk4_stable_step(const SpringAdjacency& adjacency, const ClothParticles& particles) {

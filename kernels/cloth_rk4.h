@@ -2,18 +2,26 @@
 /// \file
 /// Classical fourth-order Runge–Kutta integration of a mass-spring cloth (seed 000 §6.3,
 /// eq. 22–24): x' = v, v' = a(x, v) = f_springs/m + g − μ·v. Each of the four stages is one
-/// fused per-particle pass: gather the spring forces of the stage state over the CSR adjacency,
+/// fused per-particle pass: gather the spring forces of the stage state over the spring adjacency,
 /// form the acceleration, add the stage's slopes to the running sums and write the next stage
 /// state (cloth_math.h's vfit_rk4_stage_update). Serial and TBB give the same bits.
 ///
-/// How a pass runs on a CPU: the springs of a block of consecutive particles (≤ 256 adjacency
-/// entries) are evaluated in one branch-free loop over the entries, which the compiler
-/// vectorises (one square root and one division per spring end, vfit_spring_force_relative),
-/// then each particle adds its entries in adjacency order; the pass is compiled for AVX-512,
-/// AVX2 and baseline x86-64 and picked at load time, all without FMA contraction, so every
-/// instruction set gives the same bits as the scalar oracle (spring_forces_scatter). The pass
-/// is compute-bound: ~37 ns per particle and stage on one core of the benchmark machine
-/// (AMD EPYC, Zen 5) at 10^4 particles as at 10^6 (bench/kernels/cloth_bench.cpp).
+/// How a pass runs on a CPU: one particle per SIMD lane, over the adjacency's sliced rows
+/// (SpringAdjacency::slice_offsets, 16 consecutive particles a slice): each column of a slice
+/// gathers the 16 lanes' neighbour states and evaluates their springs in one branch-free
+/// vectorised step (one square root and one division per spring end,
+/// vfit_spring_force_relative), adding each to its lane's running sum, so every particle sums
+/// its springs in adjacency order with no scratch and no per-row loop; then each particle takes
+/// its stage update. The pass is compiled for AVX-512, AVX2 and baseline x86-64 and picked at
+/// load time, all without FMA contraction, so every instruction set gives the same bits as the
+/// scalar oracle (spring_forces_scatter). On one core of the benchmark machine (AMD EPYC,
+/// Zen 5) this takes 1.6–1.7× less time than the former row blocks (a scalar copy of every
+/// entry's neighbour state into scratch, then the spring loop, then a scalar sum per row):
+/// 17.1 → 10.1 ms of CPU time per step at 10^5 particles, 162 → 97 ms at 10^6, about 25 ns
+/// per particle-stage (bench/kernels/cloth_bench.cpp, BM_rk4_serial, the best of repeated runs
+/// of both builds on the shared machine). The neighbour loads are the lanes' scalar loads:
+/// GCC's generic tuning emulates the gathers, and the gather instruction
+/// (-mtune-ctrl=use_gather) made the pass twice as slow on that machine.
 ///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled

@@ -35,11 +35,54 @@ void add_spring(ClothSprings& s, std::span<const float> positions, std::int32_t 
   s.kinds.push_back(kind);
 }
 
-// Per-particle gather over [begin, end): the serial range kernel of the force drivers.
+// Per-particle gather over the slices [begin, end): the serial range kernel of the force drivers.
 VFIT_CLOTH_MULTIVERSION void gather_range(const float* x, const float* v, const SpringAdjacency& adj, float* out,
                                           std::size_t begin, std::size_t end) {
-  GatherBlock scratch;
-  gather_spring_forces(x, v, adj, begin, end, scratch, [out](std::size_t i, vfit_vec3 f) { store3(out, i, f); });
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t n = adj.particle_count();
+  SliceForces f;
+  for (std::size_t slice = begin; slice < end; ++slice) {
+    slice_spring_forces(x, v, adj, slice, f);
+    for (std::size_t l = 0, i = W * slice; l < W && i < n; ++l, ++i)
+      store3(out, i, vfit_vec3{f.f[0][l], f.f[1][l], f.f[2][l]});
+  }
+}
+
+// Fills adj's sliced rows from its CSR rows (see SpringAdjacency::slice_offsets).
+void build_slices(SpringAdjacency& adj) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t n = adj.particle_count(), slices = (n + W - 1) / W;
+  assert(n < std::size_t{0x7fffffff} / 3 && "3·j must fit a 32-bit index");
+  adj.slice_offsets.assign(slices + 1, 0);
+  for (std::size_t s = 0; s < slices; ++s) {
+    std::int32_t width = 0;
+    for (std::size_t i = W * s; i < std::min(n, W * s + W); ++i)
+      width = std::max(width, adj.offsets[i + 1] - adj.offsets[i]);
+    adj.slice_offsets[s + 1] = adj.slice_offsets[s] + static_cast<std::int32_t>(W) * width;
+  }
+  const auto slots = static_cast<std::size_t>(adj.slice_offsets[slices]);
+  adj.slice_neighbor_offsets.assign(slots, 0);
+  adj.slice_rest_lengths.assign(slots, 0.0f);
+  adj.slice_stiffness.assign(slots, 0.0f);
+  adj.slice_damping.assign(slots, 0.0f);
+  for (std::size_t s = 0; s < slices; ++s)
+    for (std::size_t l = 0; l < W; ++l) {
+      const std::size_t i = std::min(W * s + l, n - 1);
+      const bool real = W * s + l < n;
+      const auto width = static_cast<std::size_t>(adj.slice_offsets[s + 1] - adj.slice_offsets[s]) / W;
+      for (std::size_t k = 0; k < width; ++k) {
+        const std::size_t slot = static_cast<std::size_t>(adj.slice_offsets[s]) + W * k + l;
+        const auto e = static_cast<std::size_t>(adj.offsets[i]) + k;
+        if (real && e < static_cast<std::size_t>(adj.offsets[i + 1])) {
+          adj.slice_neighbor_offsets[slot] = 3 * adj.neighbors[e];
+          adj.slice_rest_lengths[slot] = adj.rest_lengths[e];
+          adj.slice_stiffness[slot] = adj.stiffness[e];
+          adj.slice_damping[slot] = adj.damping[e];
+        } else {
+          adj.slice_neighbor_offsets[slot] = 3 * static_cast<std::int32_t>(i);
+        }
+      }
+    }
 }
 } // namespace
 
@@ -111,6 +154,7 @@ SpringAdjacency build_spring_adjacency(const ClothSprings& springs, std::size_t 
       adj.stiffness[e] = springs.stiffness[s];
       adj.damping[e] = springs.damping[s];
     }
+  build_slices(adj);
   return adj;
 }
 
@@ -139,7 +183,7 @@ void spring_forces_serial(std::span<const float> positions, std::span<const floa
                           const SpringAdjacency& adjacency, std::vector<float>& forces) {
   assert(positions.size() == 3 * adjacency.particle_count() && "adjacency built for another particle count");
   forces.resize(positions.size());
-  gather_range(positions.data(), velocities.data(), adjacency, forces.data(), 0, adjacency.particle_count());
+  gather_range(positions.data(), velocities.data(), adjacency, forces.data(), 0, adjacency.slice_count());
 }
 
 void spring_forces_tbb(std::span<const float> positions, std::span<const float> velocities,
@@ -149,7 +193,7 @@ void spring_forces_tbb(std::span<const float> positions, std::span<const float> 
   const float* x = positions.data();
   const float* v = velocities.data();
   float* out = forces.data();
-  parallel_for_range(adjacency.particle_count(), CLOTH_PARTICLE_GRAIN,
+  parallel_for_range(adjacency.slice_count(), CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH,
                      [&](std::size_t b, std::size_t e) { gather_range(x, v, adjacency, out, b, e); });
 }
 

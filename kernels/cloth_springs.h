@@ -61,15 +61,38 @@ struct SpringAdjacency {
   std::vector<float> stiffness;        ///< 2·#S (N/m)
   std::vector<float> damping;          ///< 2·#S (N·s/m)
 
+  /// The same entries again in slices of CLOTH_SLICE_WIDTH consecutive particles (sliced
+  /// ELLPACK), for the CPU force gathers, which run one particle per SIMD lane: slice s covers
+  /// particles [W·s, W·s + W) and owns the slots [slice_offsets[s], slice_offsets[s + 1]), a
+  /// column of W slots per entry index k up to its longest row: slot slice_offsets[s] + W·k + l
+  /// holds entry k of particle W·s + l. Past the end of a row (or of the particles) a slot is a
+  /// null entry: the particle itself (the last particle past #V) as neighbour, rest length,
+  /// stiffness and damping 0, whose force is ±0 and leaves a sum started at +0 unchanged bit
+  /// for bit, so a lane adds its row's forces in the CSR order and gets the CSR gather's bits.
+  /// A slot names its neighbour j by 3·j, where j's row starts in a #V × 3 array, so a SIMD
+  /// gather loads x_j with no index arithmetic (hence #V < 2³¹ / 3).
+  std::vector<std::int32_t> slice_offsets;          ///< ⌈#V / W⌉ + 1 slot offsets (multiples of W)
+  std::vector<std::int32_t> slice_neighbor_offsets; ///< #slots: 3·j
+  std::vector<float> slice_rest_lengths;            ///< #slots (m)
+  std::vector<float> slice_stiffness;               ///< #slots (N/m)
+  std::vector<float> slice_damping;                 ///< #slots (N·s/m)
+
   std::size_t particle_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
+  std::size_t slice_count() const { return slice_offsets.empty() ? 0 : slice_offsets.size() - 1; }
 };
 
-/// Builds the adjacency of `springs` over `particle_count` particles. Rebuild it after changing
-/// the springs' parameters.
+/// Particles per slice of SpringAdjacency's sliced rows: the lanes of one AVX-512 register of
+/// floats (two AVX2 registers, four SSE ones).
+inline constexpr std::size_t CLOTH_SLICE_WIDTH = 16;
+
+/// Builds the adjacency of `springs` over `particle_count` particles, CSR and sliced rows.
+/// Rebuild it after changing the springs' parameters.
 SpringAdjacency build_spring_adjacency(const ClothSprings& springs, std::size_t particle_count);
 
-/// Particles per TBB task in the gather drivers (each particle visits ~12 springs).
+/// Particles per TBB task in the gather drivers (each particle visits ~12 springs); a multiple
+/// of CLOTH_SLICE_WIDTH.
 inline constexpr std::size_t CLOTH_PARTICLE_GRAIN = 2048;
+static_assert(CLOTH_PARTICLE_GRAIN % CLOTH_SLICE_WIDTH == 0, "a task covers whole slices");
 
 /// Spring forces by a per-spring scatter: the oracle for the gather. positions, velocities:
 /// #V × 3 (m, m/s); forces (out, resized to #V × 3, N): Σ over the springs of each particle

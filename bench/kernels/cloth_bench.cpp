@@ -7,11 +7,15 @@
 //
 // Traffic model: the bytes the step as implemented must move at least, neighbours' stage states
 // assumed cached (they are rows of the same arrays a few rows away) and write-allocate not
-// counted (as STREAM does not). Per particle and stage: the CSR row (offset 4 B + 16 B per spring
-// end: neighbour, rest length, k, c, all 32-bit), its stage state (24 B), its inverse mass
-// (4 B), the next state written (24 B); per particle and step besides: the step start in stages
-// 1–3 (24 B each; at stage 0 it is the stage state) and the running sums of the slopes (24 B
-// written at stage 0, read and written at stages 1 and 2, read at stage 3).
+// counted (as STREAM does not). Per particle and stage: its spring row (16 B per spring end:
+// neighbour, rest length, k, c, all 32-bit; the rows are read as sliced rows, 16 particles a
+// slice with one 4 B offset, and the null slots padding a slice to its longest row are not
+// counted: `null_slots` reports them as a fraction of the spring ends), its stage state (24 B),
+// its inverse mass (4 B), the next state written (24 B); per particle and step besides: the
+// step start in stages 1–3 (24 B each; at stage 0 it is the stage state) and the running sums
+// of the slopes (24 B written at stage 0, read and written at stages 1 and 2, read at stage 3).
+// (Until the sliced rows, a particle's row was a CSR row with a 4 B offset of its own; the
+// OpenCL kernels still read CSR rows, so their model leaves out 3.75 B per particle and stage.)
 //
 // Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
 // time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
@@ -22,7 +26,9 @@
 // this garment size, taking Blender's default 24 frames per second of animation (0.026
 // simulated s per wall s): blender_x ≥ 50 is the bar.
 // cpu_s_to_rest is the process CPU time (all threads) of the drape: on a shared machine wall
-// time varies with the load, CPU time much less. BM_drape_tee_to_rest_full_queries turns the
+// time varies with the load, CPU time much less. null_slots: the padding of the tee's spring
+// rows in the sliced rows the solver's product runs over (SpringAdjacency::slice_offsets), per
+// spring end. BM_drape_tee_to_rest_full_queries turns the
 // contact candidate cache off (ClothOptions::contact_candidates) for comparison, and
 // BM_drape_tee_to_rest_contact_pass the resting contacts (ClothOptions::resting_contacts).
 #include <benchmark/benchmark.h>
@@ -86,7 +92,8 @@ const Cloth& cloth(std::int64_t particles) {
 
 double model_bytes_per_step(const Cloth& c) {
   const double n = double(c.adjacency.particle_count());
-  const double per_stage = n * (4 + 24 + 4 + 24) + 2.0 * double(c.springs) * 16.0;
+  const double slice_offset = 4.0 / double(vfit::CLOTH_SLICE_WIDTH); // one 4 B offset per slice
+  const double per_stage = n * (slice_offset + 24 + 4 + 24) + 2.0 * double(c.springs) * 16.0;
   return 4.0 * per_stage + n * (3 * 24 + (24 + 48 + 48 + 24));
 }
 
@@ -121,6 +128,10 @@ void report(benchmark::State& state, const Cloth& c) {
       benchmark::Counter(steps * 4.0 * double(c.adjacency.particle_count()), benchmark::Counter::kIsRate);
   state.counters["model_GBps"] = benchmark::Counter(steps * model_bytes_per_step(c) / 1e9, benchmark::Counter::kIsRate);
   state.counters["triad_GBps"] = triad_gbps();
+  state.counters["null_slots"] =
+      double(c.adjacency.slice_neighbor_offsets.size()) / double(c.adjacency.neighbors.size()) - 1.0;
+  state.counters["bw_fraction"] =
+      benchmark::Counter(steps * model_bytes_per_step(c) / 1e9 / triad_gbps(), benchmark::Counter::kIsRate);
 }
 
 void sizes(benchmark::internal::Benchmark* b) {
@@ -278,6 +289,11 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   state.counters["cg_iterations"] = double(last.solver_iterations);
   state.counters["blender_x"] = rate / ((1.0 / 24.0) / 1.6);
   state.counters["cpu_s_to_rest"] = cpu / double(state.iterations());
+  // The tee's spring rows as the solver's sliced rows hold them: null slots per spring end.
+  const vfit::SpringAdjacency adjacency = vfit::build_spring_adjacency(
+      vfit::build_cloth_springs(d.tee.position_view(), d.tee.triangle_view()), d.tee.vertex_count());
+  state.counters["null_slots"] =
+      double(adjacency.slice_neighbor_offsets.size()) / double(adjacency.neighbors.size()) - 1.0;
 }
 
 void BM_drape_tee_to_rest(benchmark::State& state) {
@@ -347,7 +363,7 @@ void BM_rk4_opencl(benchmark::State& state) {
   }
   report(state, c);
   // Ten steps per iteration: scale the per-iteration rates.
-  for (const char* k : {"springs/s", "particle-updates/s", "model_GBps"})
+  for (const char* k : {"springs/s", "particle-updates/s", "model_GBps", "bw_fraction"})
     state.counters[k].value *= 10.0;
   state.SetItemsProcessed(state.iterations() * std::int64_t(10 * 4 * 2 * c.springs));
   state.SetLabel(ctx->device().device_name);

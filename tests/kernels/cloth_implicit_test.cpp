@@ -180,6 +180,43 @@ TEST(ClothImplicit, ConjugateGradientMatchesADenseSolve) {
     EXPECT_EQ(w.dv[k], 0.0f);
 }
 
+// The CG reads the off-diagonal blocks from their sliced copy and the preconditioner by slices:
+// the copy holds each entry's block exactly (zero in the null slots) and the preconditioner
+// block of particle i, at 6·W·⌊i/W⌋ + W·c + i mod W, is the inverse of its diagonal block
+// (zero when pinned). 49 particles: the last slice has one.
+TEST(ClothImplicit, SlicedBlocksAndPreconditionerFollowTheRows) {
+  const Cloth c = jittered_cloth(7, 3u, 2e-3f);
+  ImplicitWorkspace w;
+  assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, 0.005f, w.system, false);
+  const SpringAdjacency& adj = c.adjacency;
+  const std::size_t nv = adj.particle_count(), entries = adj.neighbors.size();
+  const std::size_t slots = adj.slice_neighbor_offsets.size();
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  ASSERT_EQ(w.system.sliced_off_diagonal.size(), 6 * slots);
+  std::vector<unsigned char> used(slots, 0);
+  for (std::size_t i = 0; i < nv; ++i) {
+    for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
+      const std::size_t slot = std::size_t(adj.slice_offsets[i / W]) + W * std::size_t(e - adj.offsets[i]) + i % W;
+      used[slot] = 1;
+      for (std::size_t k = 0; k < 6; ++k)
+        EXPECT_EQ(w.system.sliced_off_diagonal[k * slots + slot], w.system.off_diagonal[k * entries + std::size_t(e)])
+            << "particle " << i << ", entry " << e << ", component " << k;
+    }
+    const float* d = w.system.diagonal.data() + 6 * i;
+    const vfit_sym3 inverse = vfit_sym3_inverse(vfit_sym3{d[0], d[1], d[2], d[3], d[4], d[5]});
+    const float expected[6] = {inverse.xx, inverse.xy, inverse.xz, inverse.yy, inverse.yz, inverse.zz};
+    for (std::size_t k = 0; k < 6; ++k)
+      EXPECT_EQ(w.system.preconditioner[6 * W * (i / W) + W * k + i % W],
+                c.particles.inverse_masses[i] == 0.0f ? 0.0f : expected[k])
+          << "particle " << i << ", component " << k;
+  }
+  for (std::size_t slot = 0; slot < slots; ++slot) {
+    if (used[slot]) continue;
+    for (std::size_t k = 0; k < 6; ++k)
+      EXPECT_EQ(w.system.sliced_off_diagonal[k * slots + slot], 0.0f) << "null slot " << slot;
+  }
+}
+
 // The assembly and the CG product evaluate blocks of rows (≤ 256 adjacency entries) in one
 // vectorised loop and a longer row alone. A fan whose hub has 600 spring ends takes both paths:
 // every assembled block S_e must be vfit_spring_system_block's up to float rounding (relative

@@ -1,5 +1,6 @@
 #include "kernels/cloth_springs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -155,11 +156,12 @@ TEST(ClothSprings, GatherEqualsScatterBitForBit) {
     EXPECT_NEAR(n, 0.0, 1e-3);
 }
 
-// The gather evaluates the springs of a block of rows (at most 256 adjacency entries) in one
-// vectorised loop and gathers a longer row alone: a fan whose hub has 600 spring ends (300
-// rim vertices: one structural spring to each, bending springs across the spokes, and the rim
-// springs) takes both paths, with short spokes below VFIT_SPRING_MIN_LENGTH mixed in (zero
-// force). Both must add each particle's springs in the scatter's order: the same bits.
+// The gather runs 16 particles a slice, one per SIMD lane, each slice as wide as its longest
+// row: a fan whose hub has 600 spring ends (300 rim vertices: one structural spring to each,
+// bending springs across the spokes, and the rim springs) pads its 15 slice-mates' rows with
+// hundreds of null entries, and 301 particles leave the last slice with one lane; short spokes
+// below VFIT_SPRING_MIN_LENGTH are mixed in (zero force). Every lane must add its particle's
+// springs in the scatter's order: the same bits.
 TEST(ClothSprings, GatherEqualsScatterBitForBitWithARowLongerThanABlock) {
   const int rim = 300;
   std::mt19937 rng(11u);
@@ -188,6 +190,45 @@ TEST(ClothSprings, GatherEqualsScatterBitForBitWithARowLongerThanABlock) {
   EXPECT_TRUE(same_bits(gather, tbb));
   for (float q : gather)
     EXPECT_TRUE(std::isfinite(q));
+}
+
+// SpringAdjacency's sliced rows hold each CSR row in its lane, column by column, in order, and
+// null entries (the particle itself, zero constants) past each row's end and past #V; the
+// grid's 289 particles end in a slice of one particle.
+TEST(ClothSprings, SlicedRowsHoldEachCsrRowInItsLane) {
+  const Fixture f = jittered_cloth(17, 3u, true);
+  const std::size_t nv = f.mesh.vertex_count();
+  const SpringAdjacency adj = build_spring_adjacency(f.springs, nv);
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  ASSERT_EQ(adj.slice_count(), (nv + W - 1) / W);
+  ASSERT_EQ(std::size_t(adj.slice_offsets.back()), adj.slice_neighbor_offsets.size());
+  std::size_t real = 0;
+  for (std::size_t s = 0; s < adj.slice_count(); ++s) {
+    const auto first = std::size_t(adj.slice_offsets[s]), end = std::size_t(adj.slice_offsets[s + 1]);
+    ASSERT_EQ((end - first) % W, 0u);
+    std::int32_t longest = 0;
+    for (std::size_t l = 0; l < W; ++l) {
+      const std::size_t i = W * s + l;
+      const std::int32_t row = i < nv ? adj.offsets[i + 1] - adj.offsets[i] : 0;
+      longest = std::max(longest, row);
+      for (std::size_t k = 0; first + W * k < end; ++k) {
+        const std::size_t slot = first + W * k + l;
+        if (std::int32_t(k) < row) {
+          const auto e = std::size_t(adj.offsets[i]) + k;
+          EXPECT_EQ(adj.slice_neighbor_offsets[slot], 3 * adj.neighbors[e]) << "particle " << i << ", entry " << k;
+          EXPECT_EQ(adj.slice_rest_lengths[slot], adj.rest_lengths[e]);
+          EXPECT_EQ(adj.slice_stiffness[slot], adj.stiffness[e]);
+          EXPECT_EQ(adj.slice_damping[slot], adj.damping[e]);
+          ++real;
+        } else {
+          EXPECT_EQ(adj.slice_neighbor_offsets[slot], 3 * std::int32_t(std::min(i, nv - 1))) << "null slot " << slot;
+          EXPECT_EQ(adj.slice_rest_lengths[slot] + adj.slice_stiffness[slot] + adj.slice_damping[slot], 0.0f);
+        }
+      }
+    }
+    EXPECT_EQ(std::size_t(longest), (end - first) / W) << "slice " << s << " is as wide as its longest row";
+  }
+  EXPECT_EQ(real, adj.neighbors.size());
 }
 
 TEST(ClothSprings, TbbEqualsSerialBitForBit) {
