@@ -59,7 +59,8 @@ SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::siz
     nonzeros += cursor[v] + 1;
   }
   // Compressed row storage written directly: each row's distinct neighbours with the diagonal
-  // slotted in at its column (a third of the time of inserting entry by entry).
+  // slotted in at its column (a quarter less time than inserting entry by entry: 8,000-vertex
+  // trousers 1.06 → 0.79 ms, same bits).
   SparseMatrix L(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
   L.resizeNonZeros(nonzeros);
   auto* outer = L.outerIndexPtr();
