@@ -462,10 +462,13 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
       double removed = 0;
       for (std::size_t i = b; i < e; ++i) {
         if (!w.contact_active[i]) continue;
-        if (contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i) < 0.0f) {
+        const float impulse = contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i);
+        if (impulse < 0.0f) {
           w.contact_active[i] = 0;
           add_contact_spring(w.system, *contact_springs, velocities.data(), h, i, -1.0f);
           removed += 1;
+        } else {
+          w.normal_impulses[i] = impulse; // final unless the springs left are solved again
         }
       }
       w.partials[c] = removed;
@@ -475,12 +478,13 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
       again.warm_start = true;
       again.max_iterations = contact_springs->release_iterations;
       report.iterations += solve_implicit_system(adjacency, again, w, parallel, constraints).iterations;
+      // Δv changed: the kept springs' impulses are taken again.
+      run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i)
+          if (w.contact_active[i])
+            w.normal_impulses[i] = contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i);
+      });
     }
-    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i)
-        if (w.contact_active[i])
-          w.normal_impulses[i] = contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i);
-    });
   }
   float* x = positions.data();
   float* v = velocities.data();

@@ -293,20 +293,6 @@ int solve(const ShapeModel& model, const std::vector<Pair>& pairs, State& s, int
   return summary.num_successful_steps + summary.num_unsuccessful_steps;
 }
 
-// Area-weighted vertex normals (unit; zero for a vertex on no face).
-std::vector<Vec3> vertex_normals(std::span<const float> positions, std::span<const std::int32_t> triangles) {
-  std::vector<Vec3> n(positions.size() / 3, Vec3::Zero());
-  auto P = [&](std::int32_t v) { return Vec3(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]); };
-  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
-    const Vec3 fn = (P(triangles[f + 1]) - P(triangles[f])).cross(P(triangles[f + 2]) - P(triangles[f]));
-    for (int k = 0; k < 3; ++k)
-      n[static_cast<std::size_t>(triangles[f + k])] += fn;
-  }
-  for (Vec3& v : n)
-    if (v.norm() > 0) v.normalize();
-  return n;
-}
-
 Vec3 face_normal(std::span<const float> positions, std::span<const std::int32_t> triangles, std::int32_t f) {
   auto P = [&](int k) {
     const std::int32_t v = triangles[3 * static_cast<std::size_t>(f) + k];
@@ -319,21 +305,7 @@ Vec3 face_normal(std::span<const float> positions, std::span<const std::int32_t>
 // Blends the ≤ 12 influences of three corners into the 4 largest, renormalised.
 void blend_influences(const SkinWeights& w, const std::array<std::int32_t, 3>& corners,
                       const std::array<double, 3>& bary, std::array<int, 4>& joint, std::array<double, 4>& weight) {
-  std::array<double, JOINT_COUNT> dense{};
-  for (int c = 0; c < 3; ++c)
-    for (int k = 0; k < 4; ++k) {
-      const std::size_t i = 4 * static_cast<std::size_t>(corners[c]) + k;
-      dense[static_cast<std::size_t>(w.joints[i])] += bary[c] * w.weights[i];
-    }
-  joint.fill(0);
-  weight.fill(0);
-  for (int k = 0; k < 4; ++k) {
-    const auto it = std::max_element(dense.begin(), dense.end());
-    if (*it <= 0) break;
-    joint[k] = static_cast<int>(it - dense.begin());
-    weight[k] = *it;
-    *it = 0;
-  }
+  largest_blended_influences(w, corners, bary, joint, weight);
   const double sum = weight[0] + weight[1] + weight[2] + weight[3];
   for (double& x : weight)
     x = sum > 0 ? x / sum : 0;
@@ -411,7 +383,7 @@ struct Fitter {
     const auto& faces = tmpl.mesh.triangles;
     std::vector<Pair> out;
     std::vector<double> dist;
-    const std::vector<Vec3> tmpl_normals = vertex_normals(posed, faces);
+    const std::vector<Vec3> tmpl_normals = area_weighted_vertex_normals(posed, faces);
     // Scan point → closest template point.
     std::vector<float> q(3 * scan_samples.size());
     for (std::size_t i = 0; i < scan_samples.size(); ++i)
@@ -590,7 +562,7 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
                         f.tmpl.mesh.positions[3 * v + 2]);
   if (scan.face_count() > 0) {
     f.scan_index.emplace(scan.positions, scan.triangles);
-    f.scan_normals = vertex_normals(scan.positions, scan.triangles);
+    f.scan_normals = area_weighted_vertex_normals(scan.positions, scan.triangles);
   }
 
   // Stage 1: the skeleton fitted to the joints estimated on the scan; else the T-pose placed

@@ -1,5 +1,6 @@
 #include "scan_skin_transfer.h"
 
+#include <algorithm>
 #include <array>
 #include <deque>
 #include <limits>
@@ -29,41 +30,21 @@ Vec3 triangle_normal(const Mesh& m, std::int32_t f) {
   return n.norm() > 0 ? Vec3(n.normalized()) : Vec3::Zero();
 }
 
-// Area-weighted vertex normals of `m` (zero for a vertex on no face).
-std::vector<Vec3> vertex_normals(const Mesh& m) {
-  std::vector<Vec3> n(m.vertex_count(), Vec3::Zero());
-  for (std::size_t f = 0; f < m.face_count(); ++f) {
-    const Vec3 a = point(m.positions, static_cast<std::size_t>(m.triangles[3 * f]));
-    const Vec3 fn = (point(m.positions, static_cast<std::size_t>(m.triangles[3 * f + 1])) - a)
-                        .cross(point(m.positions, static_cast<std::size_t>(m.triangles[3 * f + 2])) - a);
-    for (int k = 0; k < 3; ++k)
-      n[static_cast<std::size_t>(m.triangles[3 * f + k])] += fn;
-  }
-  for (Vec3& v : n)
-    if (v.norm() > 0) v.normalize();
-  return n;
-}
-
 // The weights at a closest point: its triangle's corners blended barycentrically, the 4 largest
-// kept and renormalised, written into row `row` of `out`.
+// kept and renormalised (in float, as stored), written into row `row` of `out`.
 void blend_at(const Mesh& source, const SkinWeights& w, const ClosestHits& hits, std::size_t i, SkinWeights& out,
               std::size_t row) {
-  std::array<double, JOINT_COUNT> dense{};
   const double u = hits.barycentrics[2 * i], v = hits.barycentrics[2 * i + 1];
-  const std::array<double, 3> bary = {1 - u - v, u, v};
   const auto f = 3 * static_cast<std::size_t>(hits.triangles[i]);
-  for (int c = 0; c < 3; ++c)
-    for (int k = 0; k < 4; ++k) {
-      const std::size_t s = 4 * static_cast<std::size_t>(source.triangles[f + c]) + k;
-      dense[static_cast<std::size_t>(w.joints[s])] += bary[c] * w.weights[s];
-    }
+  std::array<int, 4> joint;
+  std::array<double, 4> weight;
+  largest_blended_influences(w, {source.triangles[f], source.triangles[f + 1], source.triangles[f + 2]},
+                             {1 - u - v, u, v}, joint, weight);
   double sum = 0;
   for (int k = 0; k < 4; ++k) {
-    const auto it = std::max_element(dense.begin(), dense.end());
-    out.joints[4 * row + k] = *it > 0 ? static_cast<int>(it - dense.begin()) : 0;
-    out.weights[4 * row + k] = *it > 0 ? static_cast<float>(*it) : 0.f;
-    sum += *it > 0 ? *it : 0;
-    *it = 0;
+    out.joints[4 * row + k] = joint[k];
+    out.weights[4 * row + k] = static_cast<float>(weight[k]);
+    sum += weight[k];
   }
   for (int k = 0; k < 4; ++k)
     out.weights[4 * row + k] = sum > 0 ? static_cast<float>(out.weights[4 * row + k] / sum) : (k == 0 ? 1.f : 0.f);
@@ -130,7 +111,7 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
   }
 
   // Per chain, the closest point of each target vertex, kept when the surfaces face alike.
-  const std::vector<Vec3> normals = vertex_normals(target);
+  const std::vector<Vec3> normals = area_weighted_vertex_normals(target.positions, target.triangles);
   std::array<ClosestHits, CHAINS> hits;
   std::array<Mesh, CHAINS> parts;
   std::vector<std::array<double, CHAINS>> distance(n);
@@ -238,6 +219,40 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
     }
   });
   return out;
+}
+
+void largest_blended_influences(const SkinWeights& weights, const std::array<std::int32_t, 3>& corners,
+                                const std::array<double, 3>& bary, std::array<int, 4>& joint,
+                                std::array<double, 4>& weight) {
+  std::array<double, JOINT_COUNT> dense{};
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < 4; ++k) {
+      const std::size_t i = 4 * static_cast<std::size_t>(corners[c]) + k;
+      dense[static_cast<std::size_t>(weights.joints[i])] += bary[c] * weights.weights[i];
+    }
+  joint.fill(0);
+  weight.fill(0);
+  for (int k = 0; k < 4; ++k) {
+    const auto it = std::max_element(dense.begin(), dense.end());
+    if (*it <= 0) break;
+    joint[k] = static_cast<int>(it - dense.begin());
+    weight[k] = *it;
+    *it = 0;
+  }
+}
+
+std::vector<Vec3> area_weighted_vertex_normals(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  std::vector<Vec3> n(positions.size() / 3, Vec3::Zero());
+  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
+    const Vec3 a = point(positions, static_cast<std::size_t>(triangles[f]));
+    const Vec3 fn = (point(positions, static_cast<std::size_t>(triangles[f + 1])) - a)
+                        .cross(point(positions, static_cast<std::size_t>(triangles[f + 2])) - a);
+    for (int k = 0; k < 3; ++k)
+      n[static_cast<std::size_t>(triangles[f + k])] += fn;
+  }
+  for (Vec3& v : n)
+    if (v.norm() > 0) v.normalize();
+  return n;
 }
 
 } // namespace vfit

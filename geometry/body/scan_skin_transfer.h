@@ -5,6 +5,13 @@
 /// the scan's parts touch: an arm held against the torso, hands folded in front of the belly.
 /// Conventions: metres, Y up, the body facing +Z, +X = the body's left.
 
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
 #include "body.h"
 #include "geometry/mesh/mesh.h"
 
@@ -34,5 +41,19 @@ int skin_chain_of_joint(int joint);
 /// has no faces or its weights fail validate_skin_weights().
 SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_weights, const Mesh& target,
                                   double margin = 0.02);
+
+/// The weights at a point of a triangle (seed 001 §5.2's barycentric interpolation): the ≤ 12
+/// influences of the triangle's corners (vertex ids into `weights`) blended with barycentrics
+/// `bary` (summing to 1), and the 4 largest kept, largest first, not renormalised; unused
+/// slots get joint 0 and weight 0. Shared by the scan fit and transfer_skin_weights(), which
+/// each renormalise in their own precision.
+void largest_blended_influences(const SkinWeights& weights, const std::array<std::int32_t, 3>& corners,
+                                const std::array<double, 3>& bary, std::array<int, 4>& joint,
+                                std::array<double, 4>& weight);
+
+/// Unit area-weighted vertex normals (double precision) of a triangle mesh: positions #V × 3
+/// (m), triangles #F × 3 vertex ids; a vertex on no face (or on zero-area faces only) gets zero.
+std::vector<Eigen::Vector3d> area_weighted_vertex_normals(std::span<const float> positions,
+                                                          std::span<const std::int32_t> triangles);
 
 } // namespace vfit

@@ -95,6 +95,8 @@ public:
   BandLaplacianDeformer(BandLaplacianDeformer&&) noexcept;
   BandLaplacianDeformer& operator=(BandLaplacianDeformer&&) noexcept;
 
+  /// False when the free band's system is singular (a free piece touches no handle) or the
+  /// multigrid setup failed: callers check it before deform(). True for an empty band.
   bool ok() const {
     return m_free.empty() || (m_solver ? m_solver->ok() : m_supernodal ? m_supernodal->ok() : m_multigrid->ok());
   }
