@@ -93,6 +93,12 @@ enum class PenetrationSolver : std::int8_t {
   /// factorisation; Shirt 2 (2,712) 17.4 vs 15.1, Pant 1 (3.4–4k) 16.6–22.2 vs 11.4–12.3 and
   /// Shorts 1 (6,124) 33.3 vs 15.7 ms favour CG, with the same rounds and end states; at 10^6
   /// vertices (T-pose tee on the arms-down mannequin) 4.1 s factoring vs 2.2 s with CG.
+  /// Only the first round's region is factored: a region rebuilt in a later round (shrunk
+  /// around the few pushes left, or grown to a new spot) is mostly solved once or twice, and
+  /// CG on its few hundred unknowns costs less than the factorisation. Measured on the Table-1
+  /// twins (2 cores, quiet, medians of 31, two runs): Shorts 1 (rebuilt regions of 327 and
+  /// 676 unknowns) 9.9–10.1 → 9.4–9.5 ms, Shirt 2 on walking 8.7–9.0 → 8.4, the nine rows'
+  /// sum 63.3–63.9 → 62.2–63.6 ms, with the same rounds and end states.
   /// The default.
   AUTO = 2,
 };
@@ -118,7 +124,8 @@ struct PenetrationOptions {
   double seed004_damping = 0.8;   ///< ω_d (seed 004 §3.2.2)
   int seed004_iterations = 3;     ///< seed 004 repeats the fix at most 3 times
   PenetrationSolver solver = PenetrationSolver::AUTO;
-  /// With PenetrationSolver::AUTO: regions of at least this many unknowns are solved by CG.
+  /// With PenetrationSolver::AUTO: a first region of at least this many unknowns is solved by
+  /// CG (rebuilt regions always are).
   /// The crossover measured above lay between 2,000 and 2,700 unknowns; with the 6-ring
   /// regions (same run, 2 cores, medians of 15, sum over the nine Table-1 twins): limit 1,500
   /// 93.1 ms, 2,000 89.2, 2,500 94.6, 3,000 98.1 (Shirt 2's 2,237-unknown and Pant 2's

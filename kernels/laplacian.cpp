@@ -7,6 +7,8 @@
 
 #include <Eigen/Geometry>
 
+#include "parallel.h"
+
 namespace vfit {
 namespace {
 
@@ -51,42 +53,47 @@ SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::siz
       neighbours[std::size_t(cursor[std::size_t(a)]++)] = b;
       neighbours[std::size_t(cursor[std::size_t(b)]++)] = a;
     }
-  Eigen::Index nonzeros = 0;
-  for (std::size_t v = 0; v < n; ++v) {
-    const auto first = neighbours.begin() + start[v], last = neighbours.begin() + start[v + 1];
-    std::sort(first, last);
-    cursor[v] = std::int32_t(std::unique(first, last) - first); // distinct neighbours
-    nonzeros += cursor[v] + 1;
-  }
+  // The per-vertex sorts and the row writes are independent: both run over vertex blocks in
+  // parallel (same entries in the same order, so the same bits on any thread count).
+  constexpr std::size_t GRAIN = 2048; // vertices per task: ~25 µs of work each
+  parallel_for_range(n, GRAIN, [&](std::size_t b, std::size_t e) {
+    for (std::size_t v = b; v < e; ++v) {
+      const auto first = neighbours.begin() + start[v], last = neighbours.begin() + start[v + 1];
+      std::sort(first, last);
+      cursor[v] = std::int32_t(std::unique(first, last) - first); // distinct neighbours
+    }
+  });
   // Compressed row storage written directly: each row's distinct neighbours with the diagonal
   // slotted in at its column (a quarter less time than inserting entry by entry: 8,000-vertex
   // trousers 1.06 → 0.79 ms, same bits).
   SparseMatrix L(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-  L.resizeNonZeros(nonzeros);
   auto* outer = L.outerIndexPtr();
+  outer[0] = 0;
+  for (std::size_t v = 0; v < n; ++v) outer[v + 1] = outer[v] + cursor[v] + 1;
+  L.resizeNonZeros(outer[n]);
   auto* inner = L.innerIndexPtr();
   double* value = L.valuePtr();
-  Eigen::Index k = 0;
-  outer[0] = 0;
-  for (std::size_t v = 0; v < n; ++v) {
-    const std::int32_t* nb = neighbours.data() + start[v];
-    const std::int32_t count = cursor[v];
-    bool diagonal_written = false;
-    for (std::int32_t j = 0; j < count; ++j) {
-      if (!diagonal_written && nb[j] > std::int32_t(v)) {
+  parallel_for_range(n, GRAIN, [&](std::size_t b, std::size_t e) {
+    for (std::size_t v = b; v < e; ++v) {
+      const std::int32_t* nb = neighbours.data() + start[v];
+      const std::int32_t count = cursor[v];
+      auto k = outer[v];
+      bool diagonal_written = false;
+      for (std::int32_t j = 0; j < count; ++j) {
+        if (!diagonal_written && nb[j] > std::int32_t(v)) {
+          inner[k] = std::int32_t(v);
+          value[k++] = double(count);
+          diagonal_written = true;
+        }
+        inner[k] = nb[j];
+        value[k++] = -1.0;
+      }
+      if (!diagonal_written) {
         inner[k] = std::int32_t(v);
         value[k++] = double(count);
-        diagonal_written = true;
       }
-      inner[k] = nb[j];
-      value[k++] = -1.0;
     }
-    if (!diagonal_written) {
-      inner[k] = std::int32_t(v);
-      value[k++] = double(count);
-    }
-    outer[v + 1] = static_cast<std::remove_pointer_t<decltype(outer)>>(k);
-  }
+  });
   return L;
 }
 

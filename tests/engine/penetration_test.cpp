@@ -121,6 +121,64 @@ TEST(Penetration, VerticesDeeperThanTheNearSearchCountAndArePushedOut) {
   EXPECT_EQ(measure_penetration(far.positions, index, 0.002).inside_count, 0u);
 }
 
+TEST(Penetration, FarVerticesShareOneRayPerPiece) {
+  // Removal queries the body only within a short reach (1 cm at the default κ); the vertices
+  // beyond it are joined into pieces along edges shorter than two reaches, and one ray decides
+  // each piece's side (resolve_far_vertices()). The statistics must equal those of the plain
+  // path, which queries each such vertex without a limit. Tubes along x through a sphere's
+  // surface, from 10 cm inside to 10 cm outside:
+  // - fine rings (5 mm apart): one piece inside and one outside, each many vertices;
+  // - coarse rings (4 cm apart, longer than two reaches): every far vertex is its own piece;
+  // - a tube wholly outside and one wholly deep inside.
+  const Mesh body = make_uv_sphere(40, 80, 0.20f);
+  const ProximityIndex index(body.positions, body.triangles);
+  const EdgeCrossingIndex crossings(body.positions, body.triangles);
+  // `direction` −1 numbers the vertices from the outer end: a piece's ray is cast from its
+  // first vertex, so both orders are checked.
+  auto tube_along_x = [](int rings, float from, float length, float lift, float direction = 1.0f) {
+    Mesh t = make_tube(rings, 12, 0.015f, length);
+    for (std::size_t v = 0; v < t.vertex_count(); ++v) {
+      const float y = t.positions[3 * v + 1];
+      t.positions[3 * v + 1] = t.positions[3 * v] + lift;
+      t.positions[3 * v] = direction * y + from;
+    }
+    return t;
+  };
+  struct Case {
+    const char* name;
+    Mesh tube;
+  };
+  const Case cases[] = {{"fine, across", tube_along_x(41, 0.10f, 0.20f, 0.0f)},
+                        {"coarse, across", tube_along_x(6, 0.10f, 0.20f, 0.03f)},
+                        {"fine, across from outside", tube_along_x(41, 0.30f, 0.20f, 0.0f, -1.0f)},
+                        {"coarse, across from outside", tube_along_x(6, 0.30f, 0.20f, 0.03f, -1.0f)},
+                        {"far outside", tube_along_x(11, 0.23f, 0.05f, -0.03f)},
+                        {"deep inside", tube_along_x(11, 0.02f, 0.05f, 0.01f)}};
+  for (const Case& c : cases) {
+    for (double clearance : {0.0, 0.002, 0.006}) {
+      const PenetrationStats plain = measure_penetration(c.tube.positions, index, clearance);
+      const PenetrationStats spread = measure_penetration(c.tube, index, crossings, clearance);
+      EXPECT_EQ(spread.inside_count, plain.inside_count) << c.name << ", κ " << clearance;
+      EXPECT_EQ(spread.near_count, plain.near_count) << c.name << ", κ " << clearance;
+      EXPECT_DOUBLE_EQ(spread.max_depth, plain.max_depth) << c.name << ", κ " << clearance;
+      EXPECT_DOUBLE_EQ(spread.mean_depth, plain.mean_depth) << c.name << ", κ " << clearance;
+    }
+  }
+  // The oracle itself: the tube across has vertices both deeper and farther than a reach.
+  const PenetrationStats across = measure_penetration(cases[0].tube.positions, index, 0.002);
+  EXPECT_GT(across.max_depth, 0.09);
+  EXPECT_GT(across.inside_count, cases[0].tube.vertex_count() / 3);
+  EXPECT_LT(across.inside_count, 2 * cases[0].tube.vertex_count() / 3);
+  EXPECT_EQ(measure_penetration(cases[4].tube.positions, index, 0.002).inside_count, 0u);
+  EXPECT_EQ(measure_penetration(cases[5].tube.positions, index, 0.002).inside_count, cases[5].tube.vertex_count());
+  // Removal takes every vertex of the tube across out, the deep ones included.
+  Mesh tube = cases[0].tube;
+  const PenetrationReport r = remove_penetration(tube, index, crossings);
+  EXPECT_EQ(r.before.inside_count, across.inside_count);
+  EXPECT_EQ(r.after.inside_count, 0u);
+  EXPECT_EQ(measure_penetration(tube.positions, index, 0.0).inside_count, 0u);
+}
+
 TEST(Penetration, DirectRoundsClearChordsThatDipIntoTheBody) {
   // A coarse sphere (edges ~10 cm) wrapped 0.3 mm outside a fine one of radius 0.2 m: every
   // vertex is outside, but each edge's chord dips up to ~7 mm into the body (a coarse cuff
