@@ -16,6 +16,23 @@
  * edge (≥ 0.1 mm) yet far above the float noise of coincident points. */
 #define VFIT_SPRING_MIN_LENGTH 1e-9f
 
+/* The scalar t of the spring force f_i = t·d of vfit_spring_force_relative below, from the
+ * components of d = x_j − x_i (m) and dv = v_j − v_i (m/s), on operands of type T: float, or
+ * in OpenCL C a float vector (cloth.cl's kernel for CPU devices evaluates 16 springs at once
+ * with it). ONE_IF(c) turns the comparison c into 1 or 0 of type T. Written once, here, so
+ * every backend evaluates the same expressions in the same order. All arguments are names. */
+#define VFIT_SPRING_FORCE_SCALE(T, ONE_IF, dx, dy, dz, dvx, dvy, dvz, rest_length, stiffness, damping, t_out) \
+  do {                                                                                                     \
+    T vfit_l_ = sqrt(dx * dx + dy * dy + dz * dz);                                                        \
+    T vfit_m_ = ONE_IF(vfit_l_ > VFIT_SPRING_MIN_LENGTH);                                                 \
+    T vfit_safe_l_ = vfit_m_ * vfit_l_ + (1.0f - vfit_m_);                                                \
+    T vfit_w_ = 1.0f / vfit_safe_l_;                                                                      \
+    t_out = (stiffness * (vfit_safe_l_ - rest_length) + damping * (dvx * dx + dvy * dy + dvz * dz) * vfit_w_) * \
+            vfit_w_ * vfit_m_;                                                                            \
+  } while (0)
+
+#define VFIT_ONE_IF_FLOAT(c) ((float)(c))
+
 /* Force on particle i from the spring joining it to particle j, given their relative
  * position d = x_j − x_i (m) and velocity dv = v_j − v_i (m/s):
  *   f_i = (k·(l − L) + c·(dv·u))·u,   u = d/l,  l = |d|,
@@ -27,11 +44,9 @@
  * vectorise); safe_l = 1 keeps its t finite, so its force is ±0. NaN inputs give NaN. */
 VFIT_INLINE vfit_vec3 vfit_spring_force_relative(vfit_vec3 d, vfit_vec3 dv, float rest_length, float stiffness,
                                                  float damping) {
-  float l = sqrt(vfit_v3_dot(d, d));
-  float m = (float)(l > VFIT_SPRING_MIN_LENGTH);
-  float safe_l = m * l + (1.0f - m);
-  float w = 1.0f / safe_l;
-  float t = (stiffness * (safe_l - rest_length) + damping * vfit_v3_dot(dv, d) * w) * w * m;
+  float t;
+  VFIT_SPRING_FORCE_SCALE(float, VFIT_ONE_IF_FLOAT, d.x, d.y, d.z, dv.x, dv.y, dv.z, rest_length, stiffness, damping,
+                          t);
   vfit_vec3 f;
   f.x = t * d.x;
   f.y = t * d.y;
@@ -48,18 +63,16 @@ VFIT_INLINE vfit_vec3 vfit_spring_force(vfit_vec3 xi, vfit_vec3 xj, vfit_vec3 vi
   return vfit_spring_force_relative(vfit_v3_sub(xj, xi), vfit_v3_sub(vj, vi), rest_length, stiffness, damping);
 }
 
-/* Acceleration of a particle (eq. 22–23): a = f_springs/m + g − μ·v, or zero when pinned
- * (inv_mass == 0). gravity in m/s², global_damping μ in 1/s. */
+/* Acceleration of a particle (eq. 22–23): a = f_springs/m + g − μ·v, or +0 when pinned
+ * (inv_mass == 0). gravity in m/s², global_damping μ in 1/s. Selects, not a branch, so a loop
+ * over particles vectorises. */
 VFIT_INLINE vfit_vec3 vfit_particle_acceleration(vfit_vec3 spring_force, vfit_vec3 v, float inv_mass,
                                                  vfit_vec3 gravity, float global_damping) {
+  int pinned = inv_mass == 0.0f;
   vfit_vec3 a;
-  a.x = 0.0f;
-  a.y = 0.0f;
-  a.z = 0.0f;
-  if (inv_mass == 0.0f) return a;
-  a.x = spring_force.x * inv_mass + gravity.x - global_damping * v.x;
-  a.y = spring_force.y * inv_mass + gravity.y - global_damping * v.y;
-  a.z = spring_force.z * inv_mass + gravity.z - global_damping * v.z;
+  a.x = pinned ? 0.0f : spring_force.x * inv_mass + gravity.x - global_damping * v.x;
+  a.y = pinned ? 0.0f : spring_force.y * inv_mass + gravity.y - global_damping * v.y;
+  a.z = pinned ? 0.0f : spring_force.z * inv_mass + gravity.z - global_damping * v.z;
   return a;
 }
 

@@ -24,35 +24,92 @@ struct StagePass {
   float* next_v;
 };
 
+// One slice's states in structure of arrays: component c of lane l at [c][l].
+struct SliceVectors {
+  alignas(64) float c[3][CLOTH_SLICE_WIDTH];
+};
+
+// out[c][l] = p[3·(first + l) + c] for the lanes l < count.
+VFIT_CLOTH_INLINE void load_slice(const float* p, std::size_t first, std::size_t count, SliceVectors& out) {
+  const float* s = p + 3 * first;
+  for (std::size_t l = 0; l < count; ++l)
+    for (std::size_t c = 0; c < 3; ++c)
+      out.c[c][l] = s[3 * l + c];
+}
+
+// p[3·(first + l) + c] = in[c][l] for the lanes l < count.
+VFIT_CLOTH_INLINE void store_slice(float* p, std::size_t first, std::size_t count, const SliceVectors& in) {
+  float* d = p + 3 * first;
+  for (std::size_t l = 0; l < count; ++l)
+    for (std::size_t c = 0; c < 3; ++c)
+      d[3 * l + c] = in.c[c][l];
+}
+
 // One stage pass over the slices [begin, end) of the particles: the spring gather fused with
 // the stage update. Stage 0 does not read the running sums (it starts them) and stage 3 does not
-// write them (it writes the step's result): 48 bytes per particle and step less to move.
+// write them (it writes the step's result): 48 bytes per particle and step less to move. The
+// stage is a template argument so each pass's update folds to its own arithmetic. A slice's
+// updates read its rows into structure-of-arrays scratch, update lane by lane there and write
+// the rows back, array by array: loops over the 16 lanes that vectorise (the outputs may alias
+// the step start, which a loop reading one array and writing another could not rule out), with
+// the expressions of cloth_math.h per lane, so the same bits as a particle-by-particle loop.
+template <int STAGE>
 VFIT_CLOTH_MULTIVERSION void stage_range(const StagePass& p, const SpringAdjacency& adj,
-                                         const ClothParticles& particles, float h, int stage, std::size_t begin,
+                                         const ClothParticles& particles, float h, std::size_t begin,
                                          std::size_t end) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
   const std::size_t n = adj.particle_count();
   const vfit_vec3 g{particles.gravity[0], particles.gravity[1], particles.gravity[2]};
-  const float* inv_mass = particles.inverse_masses.data();
-  const vfit_vec3 zero{0.0f, 0.0f, 0.0f};
+  const float mu = particles.global_damping;
   SliceForces forces;
+  SliceVectors vs, x0, v0, acc_x, acc_v, next_x, next_v;
+  alignas(64) float inv_mass[W];
   for (std::size_t slice = begin; slice < end; ++slice) {
     slice_spring_forces(p.xs, p.vs, adj, slice, forces);
-    for (std::size_t l = 0, i = W * slice; l < W && i < n; ++l, ++i) {
-      const vfit_vec3 vs = load3(p.vs, i);
-      const vfit_vec3 a = vfit_particle_acceleration(vfit_vec3{forces.f[0][l], forces.f[1][l], forces.f[2][l]}, vs,
-                                                     inv_mass[i], g, particles.global_damping);
-      vfit_vec3 acc_x = stage == 0 ? zero : load3(p.acc_x, i), acc_v = stage == 0 ? zero : load3(p.acc_v, i), nx, nv;
-      // Pinned particles move with their given velocity in no stage: hold them at x0.
-      const vfit_vec3 slope_x = inv_mass[i] == 0.0f ? zero : vs;
-      vfit_rk4_stage_update(load3(p.x0, i), load3(p.v0, i), slope_x, a, h, stage, &acc_x, &acc_v, &nx, &nv);
-      if (stage != 3) {
-        store3(p.acc_x, i, acc_x);
-        store3(p.acc_v, i, acc_v);
-      }
-      store3(p.next_x, i, nx);
-      store3(p.next_v, i, nv);
+    const std::size_t first = W * slice, count = std::min(W, n - first);
+    std::copy_n(particles.inverse_masses.data() + first, count, inv_mass);
+    load_slice(p.vs, first, count, vs);
+    load_slice(p.x0, first, count, x0);
+    load_slice(p.v0, first, count, v0);
+    if (STAGE != 0) {
+      load_slice(p.acc_x, first, count, acc_x);
+      load_slice(p.acc_v, first, count, acc_v);
     }
+    for (std::size_t l = 0; l < count; ++l) {
+      const vfit_vec3 vsl{vs.c[0][l], vs.c[1][l], vs.c[2][l]};
+      const float im = inv_mass[l];
+      const vfit_vec3 a =
+          vfit_particle_acceleration(vfit_vec3{forces.f[0][l], forces.f[1][l], forces.f[2][l]}, vsl, im, g, mu);
+      vfit_vec3 ax{0.0f, 0.0f, 0.0f}, av{0.0f, 0.0f, 0.0f}, nx, nv;
+      if (STAGE != 0) {
+        ax = vfit_vec3{acc_x.c[0][l], acc_x.c[1][l], acc_x.c[2][l]};
+        av = vfit_vec3{acc_v.c[0][l], acc_v.c[1][l], acc_v.c[2][l]};
+      }
+      // Pinned particles move with their given velocity in no stage: hold them at x0.
+      const bool pinned = im == 0.0f;
+      const vfit_vec3 slope_x{pinned ? 0.0f : vsl.x, pinned ? 0.0f : vsl.y, pinned ? 0.0f : vsl.z};
+      vfit_rk4_stage_update(vfit_vec3{x0.c[0][l], x0.c[1][l], x0.c[2][l]},
+                            vfit_vec3{v0.c[0][l], v0.c[1][l], v0.c[2][l]}, slope_x, a, h, STAGE, &ax, &av, &nx,
+                            &nv);
+      acc_x.c[0][l] = ax.x;
+      acc_x.c[1][l] = ax.y;
+      acc_x.c[2][l] = ax.z;
+      acc_v.c[0][l] = av.x;
+      acc_v.c[1][l] = av.y;
+      acc_v.c[2][l] = av.z;
+      next_x.c[0][l] = nx.x;
+      next_x.c[1][l] = nx.y;
+      next_x.c[2][l] = nx.z;
+      next_v.c[0][l] = nv.x;
+      next_v.c[1][l] = nv.y;
+      next_v.c[2][l] = nv.z;
+    }
+    if (STAGE != 3) {
+      store_slice(p.acc_x, first, count, acc_x);
+      store_slice(p.acc_v, first, count, acc_v);
+    }
+    store_slice(p.next_x, first, count, next_x);
+    store_slice(p.next_v, first, count, next_v);
   }
 }
 
@@ -74,7 +131,14 @@ void rk4_step(std::span<float> positions, std::span<float> velocities, const Spr
     float* write_x = last ? x : w.stage_x[stage % 2].data();
     float* write_v = last ? v : w.stage_v[stage % 2].data();
     const StagePass pass{read_x, read_v, x, v, w.acc_x.data(), w.acc_v.data(), write_x, write_v};
-    run([&](std::size_t b, std::size_t e) { stage_range(pass, adjacency, particles, h, stage, b, e); });
+    run([&](std::size_t b, std::size_t e) {
+      switch (stage) {
+      case 0: stage_range<0>(pass, adjacency, particles, h, b, e); break;
+      case 1: stage_range<1>(pass, adjacency, particles, h, b, e); break;
+      case 2: stage_range<2>(pass, adjacency, particles, h, b, e); break;
+      default: stage_range<3>(pass, adjacency, particles, h, b, e); break;
+      }
+    });
     read_x = write_x;
     read_v = write_v;
   }

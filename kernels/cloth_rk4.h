@@ -11,17 +11,20 @@
 /// gathers the 16 lanes' neighbour states and evaluates their springs in one branch-free
 /// vectorised step (one square root and one division per spring end,
 /// vfit_spring_force_relative), adding each to its lane's running sum, so every particle sums
-/// its springs in adjacency order with no scratch and no per-row loop; then each particle takes
-/// its stage update. The pass is compiled for AVX-512, AVX2 and baseline x86-64 and picked at
-/// load time, all without FMA contraction, so every instruction set gives the same bits as the
+/// its springs in adjacency order with no scratch and no per-row loop; a column whose
+/// neighbours are 16 consecutive particles (SpringAdjacency::slice_consecutive_columns) loads
+/// their states as vectors instead of lane by lane. Then the slice's 16 stage updates run as
+/// vectors too. The pass is compiled for AVX-512, AVX2 and baseline x86-64 and picked at load
+/// time, all without FMA contraction, so every instruction set gives the same bits as the
 /// scalar oracle (spring_forces_scatter). On one core of the benchmark machine (AMD EPYC,
-/// Zen 5) this takes 1.6–1.7× less time than the former row blocks (a scalar copy of every
-/// entry's neighbour state into scratch, then the spring loop, then a scalar sum per row):
-/// 17.1 → 10.1 ms of CPU time per step at 10^5 particles, 162 → 97 ms at 10^6, about 25 ns
-/// per particle-stage (bench/kernels/cloth_bench.cpp, BM_rk4_serial, the best of repeated runs
-/// of both builds on the shared machine). The neighbour loads are the lanes' scalar loads:
-/// GCC's generic tuning emulates the gathers, and the gather instruction
-/// (-mtune-ctrl=use_gather) made the pass twice as slow on that machine.
+/// Zen 5), CPU time per step of BM_rk4_serial (bench/kernels/cloth_bench.cpp) on its grids,
+/// numbered row by row (98 % of the 10^6 grid's columns consecutive): 10^6 particles
+/// 98–104 → 63–69 ms, about 16 ns per particle-stage (with scalar loads of every neighbour and
+/// a scalar stage update; before the sliced rows, 162 ms); 10^4 (in cache) 0.46–0.47 ms. A
+/// garment numbered otherwise gains nothing from the vector loads (the catalogue tee has no
+/// consecutive column). The other neighbour loads are the lanes' scalar loads: GCC's generic
+/// tuning emulates the gathers, and the gather instruction (-mtune-ctrl=use_gather) made the
+/// pass twice as slow on that machine.
 ///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled

@@ -83,6 +83,19 @@ void build_slices(SpringAdjacency& adj) {
         }
       }
     }
+  adj.slice_consecutive_columns.assign(slices, 0u);
+  for (std::size_t s = 0; s < slices; ++s) {
+    const auto first = static_cast<std::size_t>(adj.slice_offsets[s]);
+    const auto end = static_cast<std::size_t>(adj.slice_offsets[s + 1]);
+    const std::size_t width = std::min<std::size_t>(32, (end - first) / W);
+    for (std::size_t k = 0; k < width; ++k) {
+      const std::int32_t* column = adj.slice_neighbor_offsets.data() + first + W * k;
+      bool consecutive = true;
+      for (std::size_t l = 1; l < W; ++l)
+        consecutive = consecutive && column[l] == column[0] + 3 * static_cast<std::int32_t>(l);
+      if (consecutive) adj.slice_consecutive_columns[s] |= std::uint32_t{1} << k;
+    }
+  }
 }
 } // namespace
 

@@ -9,13 +9,16 @@
 // assumed cached (they are rows of the same arrays a few rows away) and write-allocate not
 // counted (as STREAM does not). Per particle and stage: its spring row (16 B per spring end:
 // neighbour, rest length, k, c, all 32-bit; the rows are read as sliced rows, 16 particles a
-// slice with one 4 B offset, and the null slots padding a slice to its longest row are not
-// counted: `null_slots` reports them as a fraction of the spring ends), its stage state (24 B),
+// slice with one 4 B offset and one 4 B mask of its consecutive columns, and the null slots
+// padding a slice to its longest row are not counted: `null_slots` reports them as a fraction
+// of the spring ends; `consecutive_columns` is the fraction of columns whose 16 neighbours are
+// consecutive particles, loaded as vectors: SpringAdjacency::slice_consecutive_columns), its
+// stage state (24 B),
 // its inverse mass (4 B), the next state written (24 B); per particle and step besides: the
 // step start in stages 1–3 (24 B each; at stage 0 it is the stage state) and the running sums
 // of the slopes (24 B written at stage 0, read and written at stages 1 and 2, read at stage 3).
-// (Until the sliced rows, a particle's row was a CSR row with a 4 B offset of its own; the
-// OpenCL kernels still read CSR rows, so their model leaves out 3.75 B per particle and stage.)
+// (Until the sliced rows, a particle's row was a CSR row with a 4 B offset of its own. The
+// OpenCL kernels read the same sliced rows; the per-particle kernel of a GPU reads no masks.)
 //
 // Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
 // time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
@@ -35,6 +38,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -92,7 +96,7 @@ const Cloth& cloth(std::int64_t particles) {
 
 double model_bytes_per_step(const Cloth& c) {
   const double n = double(c.adjacency.particle_count());
-  const double slice_offset = 4.0 / double(vfit::CLOTH_SLICE_WIDTH); // one 4 B offset per slice
+  const double slice_offset = 8.0 / double(vfit::CLOTH_SLICE_WIDTH); // a 4 B offset and a 4 B mask per slice
   const double per_stage = n * (slice_offset + 24 + 4 + 24) + 2.0 * double(c.springs) * 16.0;
   return 4.0 * per_stage + n * (3 * 24 + (24 + 48 + 48 + 24));
 }
@@ -130,6 +134,12 @@ void report(benchmark::State& state, const Cloth& c) {
   state.counters["triad_GBps"] = triad_gbps();
   state.counters["null_slots"] =
       double(c.adjacency.slice_neighbor_offsets.size()) / double(c.adjacency.neighbors.size()) - 1.0;
+  std::size_t columns = 0, consecutive = 0;
+  for (std::size_t k = 0; k < c.adjacency.slice_count(); ++k) {
+    columns += std::size_t(c.adjacency.slice_offsets[k + 1] - c.adjacency.slice_offsets[k]) / vfit::CLOTH_SLICE_WIDTH;
+    consecutive += std::size_t(std::popcount(c.adjacency.slice_consecutive_columns[k]));
+  }
+  state.counters["consecutive_columns"] = double(consecutive) / double(std::max<std::size_t>(1, columns));
   state.counters["bw_fraction"] =
       benchmark::Counter(steps * model_bytes_per_step(c) / 1e9 / triad_gbps(), benchmark::Counter::kIsRate);
 }
@@ -294,6 +304,11 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
       vfit::build_cloth_springs(d.tee.position_view(), d.tee.triangle_view()), d.tee.vertex_count());
   state.counters["null_slots"] =
       double(adjacency.slice_neighbor_offsets.size()) / double(adjacency.neighbors.size()) - 1.0;
+  std::size_t consecutive = 0;
+  for (std::uint32_t mask : adjacency.slice_consecutive_columns)
+    consecutive += std::size_t(std::popcount(mask));
+  const std::size_t slots = std::max<std::size_t>(1, adjacency.slice_neighbor_offsets.size());
+  state.counters["consecutive_columns"] = double(consecutive * vfit::CLOTH_SLICE_WIDTH) / double(slots);
 }
 
 void BM_drape_tee_to_rest(benchmark::State& state) {

@@ -13,15 +13,26 @@ namespace vfit {
 struct OpenClClothRk4::Impl {
   OpenClContext::Impl* cl = nullptr;
   std::size_t count = 0;
-  cl::Buffer offsets, neighbors, rest, stiffness, damping, inverse_masses;
+  cl::Buffer slice_offsets, neighbor_offsets, rest, stiffness, damping, consecutive_columns, inverse_masses;
   cl::Buffer x, v, acc_x, acc_v, stage_x[2], stage_v[2], forces;
   cl::Kernel stage_kernel, forces_kernel;
+  // A CPU device runs the stages one work-item per slice of 16 particles in float16
+  // (cloth.cl's cloth_rk4_stage_slices, in groups of SLICES_PER_GROUP); any other device one
+  // work-item per particle in groups of LOCAL_SIZE.
+  bool per_slice = false;
   ClothParticles particles; // gravity and damping (the masses live on the device)
 };
 
 namespace {
 constexpr std::size_t LOCAL_SIZE = 64;
-std::size_t round_up(std::size_t n) { return (n + LOCAL_SIZE - 1) / LOCAL_SIZE * LOCAL_SIZE; }
+static_assert(LOCAL_SIZE % CLOTH_SLICE_WIDTH == 0, "a work-group covers whole slices");
+static_assert(CLOTH_SLICE_WIDTH == 16, "cloth_rk4_stage_slices runs 16 lanes");
+// Slices per work-group of cloth_rk4_stage_slices: 128 particles, as few groups as the
+// per-particle kernel's groups of 64 give twice over (PoCL's cost per group is small).
+constexpr std::size_t SLICES_PER_GROUP = 8;
+std::size_t round_up(std::size_t n, std::size_t multiple = LOCAL_SIZE) {
+  return (n + multiple - 1) / multiple * multiple;
+}
 } // namespace
 
 OpenClClothRk4::OpenClClothRk4(OpenClContext& context, const SpringAdjacency& adjacency,
@@ -42,18 +53,20 @@ OpenClClothRk4::OpenClClothRk4(OpenClContext& context, const SpringAdjacency& ad
       if (!v.empty()) m.cl->queue.enqueueWriteBuffer(b, CL_TRUE, 0, v.size() * sizeof(T), v.data());
       return b;
     };
-    m.offsets = upload(adjacency.offsets);
-    m.neighbors = upload(adjacency.neighbors);
-    m.rest = upload(adjacency.rest_lengths);
-    m.stiffness = upload(adjacency.stiffness);
-    m.damping = upload(adjacency.damping);
+    m.slice_offsets = upload(adjacency.slice_offsets);
+    m.neighbor_offsets = upload(adjacency.slice_neighbor_offsets);
+    m.rest = upload(adjacency.slice_rest_lengths);
+    m.stiffness = upload(adjacency.slice_stiffness);
+    m.damping = upload(adjacency.slice_damping);
+    m.consecutive_columns = upload(adjacency.slice_consecutive_columns);
     m.inverse_masses = upload(particles.inverse_masses);
     const std::size_t bytes = std::max<std::size_t>(1, 3 * m.count) * sizeof(float);
     for (cl::Buffer* b :
          {&m.x, &m.v, &m.acc_x, &m.acc_v, &m.stage_x[0], &m.stage_x[1], &m.stage_v[0], &m.stage_v[1], &m.forces})
       *b = cl::Buffer(ctx, CL_MEM_READ_WRITE, bytes);
     cl::Program& prog = m.cl->program("cloth", vfit_cl_cloth);
-    m.stage_kernel = cl::Kernel(prog, "cloth_rk4_stage");
+    m.per_slice = m.cl->info.device_type == "cpu";
+    m.stage_kernel = cl::Kernel(prog, m.per_slice ? "cloth_rk4_stage_slices" : "cloth_rk4_stage");
     m.forces_kernel = cl::Kernel(prog, "cloth_spring_forces");
   } catch (const cl::Error& e) {
     throw_opencl_error(e, "setting up the cloth RK4");
@@ -80,8 +93,8 @@ void OpenClClothRk4::step(float h, int count) {
     cl::Kernel& k = m.stage_kernel;
     k.setArg(4, m.acc_x);
     k.setArg(5, m.acc_v);
-    k.setArg(8, m.offsets);
-    k.setArg(9, m.neighbors);
+    k.setArg(8, m.slice_offsets);
+    k.setArg(9, m.neighbor_offsets);
     k.setArg(10, m.rest);
     k.setArg(11, m.stiffness);
     k.setArg(12, m.damping);
@@ -91,7 +104,14 @@ void OpenClClothRk4::step(float h, int count) {
     k.setArg(16, m.particles.gravity[2]);
     k.setArg(17, m.particles.global_damping);
     k.setArg(18, h);
-    k.setArg(20, static_cast<cl_int>(m.count));
+    if (m.per_slice)
+      k.setArg(20, m.consecutive_columns);
+    else
+      k.setArg(20, static_cast<cl_int>(CLOTH_SLICE_WIDTH));
+    k.setArg(21, static_cast<cl_int>(m.count));
+    const std::size_t slices = (m.count + CLOTH_SLICE_WIDTH - 1) / CLOTH_SLICE_WIDTH;
+    const cl::NDRange global(m.per_slice ? round_up(slices, SLICES_PER_GROUP) : round_up(m.count));
+    const cl::NDRange local(m.per_slice ? SLICES_PER_GROUP : LOCAL_SIZE);
     for (int s = 0; s < count; ++s) {
       // The same buffer rotation as the C++ driver: x → A → B → A → x.
       const cl::Buffer* read_x = &m.x;
@@ -106,7 +126,7 @@ void OpenClClothRk4::step(float h, int count) {
         k.setArg(6, *write_x);
         k.setArg(7, *write_v);
         k.setArg(19, static_cast<cl_int>(stage));
-        m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(m.count)), cl::NDRange(LOCAL_SIZE));
+        m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, global, local);
         read_x = write_x;
         read_v = write_v;
       }
@@ -137,13 +157,14 @@ void OpenClClothRk4::spring_forces(std::vector<float>& forces) {
     cl::Kernel& k = m.forces_kernel;
     k.setArg(0, m.x);
     k.setArg(1, m.v);
-    k.setArg(2, m.offsets);
-    k.setArg(3, m.neighbors);
+    k.setArg(2, m.slice_offsets);
+    k.setArg(3, m.neighbor_offsets);
     k.setArg(4, m.rest);
     k.setArg(5, m.stiffness);
     k.setArg(6, m.damping);
     k.setArg(7, m.forces);
-    k.setArg(8, static_cast<cl_int>(m.count));
+    k.setArg(8, static_cast<cl_int>(CLOTH_SLICE_WIDTH));
+    k.setArg(9, static_cast<cl_int>(m.count));
     m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(m.count)), cl::NDRange(LOCAL_SIZE));
     m.cl->queue.enqueueReadBuffer(m.forces, CL_TRUE, 0, 3 * m.count * sizeof(float), forces.data());
   } catch (const cl::Error& e) {

@@ -1,6 +1,7 @@
 #include "kernels/cloth_springs.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -227,8 +228,52 @@ TEST(ClothSprings, SlicedRowsHoldEachCsrRowInItsLane) {
       }
     }
     EXPECT_EQ(std::size_t(longest), (end - first) / W) << "slice " << s << " is as wide as its longest row";
+    for (std::size_t k = 0; first + W * k < end; ++k) {
+      bool consecutive = k < 32;
+      for (std::size_t l = 1; l < W; ++l)
+        consecutive = consecutive && adj.slice_neighbor_offsets[first + W * k + l] ==
+                                         adj.slice_neighbor_offsets[first + W * k] + 3 * std::int32_t(l);
+      EXPECT_EQ((adj.slice_consecutive_columns[s] >> k & 1u) != 0, consecutive) << "slice " << s << ", column " << k;
+    }
   }
   EXPECT_EQ(real, adj.neighbors.size());
+}
+
+// A column whose 16 neighbours are consecutive particles is loaded as vectors
+// (SpringAdjacency::slice_consecutive_columns), any other by a gather: the same values, so the
+// forces and RK4 steps with the marks cleared (every column gathered) have the same bits. The
+// 120 × 120 grid, numbered row by row, has both kinds.
+TEST(ClothSprings, ConsecutiveColumnsGiveTheGatherBits) {
+  const Fixture f = jittered_cloth(120, 9u, true);
+  const SpringAdjacency adj = build_spring_adjacency(f.springs, f.mesh.vertex_count());
+  std::size_t marked = 0, columns = 0;
+  for (std::size_t s = 0; s < adj.slice_count(); ++s) {
+    marked += std::size_t(std::popcount(adj.slice_consecutive_columns[s]));
+    columns += std::size_t(adj.slice_offsets[s + 1] - adj.slice_offsets[s]) / CLOTH_SLICE_WIDTH;
+  }
+  ASSERT_GT(marked, columns / 2);
+  ASSERT_LT(marked, columns);
+  SpringAdjacency gathered = adj;
+  std::fill(gathered.slice_consecutive_columns.begin(), gathered.slice_consecutive_columns.end(), 0u);
+  std::vector<float> fast, slow, scatter;
+  spring_forces_serial(f.x, f.v, adj, fast);
+  spring_forces_serial(f.x, f.v, gathered, slow);
+  spring_forces_scatter(f.x, f.v, f.springs, scatter);
+  EXPECT_TRUE(same_bits(fast, slow));
+  EXPECT_TRUE(same_bits(fast, scatter));
+
+  ClothParticles particles;
+  particles.inverse_masses.assign(f.mesh.vertex_count(), 1.0f / 2e-3f);
+  particles.inverse_masses[0] = 0.0f;
+  particles.global_damping = 0.3f;
+  std::vector<float> xa = f.x, va = f.v, xb = f.x, vb = f.v;
+  Rk4Workspace wa, wb;
+  for (int step = 0; step < 3; ++step) {
+    rk4_step_tbb(xa, va, adj, particles, 1e-4f, wa);
+    rk4_step_serial(xb, vb, gathered, particles, 1e-4f, wb);
+  }
+  EXPECT_TRUE(same_bits(xa, xb));
+  EXPECT_TRUE(same_bits(va, vb));
 }
 
 TEST(ClothSprings, TbbEqualsSerialBitForBit) {

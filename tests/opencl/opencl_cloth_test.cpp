@@ -76,11 +76,20 @@ TEST(OpenClCloth, SpringForcesAgreeWithTheSerialGather) {
 // the serial reference agree to 1e-5 m, about 10 ulps of a coordinate near 1 m: per-operation
 // differences of an ulp in sqrt/division are damped, not amplified, by a stable integration at
 // this step (the positions move by ~2 mm in that time, so this is ~0.5 % of the motion).
+// The grid's slices have both kinds of columns (SpringAdjacency::slice_consecutive_columns),
+// so a CPU device's per-slice kernel runs both its vector loads and its gathers here.
 TEST(OpenClCloth, Rk4StepsAgreeWithTheSerialReferenceAfterNSteps) {
   REQUIRE_OPENCL_DEVICE();
   Cloth c = make_cloth();
   const float h = 1e-4f;
   ASSERT_LT(h, rk4_stable_step(c.adjacency, c.particles).max_step);
+  std::size_t columns = 0, consecutive = 0;
+  for (std::size_t s = 0; s < c.adjacency.slice_count(); ++s) {
+    columns += std::size_t(c.adjacency.slice_offsets[s + 1] - c.adjacency.slice_offsets[s]) / CLOTH_SLICE_WIDTH;
+    consecutive += std::size_t(std::popcount(c.adjacency.slice_consecutive_columns[s]));
+  }
+  ASSERT_GT(consecutive, 0u);
+  ASSERT_LT(consecutive, columns);
   OpenClContext ctx;
   OpenClClothRk4 device(ctx, c.adjacency, c.particles);
   device.set_state(c.x, c.v);

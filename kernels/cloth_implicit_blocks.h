@@ -1,0 +1,82 @@
+#pragma once
+// Private to kernels/cloth_implicit*.cpp: how ImplicitSystem stores its 3×3 blocks, and the
+// fixed-chunk driver every pass of the implicit step runs through (the assembly in
+// cloth_implicit_assembly.cpp, the solve in cloth_implicit.cpp). Not a public header.
+
+#include <algorithm>
+#include <cstddef>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
+
+#include "cloth_gather.h"
+#include "cloth_implicit.h"
+#include "parallel.h"
+
+namespace vfit::cloth_detail {
+
+// Block i of ImplicitSystem::diagonal: six floats from 6·i (xx, xy, xz, yy, yz, zz).
+inline vfit_sym3 load_sym(const float* p, std::size_t i) {
+  const float* s = p + 6 * i;
+  return vfit_sym3{s[0], s[1], s[2], s[3], s[4], s[5]};
+}
+
+inline void store_sym(float* p, std::size_t i, vfit_sym3 s) {
+  float* d = p + 6 * i;
+  d[0] = s.xx;
+  d[1] = s.xy;
+  d[2] = s.xz;
+  d[3] = s.yy;
+  d[4] = s.yz;
+  d[5] = s.zz;
+}
+
+// Block i of ImplicitSystem::preconditioner, stored by slices: component c of particle i at
+// 6·W·(i / W) + W·c + i % W.
+inline std::size_t sliced_sym_index(std::size_t i) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  return 6 * (i - i % W) + i % W;
+}
+
+inline vfit_sym3 load_sliced_sym(const float* p, std::size_t i) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const float* s = p + sliced_sym_index(i);
+  return vfit_sym3{s[0], s[W], s[2 * W], s[3 * W], s[4 * W], s[5 * W]};
+}
+
+inline void store_sliced_sym(float* p, std::size_t i, vfit_sym3 s) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  float* d = p + sliced_sym_index(i);
+  d[0] = s.xx;
+  d[W] = s.xy;
+  d[2 * W] = s.xz;
+  d[3 * W] = s.yy;
+  d[4 * W] = s.yz;
+  d[5 * W] = s.zz;
+}
+
+// Fixed chunks of the implicit passes: the count covering n particles.
+inline std::size_t chunk_count(std::size_t n) { return (n + CLOTH_IMPLICIT_CHUNK - 1) / CLOTH_IMPLICIT_CHUNK; }
+
+// Runs kernel(chunk, begin, end) over the fixed chunks of [0, n): in order, or in parallel.
+// With `affinity`, the passes that share it hand each chunk to the thread that ran it last,
+// where it can (the CG's passes: a thread's part of the system then stays in its own cache
+// from pass to pass, as far as it fits).
+template <typename Kernel>
+void run_chunks(std::size_t n, bool parallel, const Kernel& kernel, tbb::affinity_partitioner* affinity = nullptr) {
+  const std::size_t chunks = chunk_count(n);
+  const auto body = [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c)
+      kernel(c, c * CLOTH_IMPLICIT_CHUNK, std::min(n, (c + 1) * CLOTH_IMPLICIT_CHUNK));
+  };
+  if (!parallel)
+    body(0, chunks);
+  else if (affinity == nullptr)
+    parallel_for_range(chunks, 1, body);
+  else
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, chunks, 1),
+        [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); }, *affinity);
+}
+} // namespace vfit::cloth_detail
