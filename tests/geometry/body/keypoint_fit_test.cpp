@@ -498,11 +498,24 @@ TEST(LimbLift, PutsJointsOnTheirRaysAndOneChoiceIsTheTruth) {
 // Poses never looked at while the priors were chosen: arms, legs, spine and view drawn at random
 // (fixed seed) over everyday ranges — arms from hanging to overhead, swung 35° back to 75°
 // forward, elbows and knees bent up to ~100°, the body turned ±115° and tipped −11°…23°. A guard
-// on the whole, not on each: some draws are monocularly ambiguous (a bent arm seen end-on).
-// Bars at ~1.3 × the values measured when the priors were last changed (median 51 mm, 6 of 16
-// within 30 mm); every fit reprojects within the 5 px.
-TEST(KeypointFit, HeldOutRandomPoses) {
-  std::mt19937 rng(2026);
+// on the whole, not on each: some draws are monocularly ambiguous (a bent arm seen end-on, a limb
+// whose keypoints were dropped). Two draws: 2026, the set checked when the priors were last
+// changed, and 7919, added later as a second held-out check of every prior or search change (a
+// change that helps the 23 named poses but not both draws is not kept). Bars at ~1.3 × the
+// values measured (2026: median 51 mm, 6 of 16 within 30 mm; 7919: median 65 mm, 3 of 16);
+// every fit reprojects within the 5 px.
+struct HeldOutDraw {
+  unsigned pose_seed;     ///< seed of the pose, shape and view draws
+  unsigned keypoint_seed; ///< first seed of the keypoint noise and drops (one per pose)
+  double max_median_mm;
+  int min_within_30mm;
+};
+
+class HeldOutRandomPoses : public testing::TestWithParam<HeldOutDraw> {};
+
+TEST_P(HeldOutRandomPoses, GuardTheWholeDraw) {
+  const HeldOutDraw draw_set = GetParam();
+  std::mt19937 rng(draw_set.pose_seed);
   auto draw = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
   std::vector<double> errors;
   for (int n = 0; n < 16; ++n) {
@@ -512,7 +525,7 @@ TEST(KeypointFit, HeldOutRandomPoses) {
     spine(p, draw(-0.2, 0.5), draw(-0.5, 0.5), draw(-0.3, 0.3));
     yaw(p, draw(-2.0, 2.0), draw(-0.2, 0.4));
     const KeypointShape beta = {draw(-1, 1), draw(-1, 1), draw(-1, 1), draw(-1, 1)};
-    const Synthetic s = synthesise(p, beta, 5000u + static_cast<unsigned>(n));
+    const Synthetic s = synthesise(p, beta, draw_set.keypoint_seed + static_cast<unsigned>(n));
     const KeypointFit fit = fit_keypoints(parse_keypoints(s.json, "random"));
     errors.push_back(1000 * procrustes_errors(fit.joints, s.truth).mean());
     EXPECT_LE(fit.mean_reprojection_px, 5.0) << "random pose " << n;
@@ -520,11 +533,17 @@ TEST(KeypointFit, HeldOutRandomPoses) {
   std::vector<double> sorted = errors;
   std::sort(sorted.begin(), sorted.end());
   const auto within = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 30; });
-  std::printf("[random poses] 3D median %.1f mm, worst %.1f mm, %d of %zu within 30 mm\n", sorted[sorted.size() / 2], sorted.back(),
-              static_cast<int>(within), errors.size());
-  EXPECT_LE(sorted[sorted.size() / 2], 66.0);
-  EXPECT_GE(within, 4);
+  double mean = 0;
+  for (double e : errors) mean += e / static_cast<double>(errors.size());
+  std::printf("[random poses, seed %u] 3D median %.1f mm, mean %.1f mm, worst %.1f mm, %d of %zu within 30 mm\n", draw_set.pose_seed,
+              sorted[sorted.size() / 2], mean, sorted.back(), static_cast<int>(within), errors.size());
+  EXPECT_LE(sorted[sorted.size() / 2], draw_set.max_median_mm);
+  EXPECT_GE(within, draw_set.min_within_30mm);
 }
+
+INSTANTIATE_TEST_SUITE_P(KeypointFit, HeldOutRandomPoses,
+                         testing::Values(HeldOutDraw{2026u, 5000u, 66.0, 4}, HeldOutDraw{7919u, 9000u, 85.0, 2}),
+                         [](const testing::TestParamInfo<HeldOutDraw>& draw_info) { return "Seed" + std::to_string(draw_info.param.pose_seed); });
 
 INSTANTIATE_TEST_SUITE_P(Poses, SyntheticKeypointFit, testing::Range(0, static_cast<int>(synthetic_poses().size())));
 
