@@ -70,13 +70,9 @@ struct Cloth {
   float h = 0;
 };
 
-// A grid of about `particles` particles (side 1 m), jersey-like constants, two pinned corners.
-const Cloth& cloth(std::int64_t particles) {
-  static std::map<std::int64_t, Cloth> cache;
-  auto it = cache.find(particles);
-  if (it != cache.end()) return it->second;
-  const int n = std::max(2, int(std::lround(std::sqrt(double(particles)))));
-  const vfit::Mesh m = vfit::make_grid(n, n, 1.0f, 1.0f);
+// Springs with jersey-like constants on mesh m (mass 0.15 kg spread evenly), particles
+// `pinned_a` and `pinned_b` pinned, and a stable RK4 step.
+Cloth make_cloth(const vfit::Mesh& m, std::size_t pinned_a, std::size_t pinned_b) {
   Cloth c;
   vfit::ClothSprings s = vfit::build_cloth_springs(m.position_view(), m.triangle_view());
   for (std::size_t i = 0; i < s.size(); ++i) {
@@ -86,12 +82,36 @@ const Cloth& cloth(std::int64_t particles) {
   c.springs = s.size();
   c.adjacency = vfit::build_spring_adjacency(s, m.vertex_count());
   c.particles.inverse_masses.assign(m.vertex_count(), float(m.vertex_count()) / 0.15f);
-  c.particles.inverse_masses[0] = c.particles.inverse_masses[std::size_t(n - 1)] = 0.0f;
+  c.particles.inverse_masses[pinned_a] = c.particles.inverse_masses[pinned_b] = 0.0f;
   c.particles.global_damping = 0.5f;
   c.x = m.positions;
   c.v.assign(c.x.size(), 0.0f);
   c.h = float(0.8 * vfit::rk4_stable_step(c.adjacency, c.particles).max_step);
-  return cache.emplace(particles, std::move(c)).first->second;
+  return c;
+}
+
+// A grid of about `particles` particles (side 1 m), numbered row by row, two pinned corners:
+// most of its 16-particle slice columns hold consecutive neighbours (the vector-load path).
+const Cloth& cloth(std::int64_t particles) {
+  static std::map<std::int64_t, Cloth> cache;
+  auto it = cache.find(particles);
+  if (it != cache.end()) return it->second;
+  const int n = std::max(2, int(std::lround(std::sqrt(double(particles)))));
+  const vfit::Mesh m = vfit::make_grid(n, n, 1.0f, 1.0f);
+  return cache.emplace(particles, make_cloth(m, 0, std::size_t(n - 1))).first->second;
+}
+
+// The catalogue tee at `particles` vertices, in the catalogue's own numbering: no slice column
+// of consecutive neighbours and rows of uneven length (padding), as a garment gives the step.
+const Cloth& tee_cloth(std::int64_t particles) {
+  static std::map<std::int64_t, Cloth> cache;
+  auto it = cache.find(particles);
+  if (it != cache.end()) return it->second;
+  vfit::GarmentOptions go;
+  go.type = vfit::GarmentType::TEE;
+  go.target_vertices = std::size_t(particles);
+  const vfit::Mesh m = vfit::make_garment(go).mesh;
+  return cache.emplace(particles, make_cloth(m, 0, 1)).first->second;
 }
 
 double model_bytes_per_step(const Cloth& c) {
@@ -178,6 +198,19 @@ void BM_rk4_tbb(benchmark::State& state) {
   state.counters["threads"] = double(state.range(1));
 }
 BENCHMARK(BM_rk4_tbb)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The same step on a garment's mesh (tee_cloth()): what a fit's simulation meets.
+void BM_rk4_tbb_tee(benchmark::State& state) {
+  const Cloth& c = tee_cloth(state.range(0));
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
+  std::vector<float> x = c.x, v = c.v;
+  vfit::Rk4Workspace w;
+  for (auto _ : state)
+    vfit::rk4_step_tbb(x, v, c.adjacency, c.particles, c.h, w);
+  report(state, c);
+  state.counters["threads"] = double(state.range(1));
+}
+BENCHMARK(BM_rk4_tbb_tee)->ArgsProduct({{100000, 1000000}, {2}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One implicit Euler step at h = 1/120 s from the flat grid moving with random velocities
 // (uniform in ±0.1 m/s per component, fixed seed): a mid-simulation state whose right-hand side
