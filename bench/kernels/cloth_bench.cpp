@@ -187,8 +187,8 @@ void BM_rk4_serial(benchmark::State& state) {
 }
 BENCHMARK(BM_rk4_serial)->Apply(sizes);
 
-void BM_rk4_tbb(benchmark::State& state) {
-  const Cloth& c = cloth(state.range(0));
+// RK4 steps of cloth c on state.range(1) TBB threads.
+void time_rk4_tbb(benchmark::State& state, const Cloth& c) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
   std::vector<float> x = c.x, v = c.v;
   vfit::Rk4Workspace w;
@@ -197,19 +197,12 @@ void BM_rk4_tbb(benchmark::State& state) {
   report(state, c);
   state.counters["threads"] = double(state.range(1));
 }
+
+void BM_rk4_tbb(benchmark::State& state) { time_rk4_tbb(state, cloth(state.range(0))); }
 BENCHMARK(BM_rk4_tbb)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The same step on a garment's mesh (tee_cloth()): what a fit's simulation meets.
-void BM_rk4_tbb_tee(benchmark::State& state) {
-  const Cloth& c = tee_cloth(state.range(0));
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
-  std::vector<float> x = c.x, v = c.v;
-  vfit::Rk4Workspace w;
-  for (auto _ : state)
-    vfit::rk4_step_tbb(x, v, c.adjacency, c.particles, c.h, w);
-  report(state, c);
-  state.counters["threads"] = double(state.range(1));
-}
+void BM_rk4_tbb_tee(benchmark::State& state) { time_rk4_tbb(state, tee_cloth(state.range(0))); }
 BENCHMARK(BM_rk4_tbb_tee)->ArgsProduct({{100000, 1000000}, {2}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One implicit Euler step at h = 1/120 s from the flat grid moving with random velocities

@@ -44,6 +44,15 @@ Fixture jittered_cloth(int n, unsigned seed, bool damping) {
   return f;
 }
 
+// 2 g particles with particle 0 pinned and some global damping: the RK4 parity tests' set-up.
+ClothParticles pinned_first_particle(std::size_t count) {
+  ClothParticles particles;
+  particles.inverse_masses.assign(count, 1.0f / 2e-3f);
+  particles.inverse_masses[0] = 0.0f;
+  particles.global_damping = 0.3f;
+  return particles;
+}
+
 bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
@@ -262,10 +271,7 @@ TEST(ClothSprings, ConsecutiveColumnsGiveTheGatherBits) {
   EXPECT_TRUE(same_bits(fast, slow));
   EXPECT_TRUE(same_bits(fast, scatter));
 
-  ClothParticles particles;
-  particles.inverse_masses.assign(f.mesh.vertex_count(), 1.0f / 2e-3f);
-  particles.inverse_masses[0] = 0.0f;
-  particles.global_damping = 0.3f;
+  const ClothParticles particles = pinned_first_particle(f.mesh.vertex_count());
   std::vector<float> xa = f.x, va = f.v, xb = f.x, vb = f.v;
   Rk4Workspace wa, wb;
   for (int step = 0; step < 3; ++step) {
@@ -284,10 +290,7 @@ TEST(ClothSprings, TbbEqualsSerialBitForBit) {
   spring_forces_tbb(f.x, f.v, adj, tbb);
   EXPECT_TRUE(same_bits(serial, tbb));
 
-  ClothParticles particles;
-  particles.inverse_masses.assign(f.mesh.vertex_count(), 1.0f / 2e-3f);
-  particles.inverse_masses[0] = 0.0f;
-  particles.global_damping = 0.3f;
+  const ClothParticles particles = pinned_first_particle(f.mesh.vertex_count());
   std::vector<float> xs = f.x, vs = f.v, xt = f.x, vt = f.v;
   Rk4Workspace ws, wt;
   for (int step = 0; step < 5; ++step) {
