@@ -201,15 +201,17 @@ length unit (detected, or --garment-units) but must be upright (Y up) and face +
 A table of stage times goes to stdout (not with --quiet). Nothing is written on error.
 )";
 
-constexpr const char* BENCH_HELP = R"(usage: vfit bench table1 [--runs N] [--rows N] [--json FILE] [--quiet]
+constexpr const char* BENCH_HELP = R"(usage: vfit bench table1 [--runs N] [--rows N] [--json FILE] [--no-simulation] [--quiet]
        vfit bench sweep [--garment TYPE] [--max-vertices N] [--runs N] [--json FILE] [--quiet]
 
 table1: the nine garment/body pairs of seed 000 Table 1, rebuilt from the catalogue with the
 paper's vertex counts on the mannequin in each row's pose, fitted N times (default 5) without
 simulation (the table has none). Prints per pair the paper's milliseconds, ours (median and
 minimum) and the speed-up for segmentation, deformation (part skeletons, driving and the coarse
-move), penetration removal and their total. --json writes one row per pair with garment,
-vertices, faces and per stage paper_ms, median_ms, min_ms and speedup, plus the machine.
+move), penetration removal and their total; then, in its own column, the cloth simulation to
+rest from one more fit with it on (not part of the total; --no-simulation skips it). --json
+writes one row per pair with garment, vertices, faces and per stage paper_ms, median_ms,
+min_ms and speedup, the simulation's ms, outcome and steps, plus the machine.
 --rows N runs only the first N pairs.
 sweep: one garment (default tee) at 1,000 to --max-vertices (default 100,000; up to 10^6)
 vertices in steps of sqrt(10), the same stages, and each stage's growth exponent k (time ∝ V^k).

@@ -33,6 +33,23 @@ TEST(BenchCli, Table1RowsHoldThePapersAndOurMillisecondsPerStage) {
               1e-9);
   EXPECT_TRUE(j["machine"].contains("cpu_model"));
   EXPECT_NE(r.out.find("Dress"), std::string::npos);
+  // The simulation in its own column: a fit with it on, not counted in the total.
+  EXPECT_GT(row["simulation"]["ms"].get<double>(), 0.0);
+  EXPECT_GT(row["simulation"]["steps"].get<int>(), 0);
+  EXPECT_NE(row["simulation"]["outcome"].get<std::string>(), "skipped");
+  EXPECT_NE(r.out.find("simulation ms"), std::string::npos);
+}
+
+TEST(BenchCli, Table1WithoutSimulationHasNoSimulationColumn) {
+  test::TempDir tmp;
+  const auto json = tmp / "table1.json";
+  const auto r = test::run_cli(
+      {"bench", "table1", "--runs", "1", "--rows", "1", "--no-simulation", "--json", json.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(test::read_file(json));
+  ASSERT_EQ(j["rows"].size(), 1u);
+  EXPECT_FALSE(j["rows"][0].contains("simulation"));
+  EXPECT_TRUE(j["rows"][0].contains("total"));
 }
 
 TEST(BenchCli, SweepReportsEachSizeAndTheGrowthExponent) {
