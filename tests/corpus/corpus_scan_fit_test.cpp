@@ -87,20 +87,15 @@ std::vector<PoseCase> pose_cases() {
   // estimator's conventions on the unposed scan, 3.1-3.2 cm.
   cases[0].known_gaps = {{Joint::LEFT_ELBOW, 0.061}}; // 4.7 cm, bent 15°
   cases[2].known_gaps = {{Joint::LEFT_ELBOW, 0.052}, {Joint::RIGHT_ELBOW, 0.06}, {Joint::HEAD, 0.042}}; // 4.0, 4.6, 3.2
-  cases[4].known_gaps = {{Joint::LEFT_ANKLE, 0.042}};                          // knee_bent: the bent leg's ankle 3.2 cm
-  cases[5].known_gaps = {{Joint::LEFT_FOOT, 0.04}, {Joint::RIGHT_FOOT, 0.04}}; // legs_apart: 3.1, 3.0 cm
-  // walking: the pose fit bends the straight right elbow about 50° (the pose search scores that
-  // forearm, held near the hip, better than a straight one, and ICP keeps it), so that arm
-  // unposes into no A-pose and the joints come from the scan unposed with plain closest-point
-  // weights (scan_fit.cpp, stage 5), whose left arm drags skin from the torso: the left
-  // shoulder 11.9 cm off (10.9 in y), the neck, right collar and head 4.5-4.7 cm, the elbows 4.2
-  // and 6.0 cm; re-posed 11.8 mm mean.
-  cases[6].known_gaps = {{Joint::NECK, 0.059},       {Joint::LEFT_COLLAR, 0.039},   {Joint::RIGHT_COLLAR, 0.061},
-                         {Joint::HEAD, 0.061},       {Joint::LEFT_SHOULDER, 0.155}, {Joint::LEFT_ELBOW, 0.055},
-                         {Joint::RIGHT_ELBOW, 0.078}};
-  cases[6].repose_limit = 0.0155;
-  cases[7].known_gaps = {
-      {Joint::LEFT_COLLAR, 0.042}, {Joint::HEAD, 0.041}, {Joint::LEFT_ELBOW, 0.041}}; // contrapposto: 3.1-3.2 cm
+  // knee_bent: the bent leg's ankle and foot 3.5, 3.3 cm, the left elbow 3.2 cm.
+  cases[4].known_gaps = {{Joint::LEFT_ANKLE, 0.046}, {Joint::LEFT_FOOT, 0.043}, {Joint::LEFT_ELBOW, 0.042}};
+  cases[5].known_gaps = {{Joint::RIGHT_ELBOW, 0.042}}; // legs_apart: 3.2 cm
+  // walking: the head 3.5 cm (it was 11.9 cm at the left shoulder when the A-pose start centred
+  // the template on the median of the legs' band, which falls on one leg when they are apart).
+  cases[6].known_gaps = {{Joint::HEAD, 0.046}};
+  cases[7].known_gaps = {{Joint::LEFT_COLLAR, 0.042},
+                         {Joint::LEFT_SHOULDER, 0.042},
+                         {Joint::LEFT_ELBOW, 0.041}}; // contrapposto: 3.1-3.2 cm
   // elbows_bent: the forearms cross in front of the belly, hands folded; the fitted forearms lie
   // higher and further forward than the scan's, so the elbows miss by 5.3 and 5.1 cm, the left
   // wrist and hand (unposed with a residual bend) by 5.4 and 7.2 cm, and the folded hands' skin
