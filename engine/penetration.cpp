@@ -22,7 +22,7 @@ namespace vfit {
 namespace {
 
 // measure_penetration(positions, body)'s reach (m): a vertex with no body point this close is
-// decided by a ray (resolve_far_vertices()).
+// queried again without a limit (it has no crossing index for a ray: resolve_far_vertices()).
 constexpr float NEAR_SEARCH = 0.05f;
 
 // Removal's reach (m): queries stop at max(NEAR_REACH, NEAR_REACH_PER_CLEARANCE·κ), beyond

@@ -139,6 +139,13 @@ static float16 vfit_cloth_gather16(__global const float* p, int16 j3, int c) {
                    p[j3.sc + c], p[j3.sd + c], p[j3.se + c], p[j3.sf + c]);
 }
 
+// The 16 rows j3/3 (j3: 3·j, one per lane) of a #V × 3 array, deinterleaved into x, y, z.
+static void vfit_cloth_gather_rows16(__global const float* p, int16 j3, float16* cx, float16* cy, float16* cz) {
+  *cx = vfit_cloth_gather16(p, j3, 0);
+  *cy = vfit_cloth_gather16(p, j3, 1);
+  *cz = vfit_cloth_gather16(p, j3, 2);
+}
+
 // The x, y and z components of 16 consecutive rows of a #V × 3 array from p: three vector
 // loads, deinterleaved.
 static void vfit_cloth_load_rows16(__global const float* p, float16* cx, float16* cy, float16* cz) {
@@ -170,12 +177,8 @@ __kernel void cloth_rk4_stage_slices(__global const float* xs, __global const fl
   } else { /* the last, partial slice: lanes past #V read the last particle */
     int16 own = 3 * min((int16)(first) + (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
                         (int16)(count - 1));
-    xx = vfit_cloth_gather16(xs, own, 0);
-    xy = vfit_cloth_gather16(xs, own, 1);
-    xz = vfit_cloth_gather16(xs, own, 2);
-    vx = vfit_cloth_gather16(vs, own, 0);
-    vy = vfit_cloth_gather16(vs, own, 1);
-    vz = vfit_cloth_gather16(vs, own, 2);
+    vfit_cloth_gather_rows16(xs, own, &xx, &xy, &xz);
+    vfit_cloth_gather_rows16(vs, own, &vx, &vy, &vz);
   }
   float16 fx = (float16)(0.0f), fy = (float16)(0.0f), fz = (float16)(0.0f);
   uint consecutive = consecutive_columns[slice];
@@ -187,12 +190,8 @@ __kernel void cloth_rk4_stage_slices(__global const float* xs, __global const fl
       vfit_cloth_load_rows16(xs + j3.s0, &dx, &dy, &dz);
       vfit_cloth_load_rows16(vs + j3.s0, &dvx, &dvy, &dvz);
     } else {
-      dx = vfit_cloth_gather16(xs, j3, 0);
-      dy = vfit_cloth_gather16(xs, j3, 1);
-      dz = vfit_cloth_gather16(xs, j3, 2);
-      dvx = vfit_cloth_gather16(vs, j3, 0);
-      dvy = vfit_cloth_gather16(vs, j3, 1);
-      dvz = vfit_cloth_gather16(vs, j3, 2);
+      vfit_cloth_gather_rows16(xs, j3, &dx, &dy, &dz);
+      vfit_cloth_gather_rows16(vs, j3, &dvx, &dvy, &dvz);
     }
     dx -= xx;
     dy -= xy;

@@ -53,6 +53,23 @@ ClothParticles pinned_first_particle(std::size_t count) {
   return particles;
 }
 
+// `steps` RK4 steps from f's state with rk4_step_tbb over `for_tbb` and rk4_step_serial over
+// `for_serial` (pinned_first_particle() masses, h = 1e-4 s): the TBB state, then the serial one.
+struct Rk4Pair {
+  std::vector<float> x_tbb, v_tbb, x_serial, v_serial;
+};
+Rk4Pair rk4_tbb_and_serial(const Fixture& f, const SpringAdjacency& for_tbb, const SpringAdjacency& for_serial,
+                           int steps) {
+  const ClothParticles particles = pinned_first_particle(f.mesh.vertex_count());
+  Rk4Pair r{f.x, f.v, f.x, f.v};
+  Rk4Workspace wt, ws;
+  for (int step = 0; step < steps; ++step) {
+    rk4_step_tbb(r.x_tbb, r.v_tbb, for_tbb, particles, 1e-4f, wt);
+    rk4_step_serial(r.x_serial, r.v_serial, for_serial, particles, 1e-4f, ws);
+  }
+  return r;
+}
+
 bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
@@ -271,15 +288,9 @@ TEST(ClothSprings, ConsecutiveColumnsGiveTheGatherBits) {
   EXPECT_TRUE(same_bits(fast, slow));
   EXPECT_TRUE(same_bits(fast, scatter));
 
-  const ClothParticles particles = pinned_first_particle(f.mesh.vertex_count());
-  std::vector<float> xa = f.x, va = f.v, xb = f.x, vb = f.v;
-  Rk4Workspace wa, wb;
-  for (int step = 0; step < 3; ++step) {
-    rk4_step_tbb(xa, va, adj, particles, 1e-4f, wa);
-    rk4_step_serial(xb, vb, gathered, particles, 1e-4f, wb);
-  }
-  EXPECT_TRUE(same_bits(xa, xb));
-  EXPECT_TRUE(same_bits(va, vb));
+  const Rk4Pair r = rk4_tbb_and_serial(f, adj, gathered, 3);
+  EXPECT_TRUE(same_bits(r.x_tbb, r.x_serial));
+  EXPECT_TRUE(same_bits(r.v_tbb, r.v_serial));
 }
 
 TEST(ClothSprings, TbbEqualsSerialBitForBit) {
@@ -290,17 +301,11 @@ TEST(ClothSprings, TbbEqualsSerialBitForBit) {
   spring_forces_tbb(f.x, f.v, adj, tbb);
   EXPECT_TRUE(same_bits(serial, tbb));
 
-  const ClothParticles particles = pinned_first_particle(f.mesh.vertex_count());
-  std::vector<float> xs = f.x, vs = f.v, xt = f.x, vt = f.v;
-  Rk4Workspace ws, wt;
-  for (int step = 0; step < 5; ++step) {
-    rk4_step_serial(xs, vs, adj, particles, 1e-4f, ws);
-    rk4_step_tbb(xt, vt, adj, particles, 1e-4f, wt);
-  }
-  EXPECT_TRUE(same_bits(xs, xt));
-  EXPECT_TRUE(same_bits(vs, vt));
+  const Rk4Pair r = rk4_tbb_and_serial(f, adj, adj, 5);
+  EXPECT_TRUE(same_bits(r.x_serial, r.x_tbb));
+  EXPECT_TRUE(same_bits(r.v_serial, r.v_tbb));
   for (int k = 0; k < 3; ++k)
-    EXPECT_EQ(xs[k], f.x[k]) << "pinned particle moved";
+    EXPECT_EQ(r.x_serial[k], f.x[k]) << "pinned particle moved";
 }
 
 // One particle of mass m on a spring k to a pinned anchor, no gravity or damping: x(t) =
