@@ -47,6 +47,14 @@ public:
 
   const OpenClDeviceInfo& device() const;
 
+  /// The device's memory bandwidth (GB/s, bytes read plus bytes written, as STREAM counts a
+  /// copy) of a device-to-device clEnqueueCopyBuffer of `bytes` between two buffers of this
+  /// context: the best of `repeats` timed copies after one untimed warm-up, host wall clock
+  /// around enqueue + finish. The baseline the benchmarks compare a kernel's model traffic with.
+  /// Throws vfit::Error when bytes is 0 or repeats < 1, and when the device cannot allocate two
+  /// buffers of that size.
+  double copy_bandwidth_gbps(std::size_t bytes, int repeats = 5);
+
   struct Impl; ///< defined in kernels/opencl/opencl_impl.h, for kernel implementations only
   Impl& impl() { return *m_impl; }
 

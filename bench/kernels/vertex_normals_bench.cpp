@@ -4,6 +4,7 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -74,6 +75,25 @@ void BM_normals_opencl(benchmark::State& state) {
   state.SetLabel(ctx->device().device_name);
 }
 BENCHMARK(BM_normals_opencl)->Apply(sizes);
+
+// The default OpenCL device's memory bandwidth: a device-to-device copy of range(0) MiB
+// (OpenClContext::copy_bandwidth_gbps, best of 5 per iteration). The baseline for the device
+// kernels' model traffic (vfit_cloth_bench's BM_rk4_opencl* report model_GBps): run both in one
+// command and divide.
+void BM_opencl_copy(benchmark::State& state) {
+  if (vfit::list_opencl_devices().empty()) {
+    state.SkipWithError("no OpenCL device");
+    return;
+  }
+  static std::unique_ptr<vfit::OpenClContext> ctx = std::make_unique<vfit::OpenClContext>();
+  const std::size_t bytes = std::size_t(state.range(0)) << 20;
+  double best = 0;
+  for (auto _ : state)
+    best = std::max(best, ctx->copy_bandwidth_gbps(bytes));
+  state.counters["copy_GBps"] = best;
+  state.SetLabel(ctx->device().device_name);
+}
+BENCHMARK(BM_opencl_copy)->Arg(16)->Arg(256)->Arg(1024)->Iterations(3)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace
 

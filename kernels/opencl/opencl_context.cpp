@@ -1,6 +1,7 @@
 #include "opencl_impl.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cctype>
 #include <cstdlib>
 #include <stdexcept>
@@ -143,6 +144,36 @@ OpenClContext::OpenClContext(std::string_view selector) : m_impl(std::make_uniqu
 OpenClContext::~OpenClContext() = default;
 
 const OpenClDeviceInfo& OpenClContext::device() const { return m_impl->info; }
+
+double OpenClContext::copy_bandwidth_gbps(std::size_t bytes, int repeats) {
+  if (bytes == 0 || repeats < 1)
+    throw Error("opencl", 0, "copy_bandwidth_gbps needs bytes > 0 and repeats >= 1 (got " + std::to_string(bytes) +
+                                 ", " + std::to_string(repeats) + ")");
+  if (bytes > m_impl->info.global_memory_bytes / 2)
+    throw Error("opencl", 0, "copy_bandwidth_gbps: two buffers of " + std::to_string(bytes) + " bytes exceed " +
+                                 m_impl->info.device_name + "'s " +
+                                 std::to_string(m_impl->info.global_memory_bytes) + " bytes");
+  try {
+    cl::Buffer from(m_impl->context, CL_MEM_READ_WRITE, bytes);
+    cl::Buffer to(m_impl->context, CL_MEM_READ_WRITE, bytes);
+    const cl_uchar zero = 0;
+    m_impl->queue.enqueueFillBuffer(from, zero, 0, bytes); // first touch: pages exist before timing
+    m_impl->queue.enqueueFillBuffer(to, zero, 0, bytes);
+    m_impl->queue.enqueueCopyBuffer(from, to, 0, 0, bytes); // warm-up
+    m_impl->queue.finish();
+    double best = 0.0;
+    for (int r = 0; r < repeats; ++r) {
+      const auto t0 = std::chrono::steady_clock::now();
+      m_impl->queue.enqueueCopyBuffer(from, to, 0, 0, bytes);
+      m_impl->queue.finish();
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (s > 0) best = std::max(best, 2.0 * double(bytes) / s / 1e9);
+    }
+    return best;
+  } catch (const cl::Error& err) {
+    throw_opencl_error(err, "measuring the copy bandwidth");
+  }
+}
 
 cl::Program& OpenClContext::Impl::program(const std::string& name, const char* source) {
   std::lock_guard<std::mutex> lock(programs_mutex);

@@ -18,6 +18,7 @@ OpenClDeviceInfo select_opencl_device(std::string_view) { unavailable(); }
 OpenClContext::OpenClContext(std::string_view) { unavailable(); }
 OpenClContext::~OpenClContext() = default;
 const OpenClDeviceInfo& OpenClContext::device() const { unavailable(); }
+double OpenClContext::copy_bandwidth_gbps(std::size_t, int) { unavailable(); }
 OpenClVertexNormals::OpenClVertexNormals(OpenClContext&, std::span<const std::int32_t>, std::size_t) { unavailable(); }
 OpenClVertexNormals::~OpenClVertexNormals() = default;
 void OpenClVertexNormals::compute(std::span<const float>, std::vector<float>&) { unavailable(); }

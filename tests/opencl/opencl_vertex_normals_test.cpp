@@ -35,6 +35,17 @@ TEST(OpenClContext, EnumeratesAndSelectsDevices) {
   }
 }
 
+TEST(OpenClContext, CopyBandwidthIsPositiveAndRejectsEmptyCopies) {
+  REQUIRE_OPENCL_DEVICE();
+  OpenClContext ctx;
+  const double gbps = ctx.copy_bandwidth_gbps(std::size_t(1) << 20, 2);
+  EXPECT_TRUE(std::isfinite(gbps));
+  EXPECT_GT(gbps, 0.0);
+  EXPECT_THROW(ctx.copy_bandwidth_gbps(0), Error);
+  EXPECT_THROW(ctx.copy_bandwidth_gbps(1024, 0), Error);
+  EXPECT_THROW(ctx.copy_bandwidth_gbps(ctx.device().global_memory_bytes), Error); // two such buffers cannot fit
+}
+
 class OpenClNormalsParity : public ::testing::TestWithParam<int> {};
 
 TEST_P(OpenClNormalsParity, AgreesWithSerialReference) {
