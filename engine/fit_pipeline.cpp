@@ -111,16 +111,18 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   sink.done(input.name, "units", report.timings.units_ms, units_name(report.units));
 
   t0 = Clock::now();
-  try {
-    out.segmentation = segment_garment(mesh, options.segmentation);
-  } catch (const Error& e) {
-    throw Error(input.name, 0, std::string("not a recognisable garment: ") + e.what());
-  }
+  UprightSegmentation upright = segment_upright(input.name, mesh, options.garment_up, options.segmentation);
+  out.segmentation = std::move(upright.segmentation);
+  report.up = upright.up;
+  if (report.up != UpAxis::POS_Y && !options.garment_up)
+    report.warnings.push_back("garment stored with " + up_axis_name(report.up) +
+                              " up (detected), rotated to +y up (force with --garment-up)");
   report.timings.segmentation_ms = ms_since(t0);
   report.type = out.segmentation.type;
   for (const auto& w : out.segmentation.warnings)
     report.warnings.push_back("segmentation: " + w);
-  sink.done(input.name, "segmentation", report.timings.segmentation_ms, garment_type_name(report.type));
+  sink.done(input.name, "segmentation", report.timings.segmentation_ms,
+            garment_type_name(report.type) + (report.up == UpAxis::POS_Y ? "" : " (" + up_axis_name(report.up) + " up)"));
 }
 
 // The stages after segmentation, on out.mesh (already in metres).
@@ -288,6 +290,33 @@ std::string to_string(SimulationOutcome outcome) {
   case SimulationOutcome::DIVERGED: return "diverged";
   }
   return "unknown";
+}
+
+UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::optional<UpAxis> up,
+                                    const SegmentOptions& options) {
+  std::vector<UpAxis> tries = {UpAxis::POS_Y, UpAxis::POS_Z};
+  if (up) tries = {*up};
+  else if (detect_up_axis(mesh.positions, mesh.triangles) == UpAxis::POS_Z) tries = {UpAxis::POS_Z, UpAxis::POS_Y};
+  std::vector<float> as_given; // copied before a detection's first rotation
+  std::string first_error;
+  for (UpAxis axis : tries) {
+    if (axis != UpAxis::POS_Y) {
+      if (tries.size() > 1) {
+        if (as_given.empty()) as_given = mesh.positions;
+        else mesh.positions = as_given;
+      }
+      rotate_to_y_up(mesh.positions, axis);
+    }
+    try {
+      return {axis, segment_garment(mesh, options)};
+    } catch (const Error& e) {
+      if (first_error.empty()) first_error = e.what();
+    }
+  }
+  if (!as_given.empty()) mesh.positions = as_given;
+  throw Error(name, 0,
+              "not a recognisable garment: " + first_error +
+                  (tries.size() > 1 ? " (tried with +y and +z up)" : ""));
 }
 
 std::vector<std::pair<std::string, double>> FitStageTimes::named() const {

@@ -27,6 +27,7 @@
 #include "geometry/garment/skeleton_parts.h"
 #include "geometry/mesh/mesh.h"
 #include "geometry/mesh/units.h"
+#include "geometry/mesh/up_axis.h"
 
 namespace vfit {
 
@@ -56,6 +57,9 @@ struct FitOptions {
   double max_wall_seconds = 0; ///< also stop the simulation after this wall time (s); 0 = none
   /// The garments' length unit; detected per garment from its size and position when absent.
   std::optional<Units> garment_units;
+  /// The garments' up axis in their files (rotate_to_y_up() brings them into our frame). Absent:
+  /// detected per garment, +Y or +Z (segment_upright()), with a warning when it is not +Y.
+  std::optional<UpAxis> garment_up;
   SegmentOptions segmentation;
   SkeletonDrivingOptions driving;
   PartSkeletonOptions skeletons;
@@ -80,7 +84,7 @@ struct FitOptions {
 /// One garment handed to the pipeline.
 struct FitGarmentInput {
   std::string name; ///< names it in the report and in output files (e.g. the file name)
-  Mesh mesh;        ///< any length unit, upright (Y up), facing +Z
+  Mesh mesh;        ///< any length unit; Y up facing +Z, or see FitOptions::garment_up
 };
 
 /// How the cloth simulation of one garment ended.
@@ -93,6 +97,24 @@ enum class SimulationOutcome {
 
 /// "skipped" | "converged" | "time limit" | "diverged".
 std::string to_string(SimulationOutcome outcome);
+
+/// A garment's segmentation and the up axis it was found with (segment_upright()).
+struct UprightSegmentation {
+  UpAxis up = UpAxis::POS_Y;
+  GarmentSegmentation segmentation;
+};
+
+/// Segments `mesh` (#V × 3 positions in metres) after rotating it from its file's up axis to
+/// +Y (rotate_to_y_up()): `up` when given; else the axis detect_up_axis() reads from the
+/// surface (+Y when it cannot tell), and the other of +Y and +Z when the segmentation does not
+/// recognise the garment so. (The segmentation alone cannot choose: it recognises some
+/// garments lying on their side, e.g. trousers as a long-sleeve top.) On return `mesh` is
+/// rotated into our frame. Throws vfit::Error naming `name` with the segmentation's error for
+/// the first axis tried ("not a recognisable garment: ...") when neither is recognised, leaving
+/// `mesh` as given. Costs the detection (linear, a few ms at 10^5 triangles) and one
+/// segmentation per axis tried.
+UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::optional<UpAxis> up = std::nullopt,
+                                    const SegmentOptions& options = {});
 
 /// Wall-clock milliseconds of each stage. For one garment, or summed over all of them.
 struct FitStageTimes {
@@ -117,6 +139,7 @@ struct GarmentFitReport {
   GarmentType type = GarmentType::TEE;
   std::size_t vertices = 0, faces = 0;
   Units units = Units::M;          ///< the input's unit (converted to metres)
+  UpAxis up = UpAxis::POS_Y;       ///< the input's up axis (rotated to +Y before segmentation)
   std::size_t order = 0;           ///< position in the processing order (0 = first)
   FitStageTimes timings;
   std::size_t skeleton_parts = 0;  ///< limb skeletons extracted

@@ -19,6 +19,7 @@
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/mesh_stats.h"
 #include "geometry/mesh/units.h"
+#include "geometry/mesh/up_axis.h"
 #include "kernels/error.h"
 
 namespace vfit::cli {
@@ -52,6 +53,7 @@ int run_scan(Args& args, const std::string& path) {
   const auto rigged = args.value("rigged");
   const auto pose_out = args.value("pose-out");
   const auto units_arg = args.value("units");
+  const auto up_arg = args.value("up");
   for (const char* other : {"from", "keypoints", "joints-in", "betas"})
     if (args.value(other)) throw Error(std::string("--") + other, 0, "cannot be combined with --scan");
   args.positionals(0, 0);
@@ -73,6 +75,12 @@ int run_scan(Args& args, const std::string& path) {
       parsed.warnings.push_back(path + ": units detected as " + units_name(*units) + "; converted to metres");
   }
   scale_positions(parsed.mesh.positions, metres_per_unit(*units));
+  UpAxis up = up_arg ? parse_up_axis(*up_arg) : UpAxis::POS_Y;
+  if (!up_arg && detect_body_up_axis(parsed.mesh.positions, parsed.mesh.triangles) == UpAxis::POS_Z) {
+    up = UpAxis::POS_Z;
+    parsed.warnings.push_back(path + ": stored with +z up (detected), rotated to +y up (force with --up)");
+  }
+  rotate_to_y_up(parsed.mesh.positions, up);
   const ScanFit fit = fit_scan(parsed.mesh, path);
   if (!quiet) {
     for (const auto& w : parsed.warnings)

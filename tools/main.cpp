@@ -78,17 +78,19 @@ mesh each) and DIR/demo.json. DIR defaults to ./vfit_demo.
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
-                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U]]
+                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U] [--up A]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
                  [--rigged FILE.glb] [--quiet]
-       vfit body --scan FILE [--units U] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
+       vfit body --scan FILE [--units U] [--up A] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
                  [--pose NAME|FILE.json] [--pose-out FILE.json] [--quiet]
 
 Builds a body and writes it, posed. --from takes a body you bring instead of the mannequin: an
 SMPL-format model (.npz: v_template, shapedirs, posedirs, J_regressor, weights, kintree_table,
 f) with shape --betas; a rigged glTF (.glb/.gltf; SMPL, Mixamo or MakeHuman bone names, or
 --rig-mapping FILE.json); or a plain mesh (a scan) whose joints come from --joints-in or are
-estimated from its geometry.
+estimated from its geometry. A plain mesh (and --scan) may be stored Y up facing +Z or Z up
+facing -Y (Blender, scanners): the up axis is read from the surface and the body turned
+upright, with a warning; --up +y|+z|-z|-y|+x|-x forces the file's up axis (outputs are Y up).
 
 Without --from, builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
 --height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,
@@ -111,7 +113,7 @@ compares requested and measured values.
   --rigged FILE   the rigged rest-pose body as glTF binary (.glb): 24 joint nodes with SMPL
                   names, a skin with inverse bind matrices, JOINTS_0/WEIGHTS_0
   --scan FILE     fit the mannequin's pose and shape to a body scan (mesh or point cloud, any
-                  units detected or --units, Y up, facing +Z; seed 001 eq. 3-4) and rig the scan
+                  units detected or --units, Y or Z up as above; seed 001 eq. 3-4) and rig the scan
                   with weights interpolated from the fitted body; prints stages, iterations, ms
                   and the scan-to-body distance. --rigged writes the rigged scan in its own pose,
                   --joints the fitted joints, --pose-out the fitted pose (relative to the T-pose),
@@ -169,8 +171,9 @@ Files are written atomically (a temporary file renamed); nothing is written on e
 constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE] [body flags]
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
-                [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U] [--quiet]
-                [--debug DIR] [--progress] [--keypoints FILE.json [--image-size W H] [--focal F]]
+                [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
+                [--garment-up auto|+y|+z|-z|-y|+x|-x] [--quiet] [--debug DIR] [--progress]
+                [--keypoints FILE.json [--image-size W H] [--focal F]]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
@@ -181,7 +184,10 @@ a diverged simulation is discarded and reported) -> fit feedback (strain, ease, 
 Bottoms are dressed before tops.
 --body takes the same sources and flags as `vfit body --from` (default: the mannequin; use
 --pose-rest apose|tpose and the measurement flags); --pose poses it. Garments may be in any
-length unit (detected, or --garment-units) but must be upright (Y up) and face +Z.
+length unit (detected, or --garment-units) and stored Y up facing +Z (OBJ, glTF) or Z up facing
+-Y (Blender, scanners): the up axis is read from the surface (its left-right mirror symmetry
+and its normals) and a Z-up garment is turned upright, with a warning in the report.
+  --garment-up A    the garments' up axis in their files, when auto (the default) misreads it
   --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the
                     photo's 2D keypoints (as `vfit body --keypoints`; instead of --pose)
   --out FILE        .glb: the body and each garment as named meshes; .obj/.ply: the garments,

@@ -90,9 +90,18 @@ LoadedBody load_body(const BodyRequest& r) {
       out.warnings.push_back(path.string() + ": units detected as " + units_name(units) + "; converted to metres");
   }
   scale_positions(parsed.mesh.positions, metres_per_unit(units));
+  UpAxis up = UpAxis::POS_Y;
+  if (r.up) {
+    up = *r.up;
+  } else if (detect_body_up_axis(parsed.mesh.positions, parsed.mesh.triangles) == UpAxis::POS_Z) {
+    up = UpAxis::POS_Z;
+    out.warnings.push_back(path.string() + ": stored with +z up (detected), rotated to +y up (force with --up)");
+  }
+  rotate_to_y_up(parsed.mesh.positions, up);
   if (r.joints_file) {
     out.rest.mesh = std::move(parsed.mesh);
     out.rest.joints = read_joints_json(*r.joints_file);
+    rotate_to_y_up(std::span<double>(out.rest.joints.data(), std::size_t(out.rest.joints.size())), up);
     out.rest.weights = estimate_skin_weights(out.rest.mesh, out.rest.joints);
     out.rest.source = path.string();
     out.kind = "mesh+joints";

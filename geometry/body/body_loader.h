@@ -12,6 +12,7 @@
 
 #include "body.h"
 #include "geometry/mesh/units.h"
+#include "geometry/mesh/up_axis.h"
 #include "mannequin.h"
 
 namespace vfit {
@@ -26,6 +27,10 @@ struct BodyRequest {
   std::optional<std::string> rig_mapping_file; ///< explicit bone → joint mapping for glTF rigs
   std::optional<std::string> joints_file; ///< {"joints": {"pelvis": [x, y, z], ...}} for plain meshes
   std::optional<Units> units;          ///< a plain mesh's units (detected when absent)
+  /// A plain mesh's up axis in its file (with its joints file, if any): rotated to +Y by
+  /// rotate_to_y_up(). Absent: detect_body_up_axis() on the mesh (+Y when it cannot tell), with a
+  /// warning when it turns the body.
+  std::optional<UpAxis> up;
 };
 
 /// A body ready for fitting: rigged, in metres, in its rest pose, plus how to pose it.

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 #include <numbers>
 
 #include "garment_shape.h"
@@ -39,6 +41,54 @@ Eigen::Vector3d project(const GarmentShape& g, Eigen::Vector3d p, int steps) {
     p -= d * n / n2;
   }
   return p;
+}
+
+// Closes the holes beyond a garment's `openings` with a fan around each hole's centroid: the
+// smallest first, and only holes of at most a fifth of the median hole's vertices (at least 8).
+// Such holes are cut-outs, not openings: under a wide A-pose arm (a tee in XL) the plane that
+// cuts the short sleeve's cuff crosses the torso's side in a few small patches. A mesh with no
+// more holes than openings, or with per-face attributes, is returned unchanged.
+void fill_extra_holes(Mesh& mesh, std::size_t openings) {
+  if (!mesh.face_labels.empty() || !mesh.uv_triangles.empty() || !mesh.normal_triangles.empty()) return; // clip output has none
+  std::map<std::pair<std::int32_t, std::int32_t>, int> uses;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  // Directed boundary edges a -> b as the faces run; a hole is walked by following them.
+  std::map<std::int32_t, std::int32_t> next;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
+      if (uses[{std::min(a, b), std::max(a, b)}] == 1) next[a] = b;
+    }
+  std::vector<std::vector<std::int32_t>> loops;
+  std::set<std::int32_t> seen;
+  for (const auto& [start, unused] : next) {
+    if (seen.count(start)) continue;
+    std::vector<std::int32_t> loop;
+    for (std::int32_t v = start; !seen.count(v) && next.count(v); v = next[v]) {
+      seen.insert(v);
+      loop.push_back(v);
+    }
+    loops.push_back(std::move(loop));
+  }
+  if (loops.size() <= openings) return;
+  std::sort(loops.begin(), loops.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); });
+  const std::size_t small = std::max<std::size_t>(8, loops[loops.size() / 2].size() / 5);
+  for (std::size_t i = 0; i + openings < loops.size() && loops[i].size() <= small; ++i) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (std::int32_t v : loops[i]) c += Eigen::Vector3d(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+    c /= double(loops[i].size());
+    const auto centre = std::int32_t(mesh.vertex_count());
+    for (int k = 0; k < 3; ++k) mesh.positions.push_back(static_cast<float>(c[k]));
+    // The faces run a -> b along the hole; the fan runs b -> a to continue their orientation.
+    for (std::size_t j = 0; j < loops[i].size(); ++j) {
+      const std::int32_t a = loops[i][j], b = loops[i][(j + 1) % loops[i].size()];
+      mesh.triangles.insert(mesh.triangles.end(), {b, a, centre});
+    }
+  }
 }
 
 // Tangential relaxation of interior vertices; boundary vertices (the cut openings) stay put.
@@ -120,8 +170,10 @@ Garment make_garment(const GarmentOptions& options) {
     iso.box_max = {hi.x(), hi.y(), hi.z()};
     iso.cell_size = cell;
     Mesh closed = extract_isosurface([&](double x, double y, double z) { return shape.distance({x, y, z}); }, iso);
-    return largest_component(clip_mesh(
+    Mesh kept = largest_component(clip_mesh(
         closed, [&](double x, double y, double z) { return shape.keep({x, y, z}); }, 0.35 * cell));
+    fill_extra_holes(kept, expected_openings(options.type));
+    return kept;
   };
   const double max_cell = 0.016 * s, min_cell = 0.0015;
   const double trial_cell = max_cell;

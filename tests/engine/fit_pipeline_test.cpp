@@ -160,6 +160,45 @@ TEST(FitPipeline, ConvertsCentimetreGarmentsToMetres) {
   EXPECT_LE(r.report.garments[0].after.max_depth, MAX_INSIDE_DEPTH);
 }
 
+// A garment stored Z up (Blender's frame: the inverse of rotate_to_y_up(+Z), exact) is found
+// unrecognisable with Y up, recognised with Z up, said so, and fitted exactly like the original.
+TEST(FitPipeline, DetectsAZUpGarmentAndFitsItAsTheOriginal) {
+  const std::vector<FitGarmentInput>& in = tee_and_trousers();
+  std::vector<FitGarmentInput> z_up = in;
+  for (FitGarmentInput& g : z_up)
+    for (std::size_t i = 0; i < g.mesh.positions.size(); i += 3) {
+      float* p = &g.mesh.positions[i];
+      const float y = p[1], z = p[2];
+      p[1] = -z; // (x, y, z) in our frame -> (x, -z, y): Z up, facing -Y
+      p[2] = y;
+    }
+  FitOptions o;
+  o.simulate = false;
+  const FitResult original = fit_garments(mannequin(), in, o);
+  const FitResult detected = fit_garments(mannequin(), z_up, o);
+  ASSERT_EQ(detected.garments.size(), original.garments.size());
+  for (std::size_t k = 0; k < detected.garments.size(); ++k) {
+    const GarmentFitReport& g = detected.report.garments[k];
+    SCOPED_TRACE(g.name);
+    EXPECT_EQ(original.report.garments[k].up, UpAxis::POS_Y);
+    EXPECT_EQ(g.up, UpAxis::POS_Z);
+    EXPECT_EQ(g.type, original.report.garments[k].type);
+    EXPECT_TRUE(std::any_of(g.warnings.begin(), g.warnings.end(),
+                            [](const std::string& w) { return w.find("+z up") != std::string::npos; }));
+    // The same input after the rotation: the same bits.
+    EXPECT_EQ(detected.garments[k].mesh.positions, original.garments[k].mesh.positions);
+  }
+  // Forcing the wrong axis is refused with the segmentation's reason, naming the garment.
+  o.garment_up = UpAxis::POS_Y;
+  try {
+    (void)fit_garments(mannequin(), std::vector<FitGarmentInput>{z_up[0]}, o);
+    FAIL() << "expected vfit::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a recognisable garment"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(z_up[0].name), std::string::npos) << e.what();
+  }
+}
+
 TEST(FitPipeline, RejectsAMeshThatIsNotAGarment) {
   // A closed mesh (the body itself) has no openings: segmentation refuses it, named.
   std::vector<FitGarmentInput> in = {{"closed.obj", mannequin().mesh}};
