@@ -266,8 +266,10 @@ int run_fit(Args& args) {
 
   // Read every garment before the (slower) body, so a missing file fails at once.
   std::vector<FitGarmentInput> garments;
+  ReadOptions read_options;
+  read_options.repair = request.repair; // --repair, read with the body's flags
   for (const std::string& f : garment_files) {
-    ParsedMesh parsed = read_mesh(f);
+    ParsedMesh parsed = read_mesh(f, read_options);
     if (!quiet)
       for (const auto& w : parsed.warnings)
         std::cerr << "vfit: warning: " << w << "\n";

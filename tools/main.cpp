@@ -78,7 +78,7 @@ mesh each) and DIR/demo.json. DIR defaults to ./vfit_demo.
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
-                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U] [--up A]]
+                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U] [--up A] [--repair]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
                  [--rigged FILE.glb] [--quiet]
        vfit body --scan FILE [--units U] [--up A] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
@@ -172,7 +172,7 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
-                [--garment-up auto|+y|+z|-z|-y|+x|-x] [--quiet] [--debug DIR] [--progress]
+                [--garment-up auto|+y|+z|-z|-y|+x|-x] [--repair] [--quiet] [--debug DIR] [--progress]
                 [--keypoints FILE.json [--image-size W H] [--focal F]]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
@@ -188,6 +188,8 @@ length unit (detected, or --garment-units) and stored Y up facing +Z (OBJ, glTF)
 -Y (Blender, scanners): the up axis is read from the surface (its left-right mirror symmetry
 and its normals) and a Z-up garment is turned upright, with a warning in the report.
   --garment-up A    the garments' up axis in their files, when auto (the default) misreads it
+  --repair          drop degenerate and duplicate faces of the garments and of a body mesh
+                    file (with a warning each) instead of failing on them
   --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the
                     photo's 2D keypoints (as `vfit body --keypoints`; instead of --pose)
   --out FILE        .glb: the body and each garment as named meshes; .obj/.ply: the garments,

@@ -76,7 +76,9 @@ LoadedBody load_body(const BodyRequest& r) {
       return out;
     }
   }
-  ParsedMesh parsed = read_mesh(path);
+  ReadOptions read_options;
+  read_options.repair = r.repair;
+  ParsedMesh parsed = read_mesh(path, read_options);
   out.warnings = parsed.warnings;
   const MeshStats stats = mesh_stats(parsed.mesh);
   Units units = Units::M;

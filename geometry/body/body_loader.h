@@ -31,6 +31,9 @@ struct BodyRequest {
   /// rotate_to_y_up(). Absent: detect_body_up_axis() on the mesh (+Y when it cannot tell), with a
   /// warning when it turns the body.
   std::optional<UpAxis> up;
+  /// A plain mesh file: drop degenerate and duplicate faces (read_mesh()'s ReadOptions::repair,
+  /// with warnings) instead of failing on them.
+  bool repair = false;
 };
 
 /// A body ready for fitting: rigged, in metres, in its rest pose, plus how to pose it.

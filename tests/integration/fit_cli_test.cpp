@@ -102,6 +102,33 @@ TEST(FitCli, AMissingGarmentExits2AndWritesNothing) {
   EXPECT_EQ(file_count(dir.path()), 0u);
 }
 
+// A garment with a degenerate and a duplicated face: refused naming the file, line and --repair;
+// with --repair both are dropped, each with a warning, and the garment is fitted.
+TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
+  test::TempDir dir;
+  write_catalogue(dir / "trousers.obj", GarmentType::TROUSERS);
+  std::string text = test::read_file(dir / "trousers.obj");
+  const auto first_face = text.find("\nf ");
+  ASSERT_NE(first_face, std::string::npos);
+  const std::string face = text.substr(first_face + 1, text.find('\n', first_face + 1) - first_face);
+  text += face + "f 1 1 2\n";
+  test::write_file(dir / "dirty.obj", text);
+  std::vector<std::string> args = {"fit", "--body", "mannequin", "--pose-rest", "apose", "--vertices", "3000",
+                                   "--garment", (dir / "dirty.obj").string(), "--out", (dir / "fitted.obj").string(),
+                                   "--no-simulation"};
+  const auto refused = test::run_cli(args);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("dirty.obj:"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("--repair"), std::string::npos) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "fitted.obj"));
+  args.push_back("--repair");
+  const auto repaired = test::run_cli(args);
+  ASSERT_EQ(repaired.exit_code, 0) << repaired.err;
+  EXPECT_NE(repaired.err.find("degenerate"), std::string::npos) << repaired.err;
+  EXPECT_NE(repaired.err.find("duplicate"), std::string::npos) << repaired.err;
+  EXPECT_EQ(read_mesh(dir / "fitted.obj").mesh.vertex_count(), 2000u);
+}
+
 TEST(FitCli, AMeshThatIsNotAGarmentExits2AndWritesNothing) {
   test::TempDir dir;
   write_mesh(dir / "ball.obj", make_uv_sphere(8, 16, 0.3f));
