@@ -14,6 +14,7 @@
 #include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
 #include "geometry/garment/skeleton_driving.h"
+#include "geometry/mesh/weld.h"
 #include "engine/layering.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
@@ -106,6 +107,17 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   if (report.units != Units::M) {
     scale_positions(mesh.positions, metres_per_unit(report.units));
     report.warnings.push_back("garment in " + units_name(report.units) + ", converted to metres");
+  }
+  // Pattern pieces exported with their own copies of the seams' vertices: one surface again.
+  const WeldReport weld = weld_coincident_vertices(mesh);
+  if (weld.changed()) {
+    report.warnings.push_back("welded " + std::to_string(weld.welded) + " vertices shared by pieces (seams), dropped " +
+                              std::to_string(weld.unreferenced) + " unused vertices and " +
+                              std::to_string(weld.collapsed) + " collapsed triangles: " +
+                              std::to_string(mesh.vertex_count()) + " vertices, " + std::to_string(mesh.face_count()) +
+                              " triangles");
+    report.vertices = mesh.vertex_count();
+    report.faces = mesh.face_count();
   }
   report.timings.units_ms = ms_since(t0);
   sink.done(input.name, "units", report.timings.units_ms, units_name(report.units));

@@ -84,7 +84,10 @@ struct FitOptions {
 /// One garment handed to the pipeline.
 struct FitGarmentInput {
   std::string name; ///< names it in the report and in output files (e.g. the file name)
-  Mesh mesh;        ///< any length unit; Y up facing +Z, or see FitOptions::garment_up
+  /// Any length unit; Y up facing +Z, or see FitOptions::garment_up. Vertices at bit-identical
+  /// positions (pattern pieces' seams) are welded first (weld_coincident_vertices()), so the
+  /// fitted mesh can have fewer vertices than this one (the report says so).
+  Mesh mesh;
 };
 
 /// How the cloth simulation of one garment ended.
@@ -118,7 +121,7 @@ UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::op
 
 /// Wall-clock milliseconds of each stage. For one garment, or summed over all of them.
 struct FitStageTimes {
-  double units_ms = 0;        ///< unit detection and conversion to metres
+  double units_ms = 0;        ///< unit detection, conversion to metres, welding (weld.h)
   double segmentation_ms = 0; ///< segment_garment(): type detection and part labels
   double skeletons_ms = 0;    ///< extract_limb_skeletons()
   double driving_ms = 0;      ///< SkeletonDriver setup and drive(): orientation, driving, Laplacian

@@ -199,6 +199,39 @@ TEST(FitPipeline, DetectsAZUpGarmentAndFitsItAsTheOriginal) {
   }
 }
 
+// The tee exported as two pattern pieces, each with its own copy of the seam's vertices down
+// the middle: welded back (with a warning), segmented and driven like the tee itself.
+TEST(FitPipeline, WeldsPatternPiecesThatShareSeamPositions) {
+  const FitGarmentInput& tee = tee_and_trousers()[0];
+  FitGarmentInput pieces = tee;
+  std::vector<std::int32_t> copy(tee.mesh.vertex_count(), -1);
+  for (std::size_t f = 0; f < pieces.mesh.face_count(); ++f) {
+    float cx = 0;
+    for (int k = 0; k < 3; ++k) cx += pieces.mesh.positions[3 * std::size_t(pieces.mesh.triangles[3 * f + std::size_t(k)])];
+    if (cx < 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      std::int32_t& v = pieces.mesh.triangles[3 * f + std::size_t(k)];
+      if (copy[std::size_t(v)] < 0) {
+        copy[std::size_t(v)] = std::int32_t(pieces.mesh.vertex_count());
+        for (int c = 0; c < 3; ++c) pieces.mesh.positions.push_back(pieces.mesh.positions[3 * std::size_t(v) + std::size_t(c)]);
+      }
+      v = copy[std::size_t(v)];
+    }
+  }
+  FitOptions o;
+  o.simulate = false;
+  const FitResult welded = fit_garments(mannequin(), std::vector<FitGarmentInput>{pieces}, o);
+  const FitResult original = fit_garments(mannequin(), std::vector<FitGarmentInput>{tee}, o);
+  const GarmentFitReport& g = welded.report.garments[0];
+  EXPECT_EQ(g.type, GarmentType::TEE);
+  EXPECT_EQ(g.vertices, tee.mesh.vertex_count());
+  EXPECT_EQ(g.driving.rfind("driven", 0), 0u) << g.driving;
+  EXPECT_TRUE(std::any_of(g.warnings.begin(), g.warnings.end(),
+                          [](const std::string& w) { return w.find("welded") != std::string::npos; }));
+  EXPECT_EQ(welded.garments[0].segmentation.vertex_parts.size(), original.garments[0].segmentation.vertex_parts.size());
+  EXPECT_LE(g.after.max_depth, MAX_INSIDE_DEPTH);
+}
+
 TEST(FitPipeline, RejectsAMeshThatIsNotAGarment) {
   // A closed mesh (the body itself) has no openings: segmentation refuses it, named.
   std::vector<FitGarmentInput> in = {{"closed.obj", mannequin().mesh}};

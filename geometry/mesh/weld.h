@@ -1,0 +1,29 @@
+#pragma once
+/// \file
+/// Welding of coincident vertices: pattern-based garment tools (and many exporters) write each
+/// pattern piece with its own copy of the seam's vertices, so a garment arrives as pieces that
+/// touch without sharing vertices, and its topology (openings, sleeves, legs) is lost.
+
+#include <cstddef>
+
+#include "mesh.h"
+
+namespace vfit {
+
+/// What weld_coincident_vertices() changed.
+struct WeldReport {
+  std::size_t welded = 0;       ///< vertices merged into an earlier vertex at the same position
+  std::size_t unreferenced = 0; ///< vertices no triangle used, dropped
+  std::size_t collapsed = 0;    ///< triangles that lost their area (two corners welded), dropped
+  bool changed() const { return welded + unreferenced + collapsed > 0; }
+};
+
+/// Merges vertices whose positions are bit-identical (−0.0 taken as 0.0) into the first of
+/// them in index order, drops vertices no triangle uses and triangles two of whose corners
+/// became one vertex, and renumbers the rest keeping their order. Per-corner UV and normal
+/// indices and per-face labels follow their triangles (seams in UVs stay seams). A mesh with
+/// nothing to weld or drop is left untouched (the same vertex numbering). Linear in the mesh
+/// (hashing). Positions are compared exactly: layers a little apart (a lining) stay apart.
+WeldReport weld_coincident_vertices(Mesh& mesh);
+
+} // namespace vfit
