@@ -35,7 +35,7 @@ mesh formats read: .obj .ply .off .stl .glb .gltf
 exit codes: 0 ok, 2 bad input (the message names the file and the element), 1 internal failure
 )";
 
-constexpr const char* INFO_HELP = R"(usage: vfit info FILE [--json] [--units m|dm|cm|mm] [--repair]
+constexpr const char* INFO_HELP = R"(usage: vfit info FILE [--json] [--units m|dm|cm|mm|in] [--repair]
 
 Reads and validates FILE, then prints its vertex/face/edge counts, attributes (UVs, normals,
 labels), bounding box and extent, units (detected from the extent and position unless --units states them),
@@ -53,7 +53,7 @@ Reads and validates IN and writes OUT in the format of its extension (.obj with 
 .off, .stl binary, .glb). OUT is written to a temporary file and renamed; IN is never
 overwritten (OUT == IN is refused).
   --to-metres  scale coordinates to metres (units detected from the extent, or --units)
-  --units U    IN's unit: m, dm, cm or mm
+  --units U    IN's unit: m, dm, cm, mm or in (inches are never detected)
   --repair     drop degenerate and duplicate faces instead of failing
 )";
 

@@ -14,6 +14,7 @@ std::string units_name(Units units) {
   case Units::DM: return "dm";
   case Units::CM: return "cm";
   case Units::MM: return "mm";
+  case Units::IN: return "in";
   }
   return "m";
 }
@@ -25,7 +26,8 @@ Units parse_units(std::string_view name) {
   if (s == "dm" || s == "decimetre" || s == "decimetres" || s == "decimeter" || s == "decimeters") return Units::DM;
   if (s == "cm" || s == "centimetre" || s == "centimetres" || s == "centimeter" || s == "centimeters") return Units::CM;
   if (s == "mm" || s == "millimetre" || s == "millimetres" || s == "millimeter" || s == "millimeters") return Units::MM;
-  throw Error("--units", 0, "unknown unit '" + std::string(name) + "' (expected m, dm, cm or mm)");
+  if (s == "in" || s == "inch" || s == "inches") return Units::IN;
+  throw Error("--units", 0, "unknown unit '" + std::string(name) + "' (expected m, dm, cm, mm or in)");
 }
 
 double metres_per_unit(Units units) {
@@ -34,6 +36,7 @@ double metres_per_unit(Units units) {
   case Units::DM: return 0.1;
   case Units::CM: return 0.01;
   case Units::MM: return 0.001;
+  case Units::IN: return 0.0254;
   }
   return 1.0;
 }

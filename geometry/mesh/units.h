@@ -9,15 +9,18 @@
 
 namespace vfit {
 
-enum class Units { M, DM, CM, MM };
+/// IN (inches, 0.0254 m: US garment CAD) is never detected, only stated: a garment's inches
+/// fall in the ranges of decimetres and centimetres.
+enum class Units { M, DM, CM, MM, IN };
 
-/// "m" | "dm" | "cm" | "mm".
+/// "m" | "dm" | "cm" | "mm" | "in".
 std::string units_name(Units units);
 
-/// Parses "m" | "dm" | "cm" | "mm" (also "metres", "meters", ...); throws vfit::Error otherwise.
+/// Parses "m" | "dm" | "cm" | "mm" | "in" (also "metres", "meters", "inches", ...); throws
+/// vfit::Error otherwise.
 Units parse_units(std::string_view name);
 
-/// Metres per unit: 1, 0.1, 0.01, 0.001.
+/// Metres per unit: 1, 0.1, 0.01, 0.001, 0.0254.
 double metres_per_unit(Units units);
 
 /// Units inferred from the largest bounding-box extent of a garment or body, assuming a

@@ -28,7 +28,11 @@ TEST(Units, RefusesToGuessImpossibleExtents) {
 TEST(Units, ParsesNamesAndScales) {
   EXPECT_EQ(parse_units("cm"), Units::CM);
   EXPECT_EQ(parse_units("Millimetres"), Units::MM);
-  EXPECT_THROW(parse_units("inch"), Error);
+  EXPECT_EQ(parse_units("in"), Units::IN);
+  EXPECT_EQ(parse_units("Inches"), Units::IN);
+  EXPECT_EQ(units_name(Units::IN), "in");
+  EXPECT_DOUBLE_EQ(metres_per_unit(Units::IN), 0.0254);
+  EXPECT_THROW(parse_units("furlong"), Error);
   EXPECT_DOUBLE_EQ(metres_per_unit(Units::DM), 0.1);
   std::vector<float> p = {10.0f, 20.0f, -30.0f};
   scale_positions(p, metres_per_unit(Units::CM));
