@@ -12,6 +12,7 @@
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/obj_format.h"
 #include "geometry/mesh/primitives.h"
+#include "geometry/mesh/weld.h"
 
 namespace {
 
@@ -64,6 +65,31 @@ void BM_write_obj(benchmark::State& state) {
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
 BENCHMARK(BM_write_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// weld_coincident_vertices() on a clean mesh (the fit pipeline runs it on every garment; it
+// finds nothing and changes nothing) and on the same sphere with every triangle's corners
+// unshared (3 copies per vertex, as some exporters write: everything to weld).
+void BM_weld(benchmark::State& state) {
+  const vfit::Mesh& clean = fixture(state.range(0)).mesh;
+  vfit::Mesh input = clean;
+  if (state.range(1)) {
+    input.positions.clear();
+    for (std::size_t i = 0; i < clean.triangles.size(); ++i) {
+      const auto v = std::size_t(clean.triangles[i]);
+      input.positions.insert(input.positions.end(), clean.positions.begin() + std::ptrdiff_t(3 * v),
+                             clean.positions.begin() + std::ptrdiff_t(3 * v + 3));
+      input.triangles[i] = std::int32_t(i);
+    }
+  }
+  for (auto _ : state) {
+    state.PauseTiming();
+    vfit::Mesh m = input;
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(vfit::weld_coincident_vertices(m));
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(input.vertex_count()));
+}
+BENCHMARK(BM_weld)->ArgsProduct({{10000, 100000, 1000000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace
 

@@ -1,27 +1,22 @@
 #include "weld.h"
 
-#include <array>
 #include <bit>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 namespace vfit {
 
 namespace {
 
-struct KeyHash {
-  std::size_t operator()(const std::array<std::uint32_t, 3>& k) const {
-    std::uint64_t h = 1469598103934665603ull; // FNV-1a over the three words
-    for (std::uint32_t w : k) {
-      h ^= w;
-      h *= 1099511628211ull;
-    }
-    return std::size_t(h);
-  }
-};
-
 std::uint32_t key_bits(float x) { return std::bit_cast<std::uint32_t>(x == 0.0f ? 0.0f : x); }
+
+std::uint64_t mix(std::uint64_t h) { // splitmix64's finaliser: every key bit reaches the slot
+  h ^= h >> 30;
+  h *= 0xbf58476d1ce4e5b9ull;
+  h ^= h >> 27;
+  h *= 0x94d049bb133111ebull;
+  return h ^ (h >> 31);
+}
 
 } // namespace
 
@@ -31,20 +26,37 @@ WeldReport weld_coincident_vertices(Mesh& mesh) {
   std::vector<char> used(nv, 0);
   for (std::int32_t v : mesh.triangles)
     if (v >= 0 && std::size_t(v) < nv) used[std::size_t(v)] = 1;
-  // Each used vertex → the first used vertex at its position.
+  // Each used vertex → the first used vertex at its position: open addressing (linear
+  // probing) over a power-of-two table at most half full, keyed by the coordinates' bits.
   std::vector<std::int32_t> first(nv, -1);
-  std::unordered_map<std::array<std::uint32_t, 3>, std::int32_t, KeyHash> at;
-  at.reserve(nv);
+  std::size_t slots = 16;
+  while (slots < 2 * nv) slots *= 2;
+  std::vector<std::int32_t> table(slots, -1);
+  const float* p = mesh.positions.data();
+  auto same = [&](std::size_t a, std::size_t b) {
+    for (std::size_t c = 0; c < 3; ++c)
+      if (key_bits(p[3 * a + c]) != key_bits(p[3 * b + c])) return false;
+    return true;
+  };
   for (std::size_t v = 0; v < nv; ++v) {
     if (!used[v]) {
       ++report.unreferenced;
       continue;
     }
-    const std::array<std::uint32_t, 3> key = {key_bits(mesh.positions[3 * v]), key_bits(mesh.positions[3 * v + 1]),
-                                              key_bits(mesh.positions[3 * v + 2])};
-    const auto [it, inserted] = at.try_emplace(key, std::int32_t(v));
-    first[v] = it->second;
-    if (!inserted) ++report.welded;
+    const std::uint64_t h = mix((std::uint64_t(key_bits(p[3 * v])) << 32 | key_bits(p[3 * v + 1])) ^
+                                (std::uint64_t(key_bits(p[3 * v + 2])) * 0x9e3779b97f4a7c15ull));
+    for (std::size_t slot = h & (slots - 1);; slot = (slot + 1) & (slots - 1)) {
+      if (table[slot] < 0) {
+        table[slot] = std::int32_t(v);
+        first[v] = std::int32_t(v);
+        break;
+      }
+      if (same(std::size_t(table[slot]), v)) {
+        first[v] = table[slot];
+        ++report.welded;
+        break;
+      }
+    }
   }
   if (report.welded == 0 && report.unreferenced == 0) return report;
 
