@@ -10,6 +10,7 @@
 #include "gltf_body.h"
 #include "json_input.h"
 #include "joint_estimation.h"
+#include "geometry/mesh/weld.h"
 #include "kernels/error.h"
 #include "rig_mapping.h"
 #include "smpl_model.h"
@@ -92,6 +93,10 @@ LoadedBody load_body(const BodyRequest& r) {
       out.warnings.push_back(path.string() + ": units detected as " + units_name(units) + "; converted to metres");
   }
   scale_positions(parsed.mesh.positions, metres_per_unit(units));
+  if (const WeldReport weld = weld_coincident_vertices(parsed.mesh); weld.changed())
+    out.warnings.push_back(path.string() + ": welded " + std::to_string(weld.welded) + " coincident vertices, dropped " +
+                           std::to_string(weld.unreferenced) + " unused vertices and " + std::to_string(weld.collapsed) +
+                           " collapsed triangles");
   UpAxis up = UpAxis::POS_Y;
   if (r.up) {
     up = *r.up;

@@ -58,7 +58,9 @@ private:
   std::vector<double> m_betas;
 };
 
-/// Loads the requested body. Throws vfit::Error naming the file and the problem (missing file,
+/// Loads the requested body. A plain mesh is converted to metres, welded
+/// (weld_coincident_vertices()) and turned upright (BodyRequest::up), each with a warning when
+/// it changes something. Throws vfit::Error naming the file and the problem (missing file,
 /// unknown format, no recognisable skeleton, joints file incomplete, ...).
 LoadedBody load_body(const BodyRequest& request);
 
