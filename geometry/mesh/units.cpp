@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <vector>
 
 #include "kernels/error.h"
 
@@ -53,8 +54,20 @@ std::optional<Units> detect_units(double largest_extent) {
 }
 
 std::optional<Units> detect_mesh_units(double largest_extent, double max_abs_coordinate) {
-  if (!std::isfinite(max_abs_coordinate)) return std::nullopt;
-  return detect_units(std::max(largest_extent, max_abs_coordinate));
+  if (!std::isfinite(max_abs_coordinate) || !std::isfinite(largest_extent)) return std::nullopt;
+  // The units in which the object has a garment's or a body's size.
+  constexpr double SMALLEST = 0.15, LARGEST = 2.6; // m: a collar or crop top; a tall body's arm span
+  std::vector<Units> plausible;
+  for (Units u : {Units::M, Units::DM, Units::CM, Units::MM}) {
+    const double metres = largest_extent * metres_per_unit(u);
+    if (metres >= SMALLEST && metres <= LARGEST) plausible.push_back(u);
+  }
+  if (plausible.size() == 1) return plausible[0];
+  // None, or two a factor of ten apart: where the object sits decides.
+  const std::optional<Units> by_position = detect_units(std::max(largest_extent, max_abs_coordinate));
+  if (plausible.empty() || !by_position) return by_position;
+  if (std::find(plausible.begin(), plausible.end(), *by_position) != plausible.end()) return by_position;
+  return plausible.front();
 }
 
 void scale_positions(std::span<float> positions, double factor) {

@@ -30,10 +30,13 @@ double metres_per_unit(Units units);
 /// dm reads as m): callers show a warning and accept an explicit unit.
 std::optional<Units> detect_units(double largest_extent);
 
-/// Units of a mesh from its largest extent and its largest absolute coordinate: the object's
-/// size is taken as the larger of the two, because a small piece (a 27 cm collar) sits where it
-/// is worn, far from the origin in the file's units (6 dm up), which its extent alone would
-/// read as metres. Same thresholds and nullopt cases as detect_units().
+/// Units of a mesh from its largest extent and its largest absolute coordinate: the unit in
+/// which the extent is a garment's or a body's size (0.15–2.6 m) when exactly one is; when two
+/// are (extents a factor of ten apart both plausible: 1.5–2.6 units), or none, the unit that
+/// detect_units() gives the larger of extent and coordinate: a small piece (a 27 cm collar)
+/// sits where it is worn, far from the origin in the file's units (6 dm up). So a metre-unit
+/// garment placed metres from the origin stays in metres. nullopt as detect_units(), or for a
+/// non-finite argument.
 std::optional<Units> detect_mesh_units(double largest_extent, double max_abs_coordinate);
 
 /// Multiplies every coordinate in `positions` (#V × 3) by `factor`.

@@ -54,6 +54,20 @@ TEST(Units, SmallPiecesWornAwayFromTheOriginUseTheirPosition) {
   EXPECT_EQ(detect_mesh_units(1.8, 1.8), Units::M);
   EXPECT_EQ(detect_mesh_units(0.5, 1.5), Units::M);
   EXPECT_FALSE(detect_mesh_units(1.0, std::numeric_limits<double>::infinity()).has_value());
+  // A 53 cm tee in metres placed 4 m from the origin (a scene): still metres, not decimetres.
+  EXPECT_EQ(detect_mesh_units(0.53, 4.2), Units::M);
+  // A 25 cm garment in dm, on the origin: only decimetres give a garment's size.
+  EXPECT_EQ(detect_mesh_units(2.5 * 1.1, 2.75), Units::DM);
+  // Both plausible (a 2 m body in dm or a 20 cm piece in cm): the position decides.
+  EXPECT_EQ(detect_mesh_units(20.0, 20.0), Units::DM);
+  EXPECT_EQ(detect_mesh_units(20.0, 150.0), Units::CM);
+  // Every unit of a human-scale object, at rest on the origin.
+  for (double metres : {0.6, 1.7, 2.5}) {
+    EXPECT_EQ(detect_mesh_units(metres, metres), Units::M) << metres;
+    EXPECT_EQ(detect_mesh_units(metres * 10, metres * 10), Units::DM) << metres;
+    EXPECT_EQ(detect_mesh_units(metres * 100, metres * 100), Units::CM) << metres;
+    EXPECT_EQ(detect_mesh_units(metres * 1000, metres * 1000), Units::MM) << metres;
+  }
 }
 
 } // namespace
