@@ -1,9 +1,16 @@
 #include "laplacian_deformation.h"
 
+#include <algorithm>
+#include <numeric>
+
 #include "kernels/error.h"
+#include "kernels/parallel.h"
 
 namespace vfit {
 namespace {
+
+// One TBB task per independent piece of the band (a tee has two, one per armhole).
+constexpr std::size_t PIECES_PER_TASK = 1;
 
 // A safety net, not the stopping rule: the V-cycle-preconditioned CG reaches
 // BAND_MULTIGRID_TOLERANCE in far fewer iterations on driven garments (56 at 10^6 vertices).
@@ -22,7 +29,68 @@ SparseMatrix stacked_system(const SparseMatrix& L, std::span<const std::int32_t>
   return A;
 }
 
+// Connected pieces of the free vertices, two being connected when a row of L_F (#R × #F,
+// row-major) has both: piece[f] for each free vertex, numbered by their smallest free vertex.
+// Returns the number of pieces.
+std::int32_t free_pieces(const SparseMatrix& free_block, std::vector<std::int32_t>& piece) {
+  std::vector<std::int32_t> parent(static_cast<std::size_t>(free_block.cols()));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](std::int32_t x) {
+    while (parent[static_cast<std::size_t>(x)] != x)
+      x = parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+    return x;
+  };
+  for (Eigen::Index r = 0; r < free_block.outerSize(); ++r) {
+    SparseMatrix::InnerIterator it(free_block, r);
+    if (!it) continue;
+    const std::int32_t first = find(static_cast<std::int32_t>(it.col()));
+    for (++it; it; ++it) {
+      const std::int32_t other = find(static_cast<std::int32_t>(it.col()));
+      if (other != first) parent[static_cast<std::size_t>(std::max(first, other))] = std::min(first, other);
+    }
+  }
+  // Roots are each piece's smallest member, so numbering the roots in order numbers the pieces
+  // by their smallest free vertex.
+  piece.assign(parent.size(), -1);
+  std::int32_t count = 0;
+  for (std::size_t f = 0; f < parent.size(); ++f) {
+    const auto root = static_cast<std::size_t>(find(static_cast<std::int32_t>(f)));
+    if (piece[root] < 0) piece[root] = count++;
+    piece[f] = piece[root];
+  }
+  return count;
+}
+
 } // namespace
+
+struct BandLaplacianDeformer::Piece {
+  std::vector<std::int32_t> columns; ///< its free vertices (indices into m_free), ascending; empty: the whole band
+  std::vector<std::int32_t> rows;    ///< its rows (indices into m_rows), ascending; empty: the whole band
+  std::unique_ptr<SparseLeastSquares> direct;
+  std::unique_ptr<SupernodalLeastSquares> supernodal;
+
+  void factor(const SparseMatrix& A, BandSolver solver) {
+    if (solver == BandSolver::SUPERNODAL)
+      supernodal = std::make_unique<SupernodalLeastSquares>(A);
+    else
+      direct = std::make_unique<SparseLeastSquares>(A);
+  }
+  bool ok() const { return direct ? direct->ok() : supernodal->ok(); }
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const { return direct ? direct->solve(b) : supernodal->solve(b); }
+  /// Writes its free vertices' rows of x (#F × 3) from b (#R × 3, all rows of the band).
+  void solve_into(const Eigen::MatrixXd& b, Eigen::MatrixXd& x) const {
+    if (columns.empty()) {
+      x = solve(b);
+      return;
+    }
+    Eigen::MatrixXd bp(static_cast<Eigen::Index>(rows.size()), b.cols());
+    for (std::size_t r = 0; r < rows.size(); ++r)
+      bp.row(static_cast<Eigen::Index>(r)) = b.row(rows[r]);
+    const Eigen::MatrixXd xp = solve(bp);
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      x.row(columns[c]) = xp.row(static_cast<Eigen::Index>(c));
+  }
+};
 
 LaplacianDeformer::LaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> constrained, double weight, bool uniform)
     : m_laplacian(uniform ? uniform_laplacian(mesh.triangle_view(), mesh.vertex_count())
@@ -114,14 +182,13 @@ BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const s
   m_free_block.setFromTriplets(free_entries.begin(), free_entries.end());
   m_handle_block.resize(nr, static_cast<Eigen::Index>(m_handles.size()));
   m_handle_block.setFromTriplets(handle_entries.begin(), handle_entries.end());
-  if (solver == BandSolver::AUTO)
-    solver = m_free.size() >= BAND_SUPERNODAL_UNKNOWNS ? BandSolver::SUPERNODAL : BandSolver::DIRECT;
-  if (solver == BandSolver::DIRECT) {
-    m_solver = std::make_unique<SparseLeastSquares>(m_free_block);
+  if (solver == BandSolver::DIRECT || (solver == BandSolver::AUTO && m_free.size() < BAND_SUPERNODAL_UNKNOWNS)) {
+    m_pieces.resize(1);
+    m_pieces.front().factor(m_free_block, BandSolver::DIRECT);
     return;
   }
-  if (solver == BandSolver::SUPERNODAL) {
-    m_supernodal = std::make_unique<SupernodalLeastSquares>(m_free_block);
+  if (solver != BandSolver::MULTIGRID) {
+    factor_pieces(solver);
     return;
   }
   m_free_block_transpose = m_free_block.transpose();
@@ -135,6 +202,51 @@ BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const s
         mesh.positions[3 * v + 2];
   }
   m_multigrid = std::make_unique<SmoothedAggregationSolver>(normal, near_null);
+}
+
+void BandLaplacianDeformer::factor_pieces(BandSolver solver) {
+  std::vector<std::int32_t> piece;
+  const std::int32_t count = free_pieces(m_free_block, piece);
+  m_pieces.resize(static_cast<std::size_t>(count));
+  if (count == 1) {
+    m_pieces.front().factor(m_free_block, solver == BandSolver::SUPERNODAL || m_free.size() >= BAND_PIECE_SUPERNODAL_UNKNOWNS
+                                              ? BandSolver::SUPERNODAL
+                                              : BandSolver::DIRECT);
+    return;
+  }
+  // local[f]: f's column within its piece.
+  std::vector<std::int32_t> local(m_free.size());
+  for (std::size_t f = 0; f < m_free.size(); ++f) {
+    Piece& p = m_pieces[static_cast<std::size_t>(piece[f])];
+    local[f] = static_cast<std::int32_t>(p.columns.size());
+    p.columns.push_back(static_cast<std::int32_t>(f));
+  }
+  for (Eigen::Index r = 0; r < m_free_block.outerSize(); ++r) {
+    SparseMatrix::InnerIterator it(m_free_block, r);
+    if (it) m_pieces[static_cast<std::size_t>(piece[static_cast<std::size_t>(it.col())])].rows.push_back(static_cast<std::int32_t>(r));
+  }
+  parallel_for_range(m_pieces.size(), PIECES_PER_TASK, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Piece& p = m_pieces[i];
+      std::vector<Eigen::Triplet<double>> entries;
+      for (std::size_t r = 0; r < p.rows.size(); ++r)
+        for (SparseMatrix::InnerIterator it(m_free_block, p.rows[r]); it; ++it)
+          entries.emplace_back(static_cast<Eigen::Index>(r), local[static_cast<std::size_t>(it.col())], it.value());
+      SparseMatrix A(static_cast<Eigen::Index>(p.rows.size()), static_cast<Eigen::Index>(p.columns.size()));
+      A.setFromTriplets(entries.begin(), entries.end());
+      p.factor(A, solver == BandSolver::SUPERNODAL || p.columns.size() >= BAND_PIECE_SUPERNODAL_UNKNOWNS
+                      ? BandSolver::SUPERNODAL
+                      : BandSolver::DIRECT);
+    }
+  });
+}
+
+std::size_t BandLaplacianDeformer::pieces() const { return m_pieces.size(); }
+
+bool BandLaplacianDeformer::ok() const {
+  if (m_free.empty()) return true;
+  if (m_multigrid) return m_multigrid->ok();
+  return std::all_of(m_pieces.begin(), m_pieces.end(), [](const Piece& p) { return p.ok(); });
 }
 
 BandLaplacianDeformer::~BandLaplacianDeformer() = default;
@@ -166,10 +278,13 @@ std::vector<float> BandLaplacianDeformer::deform(const Eigen::MatrixXd& delta, c
     b.row(static_cast<Eigen::Index>(r)) = delta.row(m_rows[r]);
   b -= m_handle_block * targets;
   Eigen::MatrixXd x;
-  if (m_solver) {
-    x = m_solver->solve(b);
-  } else if (m_supernodal) {
-    x = m_supernodal->solve(b);
+  if (m_pieces.size() == 1) {
+    m_pieces.front().solve_into(b, x);
+  } else if (!m_pieces.empty()) {
+    x.resize(static_cast<Eigen::Index>(m_free.size()), b.cols());
+    parallel_for_range(m_pieces.size(), PIECES_PER_TASK, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) m_pieces[i].solve_into(b, x);
+    });
   } else {
     Eigen::MatrixXd rhs;
     parallel_multiply(m_free_block_transpose, b, rhs);

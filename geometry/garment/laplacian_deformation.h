@@ -47,14 +47,20 @@ private:
 
 /// How BandLaplacianDeformer solves its normal equations L_Fᵀ L_F x_F = L_Fᵀ b.
 enum class BandSolver {
-  /// DIRECT below BAND_SUPERNODAL_UNKNOWNS free vertices, SUPERNODAL from there on.
+  /// DIRECT below BAND_SUPERNODAL_UNKNOWNS free vertices (one factorisation of the whole
+  /// band: the Table-1 garments' 600–3,300). From there on the band is split into its
+  /// connected pieces (a tee's two armholes), which are independent systems, factored and
+  /// solved concurrently (one TBB task each): by SUPERNODAL when a piece has at least
+  /// BAND_PIECE_SUPERNODAL_UNKNOWNS free vertices, by DIRECT otherwise. The same least-squares
+  /// solution as one factorisation of the whole band, up to round-off.
   AUTO = 0,
-  /// Simplicial sparse LDLᵀ (SparseLeastSquares): exact; fastest for small bands (Table-1
-  /// garments have 600–3,300 free vertices), but its fill-in makes the factorisation grow about
-  /// as #F^1.8 (27 s for the 225,558-vertex band of a 10^6-vertex tee).
+  /// Simplicial sparse LDLᵀ (SparseLeastSquares) of the whole band at once: exact; fastest for
+  /// small bands, but its fill-in makes the factorisation grow about as #F^1.8 (27 s for the
+  /// 225,558-vertex band of a 10^6-vertex tee).
   DIRECT = 1,
-  /// CHOLMOD's supernodal Cholesky (SupernodalLeastSquares): exact, the same fill-in worked in
-  /// dense blocks: 8.1 s for that band, still superlinear.
+  /// CHOLMOD's supernodal Cholesky (SupernodalLeastSquares) of each connected piece of the
+  /// band, the pieces concurrently: exact, the same fill-in worked in dense blocks; still
+  /// superlinear (about #F^1.35: 2.3 s of one core for that band).
   SUPERNODAL = 2,
   /// Conjugate gradients preconditioned by a smoothed-aggregation V-cycle
   /// (smoothed_aggregation.h) to BAND_MULTIGRID_TOLERANCE, from the caller's initial guess.
@@ -64,9 +70,14 @@ enum class BandSolver {
   MULTIGRID = 3,
 };
 
-/// BandSolver::AUTO's switch: bands with at least this many free vertices are factored by
-/// SUPERNODAL (measured break-even: about 22,000 unknowns, 0.29 s either way).
-inline constexpr std::size_t BAND_SUPERNODAL_UNKNOWNS = 20000;
+/// BandSolver::AUTO's switch from one factorisation of the whole band to its pieces factored
+/// concurrently. Below it lie the Table-1 garments' bands (600–3,300 free vertices), which
+/// keep their single simplicial factorisation.
+inline constexpr std::size_t BAND_SUPERNODAL_UNKNOWNS = 5000;
+/// BandSolver::AUTO: pieces with at least this many free vertices are factored by SUPERNODAL,
+/// smaller ones by DIRECT (one core of a loaded machine: pieces of 3,500 free vertices cost the
+/// same either way, 27 against 30 ms for two; pieces of 11,000, 64 against 87 ms each).
+inline constexpr std::size_t BAND_PIECE_SUPERNODAL_UNKNOWNS = 5000;
 /// BandSolver::MULTIGRID's stopping rule: ‖L_Fᵀ(b − L_F x)‖ ≤ this × ‖L_Fᵀ b‖ per axis. On
 /// driven tees (from the blended rigid guess) it leaves the free vertices within 0.14 mm
 /// (22,523 free), 0.91 mm (70,224) and 1.3 mm (225,558) of the factored solution, 0.017,
@@ -98,9 +109,12 @@ public:
 
   /// False when the free band's system is singular (a free piece touches no handle) or the
   /// multigrid setup failed: callers check it before deform(). True for an empty band.
-  bool ok() const {
-    return m_free.empty() || (m_solver ? m_solver->ok() : m_supernodal ? m_supernodal->ok() : m_multigrid->ok());
-  }
+  bool ok() const;
+
+  /// Independent systems the band is factored as: its connected pieces for AUTO (from
+  /// BAND_SUPERNODAL_UNKNOWNS free vertices on) and SUPERNODAL; 1 for DIRECT and a smaller
+  /// band under AUTO; 0 for MULTIGRID and an empty band.
+  std::size_t pieces() const;
 
   /// True when the free band is solved by BandSolver::MULTIGRID (after AUTO's choice).
   bool iterative() const { return m_multigrid != nullptr; }
@@ -123,14 +137,21 @@ public:
   const std::vector<std::int32_t>& free_vertices() const { return m_free; }
 
 private:
+  /// Splits the band into its connected pieces and factors each (concurrently) with `solver`
+  /// (AUTO: by the piece's size).
+  void factor_pieces(BandSolver solver);
+
   SparseMatrix m_laplacian;            ///< #V × #V, rows of the free vertices and their neighbours only
   std::vector<std::int32_t> m_handles; ///< #H, caller's order
   std::vector<std::int32_t> m_free;    ///< #F ascending
   std::vector<std::int32_t> m_rows;    ///< rows of L with a free column, ascending
   SparseMatrix m_free_block;           ///< L[rows, F]
   SparseMatrix m_handle_block;         ///< L[rows, H] (columns in `handles` order)
-  std::unique_ptr<SparseLeastSquares> m_solver;            ///< DIRECT
-  std::unique_ptr<SupernodalLeastSquares> m_supernodal;    ///< SUPERNODAL
+  /// One independent system of the band: a connected piece of free vertices and the rows
+  /// that touch it, factored by SparseLeastSquares or SupernodalLeastSquares (defined in the
+  /// .cpp). DIRECT, SUPERNODAL and AUTO: one or more; MULTIGRID: none.
+  struct Piece;
+  std::vector<Piece> m_pieces;
   SparseMatrix m_free_block_transpose;                     ///< MULTIGRID: L[rows, F]ᵀ
   std::unique_ptr<SmoothedAggregationSolver> m_multigrid; ///< MULTIGRID, on L_Fᵀ L_F
 };
