@@ -1,5 +1,6 @@
 #include "coarse_move.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <vector>
@@ -68,6 +69,76 @@ CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& ke
   return move;
 }
 
+namespace {
+
+// Re-weighting rounds of the asymmetric least squares per closest-point query; the weights of
+// an expectile fit settle within a few (each round is a 4 × 4 solve over the points).
+constexpr int ENVELOPE_REWEIGHTS = 20;
+
+// Tikhonov weight on Δ relative to Σw_i: directions no point constrains (along a straight
+// trunk) stay.
+constexpr double TIKHONOV = 1e-3;
+
+// One closest-point query's linearisation: s_i + n_iᵀΔ is the signed distance after moving by Δ.
+struct Linearised {
+  std::vector<double> s;
+  std::vector<Eigen::Vector3d> n;
+};
+
+Linearised linearise(std::span<const float> moved, const ProximityIndex& body, ClosestHits& hits) {
+  body.closest_points(moved, INFINITY, hits);
+  Linearised out;
+  const std::size_t n = moved.size() / 3;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (hits.triangles[i] < 0) continue;
+    const Eigen::Vector3d x(moved[3 * i], moved[3 * i + 1], moved[3 * i + 2]);
+    const Eigen::Vector3d c(hits.points[3 * i], hits.points[3 * i + 1], hits.points[3 * i + 2]);
+    Eigen::Vector3d normal = x - c;
+    const double d = normal.norm();
+    if (d < 1e-9) continue; // on the surface: no direction
+    const double sd = hits.signed_distances[i];
+    out.s.push_back(sd);
+    out.n.push_back(normal / (sd < 0 ? -d : d));
+  }
+  return out;
+}
+
+// min_{Δ, m} Σ w_i (s_i + n_iᵀΔ − m)² + TIKHONOV·Σw_i·|Δ|² for one linearisation, re-weighted
+// until the weights settle; returns Δ.
+Eigen::Vector3d fit_envelope(const Linearised& lin, double tau) {
+  using Vec4 = Eigen::Matrix<double, 4, 1>;
+  Vec4 x = Vec4::Zero();
+  std::vector<double> w(lin.s.size(), 0.5);
+  auto row = [&](std::size_t i) {
+    Vec4 a;
+    a << lin.n[i], -1.0; // residual = s_i + aᵀx
+    return a;
+  };
+  for (int round = 0; round < ENVELOPE_REWEIGHTS; ++round) {
+    Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+    Vec4 b = Vec4::Zero();
+    double weight = 0; // Σ w_i, the trace of Σ w_i n_i n_iᵀ (unit n_i)
+    for (std::size_t i = 0; i < lin.s.size(); ++i) {
+      const Vec4 a = row(i);
+      A += w[i] * a * a.transpose();
+      b -= w[i] * lin.s[i] * a;
+      weight += w[i];
+    }
+    A.topLeftCorner<3, 3>() += TIKHONOV * weight * Eigen::Matrix3d::Identity();
+    x = A.ldlt().solve(b);
+    bool settled = true;
+    for (std::size_t i = 0; i < lin.s.size(); ++i) {
+      const double wi = lin.s[i] + row(i).dot(x) > 0 ? tau : 1 - tau;
+      settled = settled && wi == w[i];
+      w[i] = wi;
+    }
+    if (settled && round > 0) break;
+  }
+  return x.head<3>();
+}
+
+} // namespace
+
 Eigen::Vector3d contact_translation(std::span<const float> points, const ProximityIndex& body,
                                     const ContactMoveOptions& options) {
   Eigen::Vector3d total = Eigen::Vector3d::Zero();
@@ -76,27 +147,13 @@ Eigen::Vector3d contact_translation(std::span<const float> points, const Proximi
   std::vector<float> moved(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(3 * n));
   ClosestHits hits;
   for (int round = 0; round < options.max_iterations; ++round) {
-    body.closest_points(moved, INFINITY, hits);
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    std::size_t inside = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double sd = hits.signed_distances[i];
-      if (hits.triangles[i] < 0 || sd >= options.clearance) continue;
-      const Eigen::Vector3d x(moved[3 * i], moved[3 * i + 1], moved[3 * i + 2]);
-      const Eigen::Vector3d c(hits.points[3 * i], hits.points[3 * i + 1], hits.points[3 * i + 2]);
-      Eigen::Vector3d normal = x - c;
-      const double d = normal.norm();
-      if (d < 1e-9) continue; // on the surface: no direction, and nothing to push with κ = 0
-      normal /= sd < 0 ? -d : d;
-      // n·(x + Δ − c) = κ  ⇔  n·Δ = κ − sd.
-      A += normal * normal.transpose();
-      b += normal * (options.clearance - sd);
-      ++inside;
-    }
-    if (inside == 0) break;
-    A += 1e-3 * A.trace() * Eigen::Matrix3d::Identity();
-    const Eigen::Vector3d step = A.ldlt().solve(b);
+    const Linearised lin = linearise(moved, body, hits);
+    if (lin.s.empty()) break;
+    // A garment touching the body nowhere where its key joints put it (loose all round, like
+    // the catalogue's eased trousers) has no contact to level: it stays.
+    if (round == 0 && std::none_of(lin.s.begin(), lin.s.end(), [](double s) { return s < 0; })) break;
+    const Eigen::Vector3d step =
+        fit_envelope(lin, options.envelope_weight);
     total += step;
     for (std::size_t i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c)

@@ -57,30 +57,41 @@ CoarseMove compute_coarse_move(GarmentType type, const SegmentationKeyPoints& ke
 
 /// Options of contact_translation() (not validated: max_iterations ≤ 0 returns zero).
 struct ContactMoveOptions {
-  /// Distance (m) each point is to keep outside the body: 0 lets the garment touch it, as a
-  /// garment modelled on the body does; penetration removal adds its own clearance later.
-  double clearance = 0.0;
-  /// Rounds of closest-point queries and least-squares updates at most.
+  /// Weight of a point lying farther out than the fitted envelope, against 1 − envelope_weight
+  /// for one lying within it: an asymmetric least squares (an expectile regression, Newey and
+  /// Powell 1987) whose fit follows the garment's closest approach to the body, not its mean
+  /// ease, so cloth that hangs (a loose front, a flared hem) barely counts.
+  double envelope_weight = 0.1;
+  /// Rounds of closest-point queries (each followed by re-weighted least-squares solves) at most.
   int max_iterations = 12;
   /// A round moving the garment by less than this (m) ends the iteration.
   double tolerance = 1e-4;
 };
 
-/// The rigid translation that takes `points` (#Q × 3, m: a garment's torso, already oriented
-/// and coarsely placed by its key joints, eq. 16–17) out of the body indexed by `body`: the
-/// key joints of a garment are estimates (a boundary plane's point, a hip height), wrong by
-/// centimetres in ways that depend on the garment's cut, while the garment's own surface says
-/// where it sat on the body it was modelled on. Each round queries the closest body points and
-/// solves the point-to-plane least squares min_Δ Σ_{i inside} (n_iᵀ(x_i + Δ − c_i) − κ)² over
-/// the points inside (or within κ of) the body, n_i the outward direction at the closest point
-/// c_i, with a Tikhonov term 10⁻³·trace so that directions no inside point constrains do not
-/// move. Points pressed in from opposite sides balance (a garment too small for the body
-/// stays centred on it). Ends when no point is inside, after max_iterations, or when a round
-/// moves less than options.tolerance. Returns Δ (m; zero for no point inside, no point, or a
-/// body without triangles). Closest points are searched at any distance; a point within 1e-9 m
-/// of the surface has no direction and is skipped; a trailing partial row of `points` is
-/// ignored. Throws vfit::Error ("proximity queries: …") naming the first non-finite point.
-/// Not in seed 000: a refinement of the eq. 16–17 placement.
+/// The rigid translation Δ that puts `points` (#Q × 3, m: a garment's torso, already oriented
+/// and coarsely placed by its key joints, eq. 16–17) where its closest approach to the body
+/// indexed by `body` is level all round. The key joints of a garment are estimates (a
+/// boundary plane's point, a hip height), wrong by centimetres in ways that depend on the
+/// garment's cut, while the garment's own surface says how it sat on the body it was modelled
+/// on: touching it, or a few mm into it, at its tight places (shoulders, waist, seat), its ease
+/// elsewhere. Each round queries the closest body points c_i and outward directions n_i and,
+/// with the points' signed distances s_i held linear in Δ (s_i + n_iᵀΔ), solves
+///   min_{Δ, m} Σ_i w_i (s_i + n_iᵀΔ − m)²,  w_i = τ where the residual is > 0, else 1 − τ
+/// (τ = options.envelope_weight, re-weighted until the weights settle): the lower envelope of
+/// the signed distances made level at a free level m, with a Tikhonov term 10⁻³·Σw_i on Δ so
+/// that directions no point constrains do not move. A uniform interpenetration or stand-off is
+/// absorbed by m and moves nothing (pushing every point out, the rule before this one, lifted
+/// MakeHuman jeans modelled 8 mm into their body by 4 cm up the tapering waist); a garment
+/// pressed centimetres into the body on one side and standing off on the other is moved back
+/// until its envelope is level again, as is one sitting too high or low on a body whose girth
+/// changes along it. A garment with no point inside the body where it starts touches it
+/// nowhere (loose all round) and is not moved. Ends after max_iterations or when a round moves
+/// less than options.tolerance. Returns Δ (m; zero for no point inside, no point, or a body
+/// without triangles). Closest
+/// points are searched at any distance; a point within 1e-9 m of the surface has no direction
+/// and is skipped; a trailing partial row of `points` is ignored. Throws vfit::Error
+/// ("proximity queries: …") naming the first non-finite point. Not in seed 000: a refinement
+/// of the eq. 16–17 placement.
 Eigen::Vector3d contact_translation(std::span<const float> points, const ProximityIndex& body,
                                     const ContactMoveOptions& options = {});
 

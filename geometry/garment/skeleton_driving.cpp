@@ -72,9 +72,68 @@ const PartSkeleton* find_skeleton(std::span<const PartSkeleton> skeletons, Garme
   return nullptr;
 }
 
-// A leg's axis: the principal direction of its nodes through their centroid, from the first
-// node towards the last; `joint` is the axis's point at `height`.
-void leg_axis(const PartSkeleton& leg, double height, Eigen::Vector3d& joint, Eigen::Vector3d& direction) {
+// A leg's open end: the centroid and unit normal (pointing away from `inboard`) of the mesh's
+// boundary vertices labelled `part`, i.e. of its hem, and the hem's RMS radius about the
+// centroid; nullopt for fewer than 3 such vertices.
+struct Hem {
+  Eigen::Vector3d centre, normal;
+  double radius = 0;
+};
+std::optional<Hem> leg_hem(const Mesh& garment, std::span<const GarmentPart> parts, GarmentPart part,
+                           const Eigen::Vector3d& inboard) {
+  // A vertex of the leg is on its hem when one of its edges belongs to a single triangle: among
+  // the neighbours its faces list (each face names two), one that appears once. Gathered per
+  // vertex (counting, then filling), so the cost is linear in the faces.
+  const std::size_t nv = garment.vertex_count();
+  std::vector<std::int32_t> start(nv + 1, 0);
+  for (std::int32_t v : garment.triangles)
+    if (parts[static_cast<std::size_t>(v)] == part) start[static_cast<std::size_t>(v) + 1] += 2;
+  for (std::size_t v = 0; v < nv; ++v)
+    start[v + 1] += start[v];
+  std::vector<std::int32_t> around(static_cast<std::size_t>(start[nv]));
+  std::vector<std::int32_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t f = 0; f < garment.face_count(); ++f)
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::size_t>(garment.triangles[3 * f + k]);
+      if (parts[v] != part) continue;
+      around[static_cast<std::size_t>(fill[v]++)] = garment.triangles[3 * f + (k + 1) % 3];
+      around[static_cast<std::size_t>(fill[v]++)] = garment.triangles[3 * f + (k + 2) % 3];
+    }
+  std::vector<char> on_hem(nv, 0);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto begin = around.begin() + start[v], end = around.begin() + start[v + 1];
+    std::sort(begin, end);
+    for (auto it = begin; it != end;) {
+      const auto next = std::find_if(it, end, [&](std::int32_t w) { return w != *it; });
+      if (next - it == 1 && parts[static_cast<std::size_t>(*it)] == part) on_hem[v] = 1;
+      it = next;
+    }
+  }
+  std::vector<Eigen::Vector3d> ring;
+  for (std::size_t v = 0; v < garment.vertex_count(); ++v)
+    if (on_hem[v]) ring.push_back(point(garment.positions, v));
+  if (ring.size() < 3) return std::nullopt;
+  Hem hem;
+  hem.centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : ring)
+    hem.centre += p;
+  hem.centre /= double(ring.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : ring)
+    cov += (p - hem.centre) * (p - hem.centre).transpose();
+  hem.radius = std::sqrt(cov.trace() / double(ring.size()));
+  hem.normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+  if (hem.normal.dot(hem.centre - inboard) < 0) hem.normal = -hem.normal;
+  return hem;
+}
+
+// A leg's axis, from the hip towards the hem, and `joint`, the axis's point at `height`. The
+// principal direction of its skeleton's nodes through their centroid, from the first node
+// towards the last; but when the nodes span less than the hem's diameter (shorts: a tube about
+// as long as it is wide, whose skeleton zigzags across it), the hem's normal through its
+// centre (`hem`), as the cuff's area vector gives a short sleeve's axis (segment_sleeves.cpp).
+void leg_axis(const PartSkeleton& leg, const std::optional<Hem>& hem, double height, Eigen::Vector3d& joint,
+              Eigen::Vector3d& direction) {
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& p : leg.nodes)
     c += p;
@@ -85,6 +144,15 @@ void leg_axis(const PartSkeleton& leg, double height, Eigen::Vector3d& joint, Ei
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
   direction = eig.eigenvectors().col(2);
   if (direction.dot(leg.nodes.back() - leg.nodes.front()) < 0) direction = -direction;
+  double lo = INFINITY, hi = -INFINITY;
+  for (const Eigen::Vector3d& p : leg.nodes) {
+    lo = std::min(lo, (p - c).dot(direction));
+    hi = std::max(hi, (p - c).dot(direction));
+  }
+  if (hem && hi - lo < 2 * hem->radius) {
+    direction = hem->normal;
+    c = hem->centre;
+  }
   if (leg.nodes.size() < 2 || std::abs(direction.y()) < 1e-6) {
     direction = -Eigen::Vector3d::UnitY();
     joint = {c.x(), height, c.z()};
@@ -175,6 +243,42 @@ Eigen::Vector3d lower_direction(std::span<const Eigen::Vector3d> nodes, std::spa
   return d.dot(past.back() - past.front()) < 0 ? Eigen::Vector3d(-d) : d;
 }
 
+// A chain whose nodes spread across their principal line by more than this fraction of their
+// spread along it (RMS) is no tube's axis (a jacket's sleeve skeleton wandering over the chest).
+constexpr double CROOKED_CHAIN = 0.3;
+
+// The direction of the chain's nodes between root·upper_length and `upper_length` along `axis`
+// (principal direction through their centroid, pointing along `axis`), or `axis` when no node
+// lies past `upper_length` (a limb that ends above the elbow or knee), fewer than three lie
+// within, they span less than half the upper length, or they are crooked (CROOKED_CHAIN).
+Eigen::Vector3d upper_direction(std::span<const Eigen::Vector3d> nodes, std::span<const double> along,
+                                double upper_length, double root, const Eigen::Vector3d& axis) {
+  std::vector<Eigen::Vector3d> within;
+  double lo = INFINITY, hi = -INFINITY;
+  bool past = false;
+  for (std::size_t k = 0; k < nodes.size(); ++k) {
+    past = past || along[k] > upper_length;
+    if (along[k] < root * upper_length || along[k] > upper_length) continue;
+    within.push_back(nodes[k]);
+    lo = std::min(lo, along[k]);
+    hi = std::max(hi, along[k]);
+  }
+  if (!past || within.size() < 3 || hi - lo < 0.5 * upper_length) return axis;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : within)
+    c += p;
+  c /= double(within.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : within)
+    cov += (p - c) * (p - c).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  const Eigen::Vector3d spread = eig.eigenvalues().cwiseMax(0.0);
+  const double ratio = std::sqrt((spread[0] + spread[1]) / std::max(1e-30, spread[2]));
+  if (ratio > CROOKED_CHAIN) return axis;
+  const Eigen::Vector3d d = eig.eigenvectors().col(2);
+  return d.dot(axis) < 0 ? Eigen::Vector3d(-d) : d;
+}
+
 // Samples along the line down the trunk from the hips' midpoint, over one thigh's length.
 constexpr int CROTCH_SAMPLES = 256;
 
@@ -236,7 +340,8 @@ std::vector<Eigen::Vector3d> arc_length_targets(std::span<const Eigen::Vector3d>
   return out;
 }
 
-GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons) {
+GarmentKeyJoints garment_key_joints(const Mesh& garment, const GarmentSegmentation& segmentation,
+                                    std::span<const PartSkeleton> skeletons) {
   const SegmentationKeyPoints& kp = segmentation.key_points;
   GarmentKeyJoints out;
   if (kp.s1 && kp.s2) {
@@ -251,8 +356,13 @@ GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std
   const PartSkeleton* right = find_skeleton(skeletons, GarmentPart::RIGHT_LEG);
   if (kp.crotch && left && right) {
     const double height = kp.crotch->y() + HIP_HEIGHT_FRACTION * (kp.source.y() - kp.crotch->y());
-    leg_axis(*right, height, out.j1, out.right_axis);
-    leg_axis(*left, height, out.j2, out.left_axis);
+    std::optional<Hem> hems[2];
+    if (segmentation.vertex_parts.size() == garment.vertex_count()) {
+      hems[0] = leg_hem(garment, segmentation.vertex_parts, GarmentPart::RIGHT_LEG, *kp.crotch);
+      hems[1] = leg_hem(garment, segmentation.vertex_parts, GarmentPart::LEFT_LEG, *kp.crotch);
+    }
+    leg_axis(*right, hems[0], height, out.j1, out.right_axis);
+    leg_axis(*left, hems[1], height, out.j2, out.left_axis);
     symmetrise(out);
     out.crotch = *kp.crotch;
     out.legs = true;
@@ -275,7 +385,7 @@ SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& s
       throw Error("skeleton driving", 0, "triangle vertex " + std::to_string(v) + " out of range");
   for (const PartSkeleton& s : skeletons)
     if (is_limb(s.part) && !s.nodes.empty()) m_skeletons.push_back(s);
-  m_key_joints = garment_key_joints(segmentation, m_skeletons);
+  m_key_joints = garment_key_joints(garment, segmentation, m_skeletons);
 
   m_vertex_limb.assign(nv, -1);
   m_vertex_node.assign(nv, -1);
@@ -372,11 +482,13 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
       t += up * (*crotch - (R * g.crotch + t)).dot(up);
   }
   if (body_surface) {
-    // The key joints are estimates from the garment's cut; its torso, away from the seams,
-    // says where it sat on its body: the least translation taking it out of this one.
+    // The key joints are estimates from the garment's cut; its torso says how it sat on its
+    // body: its closest approach to the body level all round (contact_translation()). All of
+    // the torso counts, the band along the seams included: a pair of trousers has little torso
+    // farther than seam_radius from its legs, and the hips and shoulders it rests on lie there.
     std::vector<float> torso;
     for (std::size_t v = 0; v < nv; ++v)
-      if (m_vertex_limb[v] < 0 && m_seam_distance[v] > m_options.seam_radius) {
+      if (m_vertex_limb[v] < 0) {
         const Eigen::Vector3d p = R * point(x, v) + t;
         torso.insert(torso.end(), {float(p.x()), float(p.y()), float(p.z())});
       }
@@ -439,13 +551,26 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
       out.limbs.push_back(std::move(limb));
       continue;
     }
+    // A limb reaching past the elbow or knee has its upper part's own axis: the direction of
+    // its nodes between the joint and the upper limb's length. The key joints' axis (a long
+    // sleeve's boundary plane joins ring centres half way and 85 % of the way from the cuff
+    // to the armpit) mixes in the forearm's bend: 20-27 degrees on the MakeHuman long sleeves,
+    // which turned the whole sleeve, and the torso's band along its seam, by as much.
+    // Sleeves only: a leg's axis is already its skeleton's (garment_key_joints()), and on the
+    // catalogue's trousers the thigh's nodes alone tilted the legs by centimetres at the knee.
+    // A sleeve's skeleton curls into the armhole over its first quarter (the sleeve cap, whose
+    // cross-sections are slanted), so its nodes count from there.
+    const bool sleeve = s.part == GarmentPart::LEFT_SLEEVE || s.part == GarmentPart::RIGHT_SLEEVE;
+    const Eigen::Vector3d axis_u = sleeve ? upper_direction(l, along, upper_length, 0.25, axis_g) : axis_g;
+    for (std::size_t k = 0; k < l.size(); ++k)
+      along[k] = (l[k] - bones[0]).dot(axis_u);
     // The garment's own bend: the direction of its nodes past the upper limb's length.
-    const Eigen::Vector3d lower_g = lower_direction(l, along, upper_length, axis_g);
-    const Eigen::Vector3d elbow_g = bones[0] + upper_length * axis_g;
+    const Eigen::Vector3d lower_g = lower_direction(l, along, upper_length, axis_u);
+    const Eigen::Vector3d elbow_g = bones[0] + upper_length * axis_u;
     const Eigen::Vector3d elbow_b = bones[0] + upper_length * bone_dir[0];
     // Twist-free frames (eq. 13–15): the limb's axis turned onto the upper limb, and its
     // lower part further onto the lower limb.
-    const Eigen::Matrix3d upper = rotation_between(axis_g, bone_dir[0]);
+    const Eigen::Matrix3d upper = rotation_between(axis_u, bone_dir[0]);
     const Eigen::Matrix3d lower = rotation_between(upper * lower_g, bone_dir[1]) * upper;
     DrivenLimb limb;
     limb.part = s.part;
@@ -458,11 +583,11 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
       limb.targets.push_back(on_upper ? Eigen::Vector3d(bones[0] + along[k] * bone_dir[0])
                                       : Eigen::Vector3d(elbow_b + past * bone_dir[1]));
       limb.rotations.push_back(on_upper ? upper : lower);
-      feet.push_back(on_upper ? Eigen::Vector3d(bones[0] + along[k] * axis_g)
+      feet.push_back(on_upper ? Eigen::Vector3d(bones[0] + along[k] * axis_u)
                               : Eigen::Vector3d(elbow_g + past * lower_g));
     }
     along_axis.push_back(std::move(along));
-    axes.push_back(axis_g);
+    axes.push_back(axis_u);
     node_feet.push_back(std::move(feet));
     out.limbs.push_back(std::move(limb));
   }

@@ -68,9 +68,9 @@ struct SkeletonDriving {
   Eigen::Matrix3d torso_rotation = Eigen::Matrix3d::Identity(); ///< R = R_v R_h of eq. 5–7
   Eigen::Vector3d torso_translation = Eigen::Vector3d::Zero();  ///< after the rotation (eq. 16–17), contact included
   /// The part of torso_translation from contact with the body surface (m): contact_translation()
-  /// (coarse_move.h, default ContactMoveOptions) over the torso vertices farther than
-  /// seam_radius from every seam; zero when drive() was given no body surface. The crotch
-  /// alignment of trousers is not included.
+  /// (coarse_move.h, default ContactMoveOptions) over all the torso's vertices (those of no
+  /// sleeve or leg skeleton); zero when drive() was given no body surface. The crotch alignment
+  /// of trousers is not included.
   Eigen::Vector3d contact_translation =
       Eigen::Vector3d::Zero();
   std::vector<DrivenLimb> limbs; ///< in the skeletons' order
@@ -84,7 +84,10 @@ struct SkeletonDriving {
 /// top, j1 and j2 are the right and left shoulder joints and the axes the upper sleeves' (the
 /// sleeve boundary planes' points and normals of §4.2, eq. 1–2). For trousers and shorts they
 /// are the right and left hip joints and the legs' axes: each leg's axis is the principal
-/// direction of its skeleton's nodes through their centroid, and the hip is the axis's point at
+/// direction of its skeleton's nodes through their centroid, or, when the nodes span less than
+/// the leg's hem is wide (shorts, whose short wide tube has a skeleton that zigzags across it),
+/// the normal of the hem (the `garment` boundary vertices labelled with the leg, #V labels in
+/// `segmentation`) through its centre, and the hip is the axis's point at
 /// a height calibrated on the catalogue's mannequin between the crotch key point and the
 /// waistband's centre. Either pair is then made mirror-symmetric about the garment's mid-plane
 /// x = (j1.x + j2.x) / 2 (mean height and depth; each axis the mean of its own and the other
@@ -102,7 +105,8 @@ struct GarmentKeyJoints {
   /// by SkeletonDriver::drive() with a body surface to meet the body's crotch.
   Eigen::Vector3d crotch = Eigen::Vector3d::Zero();
 };
-GarmentKeyJoints garment_key_joints(const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons);
+GarmentKeyJoints garment_key_joints(const Mesh& garment, const GarmentSegmentation& segmentation,
+                                    std::span<const PartSkeleton> skeletons);
 
 /// Target points of a chain on a bone polyline (seed 000 eq. 8–11): node k, at arc length
 /// f_seg(l_1, l_k) from the first node, goes to arc length `offset` + f_seg(l_1, l_k) along
@@ -138,9 +142,12 @@ public:
 
   /// Deforms the garment onto a body with joints `body_joints` (24 × 3, m, posed).
   /// With `body_surface` (an index of the body's closed mesh in the same pose), the torso's
-  /// translation is refined by contact_translation() (coarse_move.h) over the torso's handle
+  /// translation is refined by contact_translation() (coarse_move.h) over the torso's
   /// vertices, and each limb node is then measured from the body's joint (its projection on
-  /// the limb's line) rather than from the garment's own key joint; for trousers and shorts the
+  /// the limb's line) rather than from the garment's own key joint, along the upper limb's own
+  /// axis for a sleeve reaching past the elbow (the principal direction of its nodes from a
+  /// quarter to the whole of the upper arm's length, when they lie on a line: spread across
+  /// it under 0.3 of their spread along it); for trousers and shorts the
   /// torso is first moved along the body's trunk so that the garment's crotch key point meets
   /// the body's crotch (where a line down the trunk from the hips' midpoint leaves the body),
   /// since the hips' height is estimated from the cut and contact can only push the garment
@@ -151,10 +158,10 @@ public:
   /// body as `body_joints` (m); it is queried, not modified. Throws vfit::Error ("proximity
   /// queries: …") when the placed garment has a non-finite coordinate; `body_joints` is not
   /// validated.
-  /// Opt-in: engine/fit_pipeline.cpp does not pass a surface, because the contact translation
-  /// costs 20–60 ms per top, moves garments modelled a few mm into their body by centimetres
-  /// (it slides a tight torso along a tapering trunk until nothing is inside), and left the
-  /// corpus fit with more crossing edges (848 against 798 over 63 garment × pose cases).
+  /// Opt-in: engine/fit_pipeline.cpp does not pass a surface: the contact translation costs
+  /// 20–60 ms per top, and with the rule before the envelope fit (push every point out) left
+  /// the corpus fit with more crossing edges (848 against 798 over 63 garment × pose cases);
+  /// not measured again with the envelope fit.
   SkeletonDriving drive(const JointPositions& body_joints, const ProximityIndex* body_surface = nullptr) const;
   /// Vertex ids held as handles in the Laplacian solve, ascending.
   const std::vector<std::int32_t>& handles() const { return m_handles; }

@@ -240,7 +240,7 @@ void expect_limbs_follow_the_bones(const PoseCase& c, const JointPositions& j, c
   const Fixture& f = fixture(c.type);
   ASSERT_EQ(f.skeletons.size(), 2u);
   const SkeletonDrivingOptions options;
-  const GarmentKeyJoints g = garment_key_joints(f.segmentation, f.skeletons);
+  const GarmentKeyJoints g = garment_key_joints(f.garment.mesh, f.segmentation, f.skeletons);
   const SkeletonDriver driver(f.garment.mesh, f.segmentation, f.skeletons, options);
   const SkeletonDriving d = driver.drive(j, surface);
   ASSERT_EQ(d.positions.size(), f.garment.mesh.positions.size());
