@@ -243,22 +243,25 @@ private:
       if (std::abs(p.x() - m_mid_x) < 0.03 * m_h) back = std::min(back, p.z());
     if (!std::isfinite(back)) back = chest.centroid.z() - COLLAR_DEPTH * m_h;
     set(sided(side, Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR),
-        {m_mid_x + side * COLLAR_X * m_h, y, back + COLLAR_DEPTH * m_h}, 0.6);
+        {neck_x() + side * COLLAR_X * m_h, y, back + COLLAR_DEPTH * m_h}, 0.6);
   }
 
   // One leg: hip on the thigh's axis above the crotch, knee and ankle on the leg's centre line,
   // the ball of the foot along the foot from the ankle to the toes.
+  // The ankle, the shank's fit and the ball of the foot are measured from the leg's own sole
+  // (its lowest point), not the body's: a foot that stands a few cm higher than the other (a
+  // raised heel, uneven ground, a leg unposed from a bent knee) keeps its ankle above its own sole.
   void place_leg(int side) {
     const SectionTrack& leg = m_legs[side > 0 ? 0 : 1];
-    const double knee_y = m_s.floor + KNEE_FRACTION * (m_crotch - m_s.floor), ankle_y = m_s.floor + ANKLE_HEIGHT * m_h;
+    const double sole = leg_sole(side);
+    const double knee_y = m_s.floor + KNEE_FRACTION * (m_crotch - m_s.floor), ankle_y = sole + ANKLE_HEIGHT * m_h;
     const double hip_y = m_crotch + HIP_ABOVE_CROTCH * m_h;
     Eigen::Vector3d hip =
         axis_at(m_s, leg, knee_y + 0.3 * (m_crotch - knee_y), knee_y + 0.8 * (m_crotch - knee_y), hip_y);
     hip.z() = torso_centroid(hip_y).z();
     set(sided(side, Joint::LEFT_HIP, Joint::RIGHT_HIP), hip, 0.8);
     set(sided(side, Joint::LEFT_KNEE, Joint::RIGHT_KNEE), centroid_at(m_s, leg, knee_y), 0.8);
-    const Eigen::Vector3d ankle =
-        axis_at(m_s, leg, m_s.floor + SHANK_FIT_LO * m_h, m_s.floor + SHANK_FIT_HI * m_h, ankle_y);
+    const Eigen::Vector3d ankle = axis_at(m_s, leg, sole + SHANK_FIT_LO * m_h, sole + SHANK_FIT_HI * m_h, ankle_y);
     set(sided(side, Joint::LEFT_ANKLE, Joint::RIGHT_ANKLE), ankle, 0.9);
     const auto& p = m_mesh.positions;
     auto in_foot = [&](std::size_t v) {
@@ -280,7 +283,23 @@ private:
         xhi = std::max(xhi, double(p[3 * v]));
       }
     const double ball_x = std::isfinite(xlo) ? 0.5 * (xlo + xhi) : ankle.x();
-    set(sided(side, Joint::LEFT_FOOT, Joint::RIGHT_FOOT), {ball_x, m_s.floor + BALL_HEIGHT * m_h, ball_z}, 0.8);
+    set(sided(side, Joint::LEFT_FOOT, Joint::RIGHT_FOOT), {ball_x, sole + BALL_HEIGHT * m_h, ball_z}, 0.8);
+  }
+
+  // The lowest point of the leg on `side`: the lowest vertex on that side of the mid-plane
+  // below the leg's lowest section (find_legs() has checked that it reaches within 3 % of the
+  // height of the floor, where no hand reaches).
+  double leg_sole(int side) const {
+    const SectionTrack& leg = m_legs[side > 0 ? 0 : 1];
+    int lowest = m_bottom - 1;
+    while (lowest > 0 && leg[std::size_t(lowest - 1)] >= 0)
+      --lowest;
+    const double below = m_s.y(lowest) + m_s.step;
+    double sole = INFINITY;
+    const auto& p = m_mesh.positions;
+    for (std::size_t v = 0; v < m_mesh.vertex_count(); ++v)
+      if (p[3 * v + 1] < below && side * (p[3 * v] - m_mid_x) > 0) sole = std::min(sole, double(p[3 * v + 1]));
+    return std::isfinite(sole) ? sole : m_s.floor;
   }
 
   // Pelvis, spine, neck and head on the mid-sagittal plane, at the torso's centroid depth (the
@@ -294,10 +313,15 @@ private:
       const double y = pelvis_y + SPINE_FRACTIONS[k] * (neck_y - pelvis_y);
       set(spine[k], {m_mid_x, y, spine_depth(y)}, 0.5);
     }
-    set(Joint::NECK, {m_mid_x, neck_y, torso_centroid(neck_y).z()}, 0.8);
+    set(Joint::NECK, {neck_x(), neck_y, torso_centroid(neck_y).z()}, 0.8);
     const double head_y = m_s.top - HEAD_BELOW_TOP * (m_s.top - m_shoulder_top);
-    set(Joint::HEAD, {m_mid_x, head_y, loop_at(m_s, m_torso, m_neck_level)->centroid.z()}, 0.7);
+    set(Joint::HEAD, {neck_x(), head_y, loop_at(m_s, m_torso, m_neck_level)->centroid.z()}, 0.7);
   }
+
+  // The neck's mid-plane: its narrowest section's centroid, not the chest's (m_mid_x): a
+  // shoulder girdle or neck tilted sideways (a scan unposed from a twisted torso, a head held to
+  // one side) carries the neck, the head and the collars 1-3 cm off the chest's mid-plane.
+  double neck_x() const { return loop_at(m_s, m_torso, m_neck_level)->centroid.x(); }
 
   void add_warnings() {
     const TopologyReport topo = analyse_topology(m_mesh.triangle_view(), m_mesh.vertex_count());

@@ -32,7 +32,7 @@ struct ScanFitOptions {
   /// Pairs farther apart than this (m) are rejected in the first round; the limit shrinks to
   /// half of it by the last round as the fit closes in.
   double reject_distance = 0.10;
-  int threads = 2; ///< Ceres threads, clamped to [1, 2]
+  int threads = 2; ///< Ceres threads, clamped to [1, 2]; the ICP pairs are split into as many residual blocks
 };
 
 /// One stage of the fit.
@@ -48,6 +48,9 @@ struct ScanFitStage {
   /// The joints after the stage (m): the posed template's for "init", "search" and "icp", the
   /// final ScanFit::joints for "joints"; zero for the others.
   JointPositions joints = JointPositions::Zero();
+  /// CPU time (ms) of the whole process during the stage, all its threads together: the work
+  /// done, which a busy machine does not inflate as it does the wall time.
+  double cpu_ms = 0;
 };
 
 /// The fitted body and the rigged scan.
@@ -57,14 +60,15 @@ struct ScanFit {
   Pose pose;
   /// Shape: a global scale s of the template (stature and girths together) and the keypoint
   /// model's β (keypoint_fit.h; β[0], stature, is held at 0 since s carries it; β[1] leg, β[2]
-  /// arm length, β[3] shoulder width, in population σ).
+  /// arm length, β[3] shoulder width, in population σ). The elbows' shift along the arm (see
+  /// fit_scan()) is a rig's convention, not part of β: it shows in rest_joints only.
   double scale = 1.0;                                  ///< s (dimensionless; 1 = the template's size)
   KeypointShape shape{};                               ///< β (population σ; β[0] = 0, see above)
   BodyMeasurements measurements;                       ///< of the fitted shape (the mannequin's, scaled)
   JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the fitted shape (m)
   /// The joints in the scan (m): estimate_joints() run on the scan unposed into the fitted
-  /// template's A-pose (inverse LBS), each joint carried back by its parent bone's skinning
-  /// transform; where that estimation fails, the template's posed joints
+  /// template's A-pose (inverse LBS), each joint carried back by the mean of the skinning
+  /// transforms of its parent's bone and its own; where that estimation fails, the template's posed joints
   /// posed_joints(rest_joints, pose).
   JointPositions joints = JointPositions::Zero();
   bool joints_estimated_unposed = false; ///< `joints` come from the unposed scan
@@ -75,6 +79,7 @@ struct ScanFit {
   bool initialised_from_joints = false; ///< estimate_joints() worked on the scan (else an A-pose start)
   std::vector<ScanFitStage> stages;     ///< the stages run, in order
   double total_ms = 0;                  ///< wall time of the whole fit (ms)
+  double total_cpu_ms = 0;              ///< CPU time of the whole fit (ms), all threads, as ScanFitStage::cpu_ms
   std::vector<std::string> warnings;    ///< e.g. the A-pose fallback start; one line each
 };
 
@@ -92,7 +97,10 @@ const Body& scan_fit_template();
 /// another pose (walking, arms raised, a knee bent, legs apart) starts near its own. After the
 /// ICP rounds and the skin weights, the joints are re-estimated on the unposed scan (ScanFit::joints). Shape
 /// model: the template's rest vertices v = s (v₀ + Σ_k w_k ΔJ_k(β)) follow their joints'
-/// displacement ΔJ(β) from the keypoint model, so β changes limb lengths and s everything.
+/// displacement ΔJ(β) from the keypoint model, so β changes limb lengths and s everything; a
+/// fifth number moves both elbows along the arm (2 cm per unit, at most 6 cm either way, weakly
+/// regularised), so that the template bends where the scan's arm bends (rigs disagree on the
+/// elbow's place).
 /// Throws vfit::Error (naming `source`) for fewer than 100 points, a non-finite coordinate
 /// (naming the vertex), or a scan whose extent along Y is outside 0.8–2.5 m (not in metres,
 /// not upright, or not a body). Seed 001 eq. 4 (with eq. 3's LBS for M).

@@ -115,7 +115,6 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
   std::array<ClosestHits, CHAINS> hits;
   std::array<Mesh, CHAINS> parts;
   std::vector<std::array<double, CHAINS>> distance(n);
-  std::vector<std::array<bool, CHAINS>> near(n, std::array<bool, CHAINS>{});
   const double reach = 2.5 * margin;
   for (int c = 0; c < CHAINS; ++c) {
     const auto u = static_cast<std::size_t>(c);
@@ -130,10 +129,9 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
       const double d = std::abs(hits[u].signed_distances[v]);
       // A chain counts only near the body's closest surface (within `reach`): an arm 40 cm off
       // is no candidate for a vertex whose own part's closest surface faces away.
-      if (hits[u].triangles[v] >= 0 && d <= std::abs(closest.signed_distances[v]) + reach) {
-        near[v][u] = true;
-        if (triangle_normal(parts[u], hits[u].triangles[v]).dot(normals[v]) > 0) distance[v][u] = d;
-      }
+      if (hits[u].triangles[v] >= 0 && d <= std::abs(closest.signed_distances[v]) + reach &&
+          triangle_normal(parts[u], hits[u].triangles[v]).dot(normals[v]) > 0)
+        distance[v][u] = d;
     }
   }
 
@@ -205,11 +203,15 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
   parallel_for_range(n, GRAIN, [&](std::size_t begin, std::size_t end) {
     for (std::size_t v = begin; v < end; ++v) {
       const int c = chain[v];
-      // The closest point of all where no sure vertex reaches the vertex, where its chain is
-      // far, or where the closest point lies on its chain or as close as its chain's (a vertex
-      // on the border of two chains; 0.1 mm: float rounding).
+      // The closest point of all where no sure vertex reaches the vertex, where its chain has
+      // no surface within CHAIN_RADIUS, or where the closest point lies on its chain or as
+      // close as its chain's (a vertex on the border of two chains; 0.1 mm: float rounding).
+      // A chain farther than the closest surface still gives the weights: a folded hand whose
+      // template hand lies 5 cm off, nearer the other forearm or the belly, keeps its own
+      // arm's (the nearest surface's tore 250 of the corpus body's hand vertices off their arm).
       const int closest_chain = triangle_chain[static_cast<std::size_t>(closest.triangles[v])];
-      const bool own_closest = c == UNSURE || !near[v][static_cast<std::size_t>(c)] || closest_chain == c ||
+      const bool own_closest = c == UNSURE || hits[static_cast<std::size_t>(c)].triangles[v] < 0 ||
+                               closest_chain == c ||
                                std::abs(hits[static_cast<std::size_t>(c)].signed_distances[v]) <=
                                    std::abs(closest.signed_distances[v]) + 1e-4;
       if (own_closest)
@@ -241,7 +243,8 @@ void largest_blended_influences(const SkinWeights& weights, const std::array<std
   }
 }
 
-std::vector<Vec3> area_weighted_vertex_normals(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+std::vector<Vec3> area_weighted_vertex_normals(std::span<const float> positions,
+                                               std::span<const std::int32_t> triangles) {
   std::vector<Vec3> n(positions.size() / 3, Vec3::Zero());
   for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
     const Vec3 a = point(positions, static_cast<std::size_t>(triangles[f]));
