@@ -10,6 +10,7 @@
 
 #include "kernels/cloth_collision.h"
 #include "kernels/cloth_implicit.h"
+#include "kernels/cloth_ordering.h"
 #include "kernels/cloth_rk4.h"
 #include "kernels/cloth_springs.h"
 #include "kernels/error.h"
@@ -52,14 +53,24 @@ struct BodyAttachment {
   double s = 0, t = 0, h = 0;
 };
 
+// The particles are stored and integrated in the locality numbering of
+// kernels/cloth_ordering.h (cloth_particle_order()): `order[k]` is the caller's vertex at internal
+// row k, `rank` its inverse. Everything inside Impl (state, masses, springs, adjacency, contacts,
+// attachments) is in the internal numbering; the public API speaks the caller's, mapping indices
+// on the way in (pin, attach_to_body) and out (attached_vertices), and publishing the state in
+// the caller's order (out_x, out_v) at the end of every call that changes it. The numbering
+// keeps the springs' order, so an RK4 step gives the caller's particles the same bits as it
+// would in the caller's numbering (and the implicit step the same up to the CG's float sums).
 struct ClothSim::Impl {
   ClothOptions options;
-  std::vector<std::int32_t> triangles; // the cloth's, for the waistband search
+  std::vector<std::int32_t> triangles; // the cloth's, caller numbering, for the waistband search
+  std::vector<std::int32_t> order, rank;
   ClothSprings springs;
   SpringAdjacency adjacency;
   ClothParticles particles;
-  std::vector<float> masses;
+  std::vector<float> masses; // internal numbering
   std::vector<float> x, v;
+  std::vector<float> out_x, out_v, out_masses; // the caller's numbering
   std::vector<float> saved_x, saved_v; // state before the current step, restored on divergence
   Rk4Workspace workspace;
   ImplicitWorkspace implicit_workspace;
@@ -305,9 +316,19 @@ struct ClothSim::Impl {
   // Divergence check and displacement of the step just taken (restores the state on divergence).
   ClothStepReport finish_step(ClothStepReport r);
 
+  // Copies the state into the caller's numbering (positions(), velocities()).
+  void publish() {
+    gather_rows(x, rank, 3, out_x);
+    gather_rows(v, rank, 3, out_v);
+  }
+
+  // Attaches the internal particles `rows` to the body (see ClothSim::attach_to_body).
+  void attach_rows(std::span<const std::int32_t> rows);
+
   ClothStatus check() const {
     double ke = 0;
-    for (std::size_t i = 0; i < masses.size(); ++i) {
+    for (std::size_t c = 0; c < masses.size(); ++c) { // in the caller's order: the sum as before
+      const auto i = static_cast<std::size_t>(rank[c]);
       double v2 = 0;
       for (int k = 0; k < 3; ++k) {
         if (!std::isfinite(x[3 * i + k]) || !std::isfinite(v[3 * i + k])) return ClothStatus::DIVERGED_NON_FINITE;
@@ -398,17 +419,12 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
   }
 
   m.triangles.assign(triangles.begin(), triangles.end());
-  m.x.assign(positions.begin(), positions.end());
-  m.v.assign(positions.size(), 0.0f);
   std::vector<double> density(nv);
   for (std::size_t i = 0; i < nv; ++i)
     density[i] = fabric[i]->area_density;
-  m.masses = lumped_masses(positions, triangles, density);
-  m.particles.inverse_masses.resize(nv);
-  for (std::size_t i = 0; i < nv; ++i) {
-    m.particles.inverse_masses[i] = m.masses[i] > 0.0f ? 1.0f / m.masses[i] : 0.0f;
-    m.total_mass += m.masses[i];
-  }
+  m.out_masses = lumped_masses(positions, triangles, density);
+  for (std::size_t i = 0; i < nv; ++i)
+    m.total_mass += m.out_masses[i];
   std::copy(std::begin(options.gravity), std::end(options.gravity), m.particles.gravity);
   m.particles.global_damping = static_cast<float>(options.global_damping);
 
@@ -419,11 +435,21 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     const double k = 0.5 * (bend ? fabric[i]->bend_stiffness + fabric[j]->bend_stiffness
                                  : fabric[i]->stretch_stiffness + fabric[j]->stretch_stiffness);
     const double zeta = 0.5 * (fabric[i]->damping_ratio + fabric[j]->damping_ratio);
-    const double mi = m.masses[i], mj = m.masses[j];
+    const double mi = m.out_masses[i], mj = m.out_masses[j];
     const double reduced = mi + mj > 0 ? mi * mj / (mi + mj) : 0.0;
     m.springs.stiffness[s] = static_cast<float>(k);
     m.springs.damping[s] = static_cast<float>(2.0 * zeta * std::sqrt(k * reduced));
   }
+  // Into the internal numbering (see Impl).
+  m.order = cloth_particle_order(positions, m.springs);
+  m.rank = inverse_permutation(m.order);
+  m.springs = renumber_cloth_springs(m.springs, m.rank);
+  gather_rows(positions, m.order, 3, m.x);
+  m.v.assign(positions.size(), 0.0f);
+  gather_rows(m.out_masses, m.order, 1, m.masses);
+  m.particles.inverse_masses.resize(nv);
+  for (std::size_t i = 0; i < nv; ++i)
+    m.particles.inverse_masses[i] = m.masses[i] > 0.0f ? 1.0f / m.masses[i] : 0.0f;
   m.adjacency = build_spring_adjacency(m.springs, nv);
   // Runaway stretch is judged against at least half the median structural rest length, so a
   // sliver edge of a generated mesh (microns long) stretched by a fraction of a millimetre is
@@ -436,6 +462,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     m.stretch_floor = 0.5f * structural[structural.size() / 2];
   }
   m.update_substep();
+  m.publish();
   if (options.backend == ClothBackend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);
 }
 
@@ -449,11 +476,13 @@ void ClothSim::pin(std::span<const std::int32_t> vertices) {
     if (p < 0 || static_cast<std::size_t>(p) >= m.masses.size())
       throw Error("cloth", 0,
                   "pinned vertex " + std::to_string(p) + " outside [0, " + std::to_string(m.masses.size()) + ")");
-    m.particles.inverse_masses[static_cast<std::size_t>(p)] = 0.0f;
+    const auto row = static_cast<std::size_t>(m.rank[static_cast<std::size_t>(p)]);
+    m.particles.inverse_masses[row] = 0.0f;
     for (int k = 0; k < 3; ++k)
-      m.v[3 * static_cast<std::size_t>(p) + k] = 0.0f;
+      m.v[3 * row + k] = 0.0f;
   }
   m.masses_changed();
+  m.publish();
 }
 
 void ClothSim::set_body(std::span<const float> positions, std::span<const std::int32_t> triangles) {
@@ -477,35 +506,49 @@ void ClothSim::set_body(std::span<const float> positions, std::span<const std::i
   m.hits_valid = false;
   m.candidates_valid = false;
   m.body_closed = build_hole_caps(triangles, nb).loop_count() == 0;
-  std::vector<std::int32_t> attach = attached_vertices();
+  std::vector<std::int32_t> attach; // internal rows
+  for (const BodyAttachment& a : m.attachments)
+    attach.push_back(a.vertex);
   if (m.options.waistband_pins && !m.waistband_attached) {
-    const std::vector<std::int32_t> band = waistband_vertices(m.x, m.triangles, m.options.waistband_width);
-    attach.insert(attach.end(), band.begin(), band.end());
+    // Searched in the caller's numbering, on the caller's triangles, as the function documents.
+    for (std::int32_t b : waistband_vertices(m.out_x, m.triangles, m.options.waistband_width))
+      attach.push_back(m.rank[static_cast<std::size_t>(b)]);
     m.waistband_attached = true;
   }
   m.attachments.clear();
-  if (!attach.empty()) attach_to_body(attach);
+  if (!attach.empty()) m.attach_rows(attach);
+  m.publish();
 }
 
 void ClothSim::attach_to_body(std::span<const std::int32_t> vertices) {
   Impl& m = *m_impl;
   if (!m.has_body()) throw Error("cloth", 0, "attach_to_body called before set_body");
-  std::vector<float> points;
-  points.reserve(3 * vertices.size());
+  std::vector<std::int32_t> rows;
+  rows.reserve(vertices.size());
   for (std::int32_t p : vertices) {
     if (p < 0 || static_cast<std::size_t>(p) >= m.masses.size())
       throw Error("cloth", 0,
                   "attached vertex " + std::to_string(p) + " outside [0, " + std::to_string(m.masses.size()) + ")");
+    rows.push_back(m.rank[static_cast<std::size_t>(p)]);
+  }
+  m.attach_rows(rows);
+  m.publish();
+}
+
+void ClothSim::Impl::attach_rows(std::span<const std::int32_t> vertices) {
+  Impl& m = *this;
+  std::vector<float> points;
+  points.reserve(3 * vertices.size());
+  for (std::int32_t p : vertices)
     for (int k = 0; k < 3; ++k)
       points.push_back(m.x[3 * static_cast<std::size_t>(p) + k]);
-  }
-  ClosestHits hits;
-  m.query_body(points, INFINITY, hits);
+  ClosestHits found;
+  m.query_body(points, INFINITY, found);
   for (std::size_t i = 0; i < vertices.size(); ++i) {
-    if (hits.triangles[i] < 0) continue; // an empty body: nothing to attach to
+    if (found.triangles[i] < 0) continue; // an empty body: nothing to attach to
     BodyAttachment a;
     a.vertex = vertices[i];
-    a.triangle = hits.triangles[i];
+    a.triangle = found.triangles[i];
     const std::int32_t* t = m.body_triangles.data() + 3 * static_cast<std::size_t>(a.triangle);
     const float* c[3] = {&m.body_positions[3 * std::size_t(t[0])], &m.body_positions[3 * std::size_t(t[1])],
                          &m.body_positions[3 * std::size_t(t[2])]};
@@ -525,11 +568,11 @@ void ClothSim::attach_to_body(std::span<const std::int32_t> vertices) {
       a.s = (g22 * r1 - g12 * r2) / det;
       a.t = (g11 * r2 - g12 * r1) / det;
     } else {
-      a.s = hits.barycentrics[2 * i];
-      a.t = hits.barycentrics[2 * i + 1];
+      a.s = found.barycentrics[2 * i];
+      a.t = found.barycentrics[2 * i + 1];
     }
     const auto at = std::lower_bound(m.attachments.begin(), m.attachments.end(), a.vertex,
-                                     [](const BodyAttachment& b, std::int32_t v) { return b.vertex < v; });
+                                     [](const BodyAttachment& b, std::int32_t row) { return b.vertex < row; });
     if (at != m.attachments.end() && at->vertex == a.vertex)
       *at = a;
     else
@@ -546,7 +589,8 @@ std::vector<std::int32_t> ClothSim::attached_vertices() const {
   std::vector<std::int32_t> out;
   out.reserve(m_impl->attachments.size());
   for (const BodyAttachment& a : m_impl->attachments)
-    out.push_back(a.vertex);
+    out.push_back(m_impl->order[static_cast<std::size_t>(a.vertex)]);
+  std::sort(out.begin(), out.end());
   return out;
 }
 
@@ -576,6 +620,7 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
       m.x[row + k] = static_cast<float>(to[k]);
     }
   }
+  m.publish();
 }
 
 ClothStepReport ClothSim::step(double dt) {
@@ -614,10 +659,13 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
     m.v = m.saved_v;
     m.hits_valid = false;
     m.candidates_valid = false;
+    m.publish();
     return r;
   }
+  m.publish();
   double total = 0;
-  for (std::size_t i = 0; i < m.masses.size(); ++i) {
+  for (std::size_t c = 0; c < m.masses.size(); ++c) { // in the caller's order: the sum as before
+    const auto i = static_cast<std::size_t>(m.rank[c]);
     double d2 = 0;
     for (int k = 0; k < 3; ++k) {
       const double d = double(m.x[3 * i + k]) - m.saved_x[3 * i + k];
@@ -660,18 +708,18 @@ ClothRestReport ClothSim::run_to_rest(const ClothRestOptions& options) {
 
 std::size_t ClothSim::particle_count() const { return m_impl->masses.size(); }
 std::size_t ClothSim::spring_count() const { return m_impl->springs.size(); }
-std::span<const float> ClothSim::positions() const { return m_impl->x; }
-std::span<const float> ClothSim::velocities() const { return m_impl->v; }
-std::span<const float> ClothSim::masses() const { return m_impl->masses; }
+std::span<const float> ClothSim::positions() const { return m_impl->out_x; }
+std::span<const float> ClothSim::velocities() const { return m_impl->out_v; }
+std::span<const float> ClothSim::masses() const { return m_impl->out_masses; }
 double ClothSim::stable_substep() const { return m_impl->substep; }
 ClothStatus ClothSim::status() const { return m_impl->status; }
 
 double ClothSim::kinetic_energy() const {
   const Impl& m = *m_impl;
   double e = 0;
-  for (std::size_t i = 0; i < m.masses.size(); ++i)
+  for (std::size_t i = 0; i < m.out_masses.size(); ++i)
     for (int k = 0; k < 3; ++k)
-      e += 0.5 * m.masses[i] * double(m.v[3 * i + k]) * m.v[3 * i + k];
+      e += 0.5 * m.out_masses[i] * double(m.out_v[3 * i + k]) * m.out_v[3 * i + k];
   return e;
 }
 

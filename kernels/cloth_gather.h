@@ -10,6 +10,10 @@
 
 #include "cloth_springs.h"
 
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__)
+#include <immintrin.h>
+#endif
+
 namespace vfit::cloth_detail {
 using std::sqrt; // cloth_math.h calls sqrt(float) as OpenCL C does.
 #include "cloth_math.h"
@@ -33,6 +37,17 @@ inline void store3(float* p, std::size_t i, vfit_vec3 v) {
 #else
 #define VFIT_CLOTH_MULTIVERSION
 #define VFIT_CLOTH_INLINE inline
+#endif
+
+// Marks a kernel compiled for AVX-512F alone, called only where avx512_available() says so:
+// the RK4 pass's variant whose scattered neighbour loads are AVX-512 masked row loads
+// (gather_rows16 below), written with intrinsics, which a target_clones default clone could not
+// compile. VFIT_CLOTH_AVX512 is 1 where it exists.
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__)
+#define VFIT_CLOTH_AVX512 1
+#define VFIT_CLOTH_AVX512_TARGET __attribute__((target("avx512f")))
+#else
+#define VFIT_CLOTH_AVX512 0
 #endif
 
 // Marks a lambda to be inlined into its caller: the lambdas handed to the row loops below run
@@ -63,6 +78,51 @@ struct SliceForces {
   alignas(64) float f[3][CLOTH_SLICE_WIDTH];
 };
 
+#if VFIT_CLOTH_AVX512
+// Whether this CPU (and OS) runs the VFIT_CLOTH_AVX512_TARGET kernels.
+inline bool avx512_available() {
+  static const bool available = __builtin_cpu_supports("avx512f");
+  return available;
+}
+
+// out[c][l] = p[offsets[l] + c] for the 16 lanes l and c < 3: the rows x_j of 16 scattered
+// particles (offsets[l] = 3·j) transposed into structure of arrays. Each row is one masked
+// 16-byte load (x, y, z; the fourth float is masked off, so the last particle's row reads
+// nothing past the array: a masked-off element is never accessed) straight into its 128-bit
+// lane of a register: row 4q + r goes to lane q of register r. A 4 × 4 transpose inside the
+// lanes (six unpacks) then gives x, y and z of the 16 lanes in order. 16 loads and 6 shuffles
+// instead of 48 scalar loads and the inserts that assemble them: the same values.
+VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* p, const std::int32_t* offsets, float out[3][16]) {
+  // Lane q of a register takes its row from element 4q on, so the load starts 4q floats before
+  // the row; the masked-off elements before it are never read (integer arithmetic: the address
+  // may lie before the array). No lambdas: they would not inherit the target.
+  const auto base = reinterpret_cast<std::uintptr_t>(p);
+  const std::uintptr_t lane_base[4] = {base, base - 4 * sizeof(float), base - 8 * sizeof(float),
+                                       base - 12 * sizeof(float)};
+  __m512 r[4];
+  for (int k = 0; k < 4; ++k) {
+    r[k] = _mm512_setzero_ps();
+    for (int q = 0; q < 4; ++q) {
+      const auto offset = static_cast<std::uintptr_t>(static_cast<std::intptr_t>(offsets[4 * q + k]));
+      r[k] = _mm512_mask_loadu_ps(r[k], static_cast<__mmask16>(0x7u << (4 * q)),
+                                  reinterpret_cast<const void*>(lane_base[q] + offset * sizeof(float)));
+    }
+  }
+  // The zero-masking forms with a full mask are the plain instructions; the unmasked
+  // intrinsics start from _mm512_undefined_ps(), which GCC 12 warns of (-Wmaybe-uninitialized).
+  constexpr __mmask16 ALL = 0xffff;
+  constexpr __mmask8 ALL8 = 0xff;
+  const __m512d t0 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[0], r[1])); // x0 x1 y0 y1 a lane
+  const __m512d t1 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[2], r[3])); // x2 x3 y2 y3
+  const __m512d t2 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(ALL, r[0], r[1])); // z0 z1 · ·
+  const __m512d t3 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(ALL, r[2], r[3])); // z2 z3 · ·
+  _mm512_store_ps(out[0], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t0, t1)));
+  _mm512_store_ps(out[1], _mm512_castpd_ps(_mm512_maskz_unpackhi_pd(ALL8, t0, t1)));
+  _mm512_store_ps(out[2], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t2, t3)));
+}
+
+#endif
+
 // Lane l of `out` = gather_spring_force(x, v, adj, W·slice + l), bit for bit (lanes past #V:
 // garbage). One particle per lane: each column of the slice's sliced rows (SpringAdjacency::
 // slice_offsets) evaluates one entry of every lane's row, gathering x_j and v_j, with the
@@ -76,6 +136,10 @@ struct SliceForces {
 // scalar loads of a general column bound the pass: on the 10^6-particle bench grid this path
 // (with the vectorised stage update of cloth_rk4.cpp) takes a serial RK4 step from about 100
 // to about 65 ms of CPU time.
+//
+// ROW_LOADS (VFIT_CLOTH_AVX512_TARGET kernels only): a general column loads each neighbour's
+// row of x and of v with one masked vector load (gather_rows16) instead of scalar loads.
+template <bool ROW_LOADS = false>
 VFIT_CLOTH_INLINE void slice_spring_forces(const float* x, const float* v, const SpringAdjacency& adj,
                                            std::size_t slice, SliceForces& out) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
@@ -123,6 +187,18 @@ VFIT_CLOTH_INLINE void slice_spring_forces(const float* x, const float* v, const
             vfit_vec3{vj[3 * l] - vi[0][l], vj[3 * l + 1] - vi[1][l], vj[3 * l + 2] - vi[2][l]});
       continue;
     }
+#if VFIT_CLOTH_AVX512
+    if constexpr (ROW_LOADS) {
+      static_assert(W == 16, "gather_rows16 fills 16 lanes");
+      alignas(64) float xj[3][W], vj[3][W];
+      gather_rows16(x, neighbors, xj);
+      gather_rows16(v, neighbors, vj);
+      for (std::size_t l = 0; l < W; ++l)
+        add(l, vfit_vec3{xj[0][l] - xi[0][l], xj[1][l] - xi[1][l], xj[2][l] - xi[2][l]},
+            vfit_vec3{vj[0][l] - vi[0][l], vj[1][l] - vi[1][l], vj[2][l] - vi[2][l]});
+      continue;
+    }
+#endif
     for (std::size_t l = 0; l < W; ++l) {
       const std::int32_t j3 = neighbors[l]; // 3·j: a 32-bit gather index, unscaled
       add(l, vfit_vec3{x[j3] - xi[0][l], x[j3 + 1] - xi[1][l], x[j3 + 2] - xi[2][l]},

@@ -53,10 +53,9 @@ VFIT_CLOTH_INLINE void store_slice(float* p, std::size_t first, std::size_t coun
 // the rows back, array by array: loops over the 16 lanes that vectorise (the outputs may alias
 // the step start, which a loop reading one array and writing another could not rule out), with
 // the expressions of cloth_math.h per lane, so the same bits as a particle-by-particle loop.
-template <int STAGE>
-VFIT_CLOTH_MULTIVERSION void stage_range(const StagePass& p, const SpringAdjacency& adj,
-                                         const ClothParticles& particles, float h, std::size_t begin,
-                                         std::size_t end) {
+template <int STAGE, bool ROW_LOADS>
+VFIT_CLOTH_INLINE void stage_slices(const StagePass& p, const SpringAdjacency& adj, const ClothParticles& particles,
+                                    float h, std::size_t begin, std::size_t end) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
   const std::size_t n = adj.particle_count();
   const vfit_vec3 g{particles.gravity[0], particles.gravity[1], particles.gravity[2]};
@@ -65,7 +64,7 @@ VFIT_CLOTH_MULTIVERSION void stage_range(const StagePass& p, const SpringAdjacen
   SliceVectors vs, x0, v0, acc_x, acc_v, next_x, next_v;
   alignas(64) float inv_mass[W];
   for (std::size_t slice = begin; slice < end; ++slice) {
-    slice_spring_forces(p.xs, p.vs, adj, slice, forces);
+    slice_spring_forces<ROW_LOADS>(p.xs, p.vs, adj, slice, forces);
     const std::size_t first = W * slice, count = std::min(W, n - first);
     std::copy_n(particles.inverse_masses.data() + first, count, inv_mass);
     load_slice(p.vs, first, count, vs);
@@ -111,6 +110,36 @@ VFIT_CLOTH_MULTIVERSION void stage_range(const StagePass& p, const SpringAdjacen
     store_slice(p.next_x, first, count, next_x);
     store_slice(p.next_v, first, count, next_v);
   }
+}
+
+// The pass compiled for AVX2, AVX-512 and baseline x86-64, neighbours loaded lane by lane.
+template <int STAGE>
+VFIT_CLOTH_MULTIVERSION void stage_range_lanes(const StagePass& p, const SpringAdjacency& adj,
+                                               const ClothParticles& particles, float h, std::size_t begin,
+                                               std::size_t end) {
+  stage_slices<STAGE, false>(p, adj, particles, h, begin, end);
+}
+
+#if VFIT_CLOTH_AVX512
+// The pass for AVX-512 CPUs, scattered neighbours loaded a row per load (gather_rows16).
+template <int STAGE>
+VFIT_CLOTH_AVX512_TARGET void stage_range_rows(const StagePass& p, const SpringAdjacency& adj,
+                                               const ClothParticles& particles, float h, std::size_t begin,
+                                               std::size_t end) {
+  stage_slices<STAGE, true>(p, adj, particles, h, begin, end);
+}
+#endif
+
+template <int STAGE>
+void stage_range(const StagePass& p, const SpringAdjacency& adj, const ClothParticles& particles, float h,
+                 std::size_t begin, std::size_t end) {
+#if VFIT_CLOTH_AVX512
+  if (avx512_available()) {
+    stage_range_rows<STAGE>(p, adj, particles, h, begin, end);
+    return;
+  }
+#endif
+  stage_range_lanes<STAGE>(p, adj, particles, h, begin, end);
 }
 
 // Runs the four stage passes; `run(kernel)` runs kernel(begin, end) over all slices.

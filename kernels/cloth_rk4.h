@@ -21,10 +21,15 @@
 /// numbered row by row (98 % of the 10^6 grid's columns consecutive): 10^6 particles
 /// 98–104 → 63–69 ms, about 16 ns per particle-stage (with scalar loads of every neighbour and
 /// a scalar stage update; before the sliced rows, 162 ms); 10^4 (in cache) 0.46–0.47 ms. A
-/// garment numbered otherwise gains nothing from the vector loads (the catalogue tee has no
-/// consecutive column). The other neighbour loads are the lanes' scalar loads: GCC's generic
-/// tuning emulates the gathers, and the gather instruction (-mtune-ctrl=use_gather) made the
-/// pass twice as slow on that machine.
+/// garment's mesh has no consecutive column. There, on a CPU with AVX-512 (checked at run time;
+/// the build targets baseline x86-64), a column loads each neighbour's row of x and of v with
+/// one masked 16-byte load into a 128-bit lane and transposes them in registers (cloth_gather.h,
+/// gather_rows16: 32 loads and 12 shuffles a column instead of 96 scalar loads and their
+/// inserts; evaluating the springs from registers with GCC vector types instead of the
+/// vectorised loop over the transposed rows measured no faster); other CPUs load the
+/// neighbours lane by lane (GCC's generic tuning emulates the gather instruction, which made
+/// the pass twice as slow on that machine). Both give the same bits. The scattered loads hit the cache when the particles are numbered for locality
+/// (kernels/cloth_ordering.h, as ClothSim numbers them).
 ///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled

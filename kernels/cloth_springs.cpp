@@ -35,17 +35,43 @@ void add_spring(ClothSprings& s, std::span<const float> positions, std::int32_t 
   s.kinds.push_back(kind);
 }
 
-// Per-particle gather over the slices [begin, end): the serial range kernel of the force drivers.
-VFIT_CLOTH_MULTIVERSION void gather_range(const float* x, const float* v, const SpringAdjacency& adj, float* out,
-                                          std::size_t begin, std::size_t end) {
+// Per-particle gather over the slices [begin, end).
+template <bool ROW_LOADS>
+VFIT_CLOTH_INLINE void gather_slices(const float* x, const float* v, const SpringAdjacency& adj, float* out,
+                                     std::size_t begin, std::size_t end) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
   const std::size_t n = adj.particle_count();
   SliceForces f;
   for (std::size_t slice = begin; slice < end; ++slice) {
-    slice_spring_forces(x, v, adj, slice, f);
+    slice_spring_forces<ROW_LOADS>(x, v, adj, slice, f);
     for (std::size_t l = 0, i = W * slice; l < W && i < n; ++l, ++i)
       store3(out, i, vfit_vec3{f.f[0][l], f.f[1][l], f.f[2][l]});
   }
+}
+
+VFIT_CLOTH_MULTIVERSION void gather_range_lanes(const float* x, const float* v, const SpringAdjacency& adj, float* out,
+                                                std::size_t begin, std::size_t end) {
+  gather_slices<false>(x, v, adj, out, begin, end);
+}
+
+#if VFIT_CLOTH_AVX512
+VFIT_CLOTH_AVX512_TARGET void gather_range_rows(const float* x, const float* v, const SpringAdjacency& adj, float* out,
+                                                std::size_t begin, std::size_t end) {
+  gather_slices<true>(x, v, adj, out, begin, end);
+}
+#endif
+
+// The serial range kernel of the force drivers: the RK4 pass's gather (cloth_rk4.cpp picks its
+// variant the same way), so the force tests against the scatter check the RK4 pass's loads.
+void gather_range(const float* x, const float* v, const SpringAdjacency& adj, float* out, std::size_t begin,
+                  std::size_t end) {
+#if VFIT_CLOTH_AVX512
+  if (avx512_available()) {
+    gather_range_rows(x, v, adj, out, begin, end);
+    return;
+  }
+#endif
+  gather_range_lanes(x, v, adj, out, begin, end);
 }
 
 // Fills adj's sliced rows from its CSR rows (see SpringAdjacency::slice_offsets).
