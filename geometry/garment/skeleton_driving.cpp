@@ -404,7 +404,8 @@ SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& s
     }
   }
 
-  // Distance along edges from the seams: limb vertices with a neighbour outside their limb.
+  // Distance along edges from the seams (limb vertices with a neighbour outside their limb),
+  // up to seam_radius.
   std::vector<std::int32_t> offsets, neighbours;
   edge_adjacency(garment, offsets, neighbours);
   const std::span<const float> x = garment.positions;
@@ -429,7 +430,9 @@ SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& s
     for (std::int32_t i = offsets[static_cast<std::size_t>(v)]; i < offsets[static_cast<std::size_t>(v) + 1]; ++i) {
       const auto w = static_cast<std::size_t>(neighbours[static_cast<std::size_t>(i)]);
       const double dw = d + (point(x, w) - point(x, static_cast<std::size_t>(v))).norm();
-      if (dw < m_seam_distance[w]) {
+      // Only distances up to seam_radius are used (blending, handles): the search stops there
+      // instead of crossing the whole garment (0.3 s of a 10^6-vertex tee's setup).
+      if (dw < m_seam_distance[w] && dw <= options.seam_radius) {
         m_seam_distance[w] = dw;
         m_seam_limb[w] = m_seam_limb[static_cast<std::size_t>(v)];
         queue.emplace(dw, static_cast<std::int32_t>(w));

@@ -165,7 +165,8 @@ public:
   SkeletonDriving drive(const JointPositions& body_joints, const ProximityIndex* body_surface = nullptr) const;
   /// Vertex ids held as handles in the Laplacian solve, ascending.
   const std::vector<std::int32_t>& handles() const { return m_handles; }
-  /// #V distances (m) from each vertex to the nearest limb seam vertex (+∞ with no limb).
+  /// #V distances (m) along edges from each vertex to the nearest limb seam vertex, up to
+  /// seam_radius; +∞ beyond it and with no limb.
   const std::vector<double>& seam_distance() const { return m_seam_distance; }
   double setup_ms() const { return m_setup_ms; }
 
@@ -184,7 +185,7 @@ private:
   GarmentKeyJoints m_key_joints;
   SkeletonDrivingOptions m_options;
   std::vector<double> m_seam_distance;
-  std::vector<std::int32_t> m_seam_limb; ///< #V: the limb whose seam is nearest, −1 when none
+  std::vector<std::int32_t> m_seam_limb; ///< #V: the limb whose seam is nearest, −1 when none within seam_radius
   std::vector<std::int32_t> m_handles;
   std::vector<std::int32_t> m_vertex_limb; ///< #V: index into m_skeletons, −1 for the torso
   std::vector<std::int32_t> m_vertex_node; ///< #V: node within its limb, −1 for the torso
