@@ -304,33 +304,6 @@ std::string to_string(SimulationOutcome outcome) {
   return "unknown";
 }
 
-UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::optional<UpAxis> up,
-                                    const SegmentOptions& options) {
-  std::vector<UpAxis> tries = {UpAxis::POS_Y, UpAxis::POS_Z};
-  if (up) tries = {*up};
-  else if (detect_up_axis(mesh.positions, mesh.triangles) == UpAxis::POS_Z) tries = {UpAxis::POS_Z, UpAxis::POS_Y};
-  std::vector<float> as_given; // copied before a detection's first rotation
-  std::string first_error;
-  for (UpAxis axis : tries) {
-    if (axis != UpAxis::POS_Y) {
-      if (tries.size() > 1) {
-        if (as_given.empty()) as_given = mesh.positions;
-        else mesh.positions = as_given;
-      }
-      rotate_to_y_up(mesh.positions, axis);
-    }
-    try {
-      return {axis, segment_garment(mesh, options)};
-    } catch (const Error& e) {
-      if (first_error.empty()) first_error = e.what();
-    }
-  }
-  if (!as_given.empty()) mesh.positions = as_given;
-  throw Error(name, 0,
-              "not a recognisable garment: " + first_error +
-                  (tries.size() > 1 ? " (tried with +y and +z up)" : ""));
-}
-
 std::vector<std::pair<std::string, double>> FitStageTimes::named() const {
   return {{"units", units_ms},           {"segmentation", segmentation_ms}, {"skeletons", skeletons_ms},
           {"driving", driving_ms},       {"coarse_move", coarse_move_ms},   {"penetration", penetration_ms},

@@ -50,6 +50,8 @@ Eigen::Vector3d project(const GarmentShape& g, Eigen::Vector3d p, int steps) {
 // more holes than openings, or with per-face attributes, is returned unchanged.
 void fill_extra_holes(Mesh& mesh, std::size_t openings) {
   if (!mesh.face_labels.empty() || !mesh.uv_triangles.empty() || !mesh.normal_triangles.empty()) return; // clip output has none
+  // The common case, no extra hole, costs one topology pass; the loops are walked only past it.
+  if (analyse_topology(mesh.triangle_view(), mesh.vertex_count()).boundary_loops <= openings) return;
   std::map<std::pair<std::int32_t, std::int32_t>, int> uses;
   for (std::size_t f = 0; f < mesh.face_count(); ++f)
     for (int k = 0; k < 3; ++k) {

@@ -1,4 +1,4 @@
-// Up-axis detection (geometry/mesh/up_axis.h detect_up_axis(), engine/fit_pipeline.h
+// Up-axis detection (geometry/mesh/up_axis.h detect_up_axis(), geometry/garment/segment.h
 // segment_upright()) on real garments: every MakeHuman garment of
 // corpus/makehuman/derived/parts_on_hm08/ (modelled Y up, facing +Z) that the segmentation
 // recognises is also stored Z up facing −Y (Blender's frame: the exact inverse of
@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/fit_pipeline.h"
 #include "geometry/body/body_loader.h"
+#include "geometry/garment/segment.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/units.h"
 #include "geometry/mesh/up_axis.h"
