@@ -123,12 +123,18 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   sink.done(input.name, "units", report.timings.units_ms, units_name(report.units));
 
   t0 = Clock::now();
-  UprightSegmentation upright = segment_upright(input.name, mesh, options.garment_up, options.segmentation);
+  UprightSegmentation upright =
+      segment_upright(input.name, mesh, options.garment_up, options.garment_facing, options.segmentation);
   out.segmentation = std::move(upright.segmentation);
   report.up = upright.up;
+  report.facing = upright.facing;
   if (report.up != UpAxis::POS_Y && !options.garment_up)
     report.warnings.push_back("garment stored with " + up_axis_name(report.up) +
                               " up (detected), rotated to +y up (force with --garment-up)");
+  if (report.facing != Facing::POS_Z && !options.garment_facing)
+    report.warnings.push_back("garment faced " + facing_name(report.facing) + " (detected" +
+                              (upright.front_known ? "" : "; its front and back could not be told apart") +
+                              "), turned to face +z (force with --garment-facing)");
   report.timings.segmentation_ms = ms_since(t0);
   report.type = out.segmentation.type;
   for (const auto& w : out.segmentation.warnings)

@@ -60,6 +60,10 @@ struct FitOptions {
   /// The garments' up axis in their files (rotate_to_y_up() brings them into our frame). Absent:
   /// detected per garment, +Y or +Z (segment_upright()), with a warning when it is not +Y.
   std::optional<UpAxis> garment_up;
+  /// Where the garments' fronts face once upright (rotate_to_face_z() turns them to +Z).
+  /// Absent: detected per garment (segment_upright(): a left–right axis along Z, a top stored
+  /// back to front), with a warning when it is not +Z.
+  std::optional<Facing> garment_facing;
   SegmentOptions segmentation;
   SkeletonDrivingOptions driving;
   PartSkeletonOptions skeletons;
@@ -125,6 +129,7 @@ struct GarmentFitReport {
   std::size_t vertices = 0, faces = 0;
   Units units = Units::M;          ///< the input's unit (converted to metres)
   UpAxis up = UpAxis::POS_Y;       ///< the input's up axis (rotated to +Y before segmentation)
+  Facing facing = Facing::POS_Z;   ///< where its front faced once upright (turned to +Z before segmentation)
   std::size_t order = 0;           ///< position in the processing order (0 = first)
   FitStageTimes timings;
   std::size_t skeleton_parts = 0;  ///< limb skeletons extracted

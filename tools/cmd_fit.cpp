@@ -138,6 +138,7 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
     gj["faces"] = g.faces;
     gj["units"] = units_name(g.units);
     gj["up_axis"] = up_axis_name(g.up);
+    gj["facing"] = facing_name(g.facing);
     gj["order"] = g.order;
     gj["inner_layers"] = g.inner_layers;
     gj["timings_ms"] = timings_json(g.timings);
@@ -246,6 +247,8 @@ int run_fit(Args& args) {
   if (auto s = args.value("max-sim-seconds")) options.max_simulated_seconds = to_double("--max-sim-seconds", *s, 0, 600);
   if (auto u = args.value("garment-units")) options.garment_units = parse_units(*u);
   if (auto up = args.value("garment-up"); up && *up != "auto") options.garment_up = parse_up_axis(*up);
+  if (auto facing = args.value("garment-facing"); facing && *facing != "auto")
+    options.garment_facing = parse_facing(*facing);
   if (debug_dir) {
     if (debug_dir->empty()) throw Error("--debug", 0, "expected a folder");
     options.debug_dir = *debug_dir;

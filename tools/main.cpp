@@ -172,8 +172,8 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
-                [--garment-up auto|+y|+z|-z|-y|+x|-x] [--repair] [--quiet] [--debug DIR] [--progress]
-                [--keypoints FILE.json [--image-size W H] [--focal F]]
+                [--garment-up auto|+y|+z|-z|-y|+x|-x] [--garment-facing auto|+z|-z|+x|-x] [--repair]
+                [--quiet] [--debug DIR] [--progress] [--keypoints FILE.json [--image-size W H] [--focal F]]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
@@ -186,8 +186,12 @@ Bottoms are dressed before tops.
 --pose-rest apose|tpose and the measurement flags); --pose poses it. Garments may be in any
 length unit (detected, or --garment-units) and stored Y up facing +Z (OBJ, glTF) or Z up facing
 -Y (Blender, scanners): the up axis is read from the surface (its left-right mirror symmetry
-and its normals) and a Z-up garment is turned upright, with a warning in the report.
+and its normals) and a Z-up garment is turned upright, with a warning in the report. Upright,
+a garment whose left-right axis is Z (it faces +X or -X) is turned to face +Z, and a top with
+sleeves stored back to front (its collar's back lower than its neckline) is turned round; for
+bottoms turned a quarter, front and back are not told apart (see the report's warning).
   --garment-up A    the garments' up axis in their files, when auto (the default) misreads it
+  --garment-facing F  where the garments' fronts face once upright, when auto misreads it
   --repair          drop degenerate and duplicate faces of the garments and of a body mesh
                     file (with a warning each) instead of failing on them
   --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the

@@ -290,27 +290,48 @@ GarmentSegmentation segment_garment(const Mesh& garment, const SegmentOptions& o
 }
 
 UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::optional<UpAxis> up,
-                                    const SegmentOptions& options) {
+                                    std::optional<Facing> facing, const SegmentOptions& options) {
+  // A top's collar sits higher at the back than its neckline at the front: a top edge leaning
+  // forward by this share of the depth means a top stored back to front (measured tops lean
+  // back by 0.06-0.30; the margin is two thirds of the smallest).
+  constexpr double FORWARD_LEAN = 0.04;
   std::vector<UpAxis> tries = {UpAxis::POS_Y, UpAxis::POS_Z};
   if (up) tries = {*up};
   else if (detect_up_axis(mesh.positions, mesh.triangles) == UpAxis::POS_Z) tries = {UpAxis::POS_Z, UpAxis::POS_Y};
-  std::vector<float> as_given; // copied before a detection's first rotation
+  const std::vector<float> as_given = mesh.positions;
   std::string first_error;
   for (UpAxis axis : tries) {
-    if (axis != UpAxis::POS_Y) {
-      if (tries.size() > 1) {
-        if (as_given.empty()) as_given = mesh.positions;
-        else mesh.positions = as_given;
-      }
-      rotate_to_y_up(mesh.positions, axis);
+    mesh.positions = as_given;
+    rotate_to_y_up(mesh.positions, axis);
+    UprightSegmentation out;
+    out.up = axis;
+    if (facing) {
+      out.facing = *facing;
+    } else if (lateral_axis_is_z(mesh.positions, mesh.triangles)) {
+      out.facing = top_edge_lean(mesh.positions, 0) <= 0 ? Facing::POS_X : Facing::NEG_X;
+      out.front_known = false;
     }
+    rotate_to_face_z(mesh.positions, out.facing);
     try {
-      return {axis, segment_garment(mesh, options)};
+      out.segmentation = segment_garment(mesh, options);
     } catch (const Error& e) {
       if (first_error.empty()) first_error = e.what();
+      continue;
     }
+    const bool sleeved = out.segmentation.type == GarmentType::TEE || out.segmentation.type == GarmentType::LONG_SLEEVE;
+    if (!facing && sleeved) {
+      const double lean = top_edge_lean(mesh.positions, 2);
+      if (lean >= FORWARD_LEAN) {
+        // Stored back to front: turned round, its sleeves swap sides.
+        rotate_to_face_z(mesh.positions, Facing::NEG_Z);
+        out.facing = compose_facing(out.facing, Facing::NEG_Z);
+        out.segmentation = segment_garment(mesh, options);
+      }
+      if (std::abs(lean) >= FORWARD_LEAN) out.front_known = true;
+    }
+    return out;
   }
-  if (!as_given.empty()) mesh.positions = as_given;
+  mesh.positions = as_given;
   throw Error(name, 0,
               "not a recognisable garment: " + first_error +
                   (tries.size() > 1 ? " (tried with +y and +z up)" : ""));

@@ -100,9 +100,13 @@ struct GarmentSegmentation {
 /// openings that make neither a top, nor trousers, nor a skirt.
 GarmentSegmentation segment_garment(const Mesh& garment, const SegmentOptions& options = {});
 
-/// A garment's segmentation and the up axis it was found with (segment_upright()).
+/// A garment's segmentation and the up axis and facing it was found with (segment_upright()).
 struct UprightSegmentation {
-  UpAxis up = UpAxis::POS_Y;
+  UpAxis up = UpAxis::POS_Y;     ///< the file's up axis, turned to +Y
+  Facing facing = Facing::POS_Z; ///< where the garment's front faced once upright, turned to +Z
+  /// False when the garment was turned a quarter (its left–right axis was Z) and nothing told
+  /// its front from its back (bottoms, sleeveless tops): its front is then taken to face +X.
+  bool front_known = true;
   GarmentSegmentation segmentation;
 };
 
@@ -113,9 +117,14 @@ struct UprightSegmentation {
 /// garments lying on their side, e.g. trousers as a long-sleeve top.) On return `mesh` is
 /// rotated into our frame. Throws vfit::Error naming `name` with the segmentation's error for
 /// the first axis tried ("not a recognisable garment: ...") when neither is recognised, leaving
-/// `mesh` as given. Costs the detection (linear, a few ms at 10^5 triangles) and one
-/// segmentation per axis tried.
+/// `mesh` as given. Once upright, the garment is turned about +Y to face +Z: `facing` when
+/// given; else a garment whose left–right axis is Z (lateral_axis_is_z()) is turned a quarter,
+/// its front taken to be away from its top edge's lean along X (top_edge_lean()), and a
+/// garment segmented as a top with sleeves whose top edge leans forward (toward +Z, by 0.04 of
+/// its depth or more: every measured top leans back by 0.06 or more) faced −Z and is turned
+/// round and segmented again. Costs the detection (linear, a few ms at 10^5 triangles) and one
+/// segmentation per axis tried, plus one for a top turned round.
 UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::optional<UpAxis> up = std::nullopt,
-                                    const SegmentOptions& options = {});
+                                    std::optional<Facing> facing = std::nullopt, const SegmentOptions& options = {});
 
 } // namespace vfit

@@ -153,4 +153,92 @@ template <typename T> void rotate_coordinates(std::span<T> positions, UpAxis up)
 void rotate_to_y_up(std::span<float> positions, UpAxis up) { rotate_coordinates(positions, up); }
 void rotate_to_y_up(std::span<double> positions, UpAxis up) { rotate_coordinates(positions, up); }
 
+std::string facing_name(Facing facing) {
+  switch (facing) {
+  case Facing::POS_Z: return "+z";
+  case Facing::NEG_Z: return "-z";
+  case Facing::POS_X: return "+x";
+  case Facing::NEG_X: return "-x";
+  }
+  return "+z";
+}
+
+Facing parse_facing(std::string_view name) {
+  std::string s(name);
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (s.size() == 1) s = "+" + s;
+  for (Facing f : {Facing::POS_Z, Facing::NEG_Z, Facing::POS_X, Facing::NEG_X})
+    if (facing_name(f) == s) return f;
+  throw Error(std::string(name), 0, "unknown facing (expected +z, -z, +x or -x)");
+}
+
+bool lateral_axis_is_z(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  // Margins: the extent ratio below the smallest measured on whole garments (1.28), the
+  // symmetry gap below the smallest measured (a skirt: 0.034 against 0.041 is too close to use,
+  // so such a garment must pass the extent cue, which a skirt as deep as wide does not).
+  constexpr double EXTENT_RATIO = 1.2;
+  constexpr double SYMMETRY_MARGIN = 0.02;
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (std::size_t i = 0; i + 2 < positions.size(); i += 3)
+    for (std::size_t c = 0; c < 3; ++c) {
+      lo[c] = std::min(lo[c], positions[i + c]);
+      hi[c] = std::max(hi[c], positions[i + c]);
+    }
+  if (positions.size() < 3) return false;
+  const double ext_x = double(hi[0]) - double(lo[0]), ext_z = double(hi[2]) - double(lo[2]);
+  if (!(ext_z >= EXTENT_RATIO * ext_x)) return false;
+  const auto asym = mirror_asymmetry(positions, triangles);
+  return asym[2] + SYMMETRY_MARGIN <= asym[0];
+}
+
+double top_edge_lean(std::span<const float> positions, int axis) {
+  const auto a = static_cast<std::size_t>(axis);
+  float lo_y = INFINITY, hi_y = -INFINITY, lo = INFINITY, hi = -INFINITY;
+  for (std::size_t i = 0; i + 2 < positions.size(); i += 3) {
+    lo_y = std::min(lo_y, positions[i + 1]);
+    hi_y = std::max(hi_y, positions[i + 1]);
+    lo = std::min(lo, positions[i + a]);
+    hi = std::max(hi, positions[i + a]);
+  }
+  if (!(hi > lo) || !(hi_y > lo_y)) return 0;
+  const double band = double(hi_y) - 0.05 * (double(hi_y) - double(lo_y));
+  double sum = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i + 2 < positions.size(); i += 3)
+    if (positions[i + 1] >= band) {
+      sum += positions[i + a];
+      ++n;
+    }
+  if (n == 0) return 0;
+  return (sum / double(n) - 0.5 * (double(lo) + double(hi))) / (double(hi) - double(lo));
+}
+
+void rotate_to_face_z(std::span<float> positions, Facing facing) {
+  for (std::size_t i = 0; i + 2 < positions.size(); i += 3) {
+    const float x = positions[i], z = positions[i + 2];
+    switch (facing) {
+    case Facing::POS_Z: break;
+    case Facing::NEG_Z: positions[i] = -x, positions[i + 2] = -z; break;
+    case Facing::POS_X: positions[i] = -z, positions[i + 2] = x; break;
+    case Facing::NEG_X: positions[i] = z, positions[i + 2] = -x; break;
+    }
+  }
+}
+
+Facing compose_facing(Facing first, Facing then) {
+  // Quarter turns about +Y that take each facing to +Z: +Z 0, −X 1, −Z 2, +X 3 (counted the
+  // way rotate_to_face_z() turns); two turns add.
+  auto turns = [](Facing f) {
+    switch (f) {
+    case Facing::POS_Z: return 0;
+    case Facing::NEG_X: return 1;
+    case Facing::NEG_Z: return 2;
+    case Facing::POS_X: return 3;
+    }
+    return 0;
+  };
+  constexpr std::array<Facing, 4> by_turns = {Facing::POS_Z, Facing::NEG_X, Facing::NEG_Z, Facing::POS_X};
+  return by_turns[static_cast<std::size_t>((turns(first) + turns(then)) % 4)];
+}
+
 } // namespace vfit

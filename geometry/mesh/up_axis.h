@@ -75,4 +75,40 @@ void rotate_to_y_up(std::span<float> positions, UpAxis up);
 /// The same for double coordinates (e.g. a row-major #J × 3 joint matrix).
 void rotate_to_y_up(std::span<double> positions, UpAxis up);
 
+/// Which way the front of an upright (Y-up) garment faces in its file, about the up axis. Our
+/// frame is POS_Z; tools disagree (some export figures facing −Z, or +X with Z as their
+/// left–right axis).
+enum class Facing { POS_Z, NEG_Z, POS_X, NEG_X };
+
+/// "+z" | "-z" | "+x" | "-x".
+std::string facing_name(Facing facing);
+/// Parses "+z", "z", "-z", "+x", "x", "-x" (case-insensitive); throws vfit::Error naming
+/// `name` otherwise.
+Facing parse_facing(std::string_view name);
+
+/// Whether an upright garment's left–right axis is Z rather than X (it faces ±X): only when both
+/// cues agree by a margin: its Z extent is at least 1.2× its X extent (a garment is wider than
+/// deep: 1.28–5.1× over the 21 MakeHuman garments of the corpus and the catalogue's types,
+/// sizes and poses; only a lone shirt collar is deeper than wide, 0.91×), and it is more
+/// mirror-symmetric across Z than across X by 0.02 (mirror_asymmetry(): left to right 0.00–0.17,
+/// front to back 0.04–0.88 on the same garments). False when either cue is missing (a skirt as
+/// deep as wide stays as given). `positions` #V × 3 in any unit, `triangles` #F × 3. Linear.
+bool lateral_axis_is_z(std::span<const float> positions, std::span<const std::int32_t> triangles);
+
+/// Where the top edge of an upright garment lies along horizontal axis `axis` (0 = X, 2 = Z):
+/// the mean coordinate of the vertices in the top 5 % of its height, less the middle of its
+/// bounding box, over its extent along `axis` (in [−0.5, 0.5]). A top's neckline dips at the
+/// front, so its top edge (the back of the collar) leans back: −0.06 to −0.30 along Z over the
+/// 13 corpus and 2 catalogue tops facing +Z. Bottoms do not agree (waistbands are level or
+/// higher at the back), so the cue is for tops only. 0 without vertices or extent.
+double top_edge_lean(std::span<const float> positions, int axis);
+
+/// Rotates `positions` (#V × 3) about +Y so that a garment facing `facing` faces +Z:
+///   +Z: identity; −Z: (x, y, z) → (−x, y, −z); +X: (x, y, z) → (−z, y, x); −X: (x, y, z) → (z, y, −x).
+void rotate_to_face_z(std::span<float> positions, Facing facing);
+
+/// The facing of a garment turned by `first`, then by `then` (both rotate_to_face_z()): the
+/// single rotation that equals the two.
+Facing compose_facing(Facing first, Facing then);
+
 } // namespace vfit

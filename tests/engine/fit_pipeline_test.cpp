@@ -199,6 +199,30 @@ TEST(FitPipeline, DetectsAZUpGarmentAndFitsItAsTheOriginal) {
   }
 }
 
+// The tee stored facing +X (a left-right axis along Z, as some engines export): turned to face
+// +Z, said so, and fitted exactly like the original; stated with garment_facing, no warning.
+TEST(FitPipeline, TurnsATeeStoredFacingXAndFitsItAsTheOriginal) {
+  std::vector<FitGarmentInput> in = {tee_and_trousers()[0]};
+  std::vector<FitGarmentInput> turned = in;
+  for (int k = 0; k < 3; ++k) // three quarter turns undo one: the file of a tee facing +X
+    rotate_to_face_z(turned[0].mesh.positions, Facing::POS_X);
+  FitOptions o;
+  o.simulate = false;
+  const FitResult original = fit_garments(mannequin(), in, o);
+  const FitResult detected = fit_garments(mannequin(), turned, o);
+  const GarmentFitReport& g = detected.report.garments[0];
+  EXPECT_EQ(original.report.garments[0].facing, Facing::POS_Z);
+  EXPECT_EQ(g.facing, Facing::POS_X);
+  EXPECT_TRUE(std::any_of(g.warnings.begin(), g.warnings.end(),
+                          [](const std::string& w) { return w.find("faced +x") != std::string::npos; }));
+  EXPECT_EQ(detected.garments[0].mesh.positions, original.garments[0].mesh.positions);
+  o.garment_facing = Facing::POS_X;
+  const FitResult stated = fit_garments(mannequin(), turned, o);
+  EXPECT_TRUE(std::none_of(stated.report.garments[0].warnings.begin(), stated.report.garments[0].warnings.end(),
+                           [](const std::string& w) { return w.find("faced") != std::string::npos; }));
+  EXPECT_EQ(stated.garments[0].mesh.positions, original.garments[0].mesh.positions);
+}
+
 // The tee exported as two pattern pieces, each with its own copy of the seam's vertices down
 // the middle: welded back (with a warning), segmented and driven like the tee itself.
 TEST(FitPipeline, WeldsPatternPiecesThatShareSeamPositions) {

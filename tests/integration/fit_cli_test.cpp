@@ -102,6 +102,17 @@ TEST(FitCli, AMissingGarmentExits2AndWritesNothing) {
   EXPECT_EQ(file_count(dir.path()), 0u);
 }
 
+// A facing that is not one of +z, -z, +x, -x is refused before anything is read or written.
+TEST(FitCli, AnUnknownGarmentFacingExits2) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--garment-facing", "+y", "--out",
+                                (dir / "out.obj").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("unknown facing"), std::string::npos) << r.err;
+  EXPECT_EQ(file_count(dir.path()), 1u);
+}
+
 // A garment with a degenerate and a duplicated face: refused naming the file, line and --repair;
 // with --repair both are dropped, each with a warning, and the garment is fitted.
 TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
