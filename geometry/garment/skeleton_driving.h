@@ -70,9 +70,13 @@ struct SkeletonDriving {
   /// The part of torso_translation from contact with the body surface (m): contact_translation()
   /// (coarse_move.h, default ContactMoveOptions) over all the torso's vertices (those of no
   /// sleeve or leg skeleton); zero when drive() was given no body surface. The crotch alignment
-  /// of trousers is not included.
+  /// and the pocket offset of trousers are not included.
   Eigen::Vector3d contact_translation =
       Eigen::Vector3d::Zero();
+  /// Trousers and shorts with a body surface: the offset along the body's trunk (m, + towards
+  /// the neck) after the contact translation, to the height of the most clearance (see
+  /// SkeletonDriver::drive()); included in torso_translation; zero otherwise.
+  double pocket_offset = 0;
   std::vector<DrivenLimb> limbs; ///< in the skeletons' order
   SkeletonDrivingTimings timings;
   /// The band solve's iterations and residual when it ran iteratively (BandSolver::MULTIGRID,
@@ -153,15 +157,27 @@ public:
   /// since the hips' height is estimated from the cut and contact can only push the garment
   /// out, not pull a garment placed too high down. The crotch is sought along the trunk axis
   /// (pelvis → neck) over one thigh's length below the hips' midpoint; when the midpoint is
-  /// outside the body or the line never leaves it, the crotch step is skipped silently.
+  /// outside the body or the line never leaves it, the crotch step is skipped silently. After
+  /// the contact translation, trousers and shorts are moved along the trunk (pocket_offset)
+  /// to where the body holds them: a bottom sits in a pocket of the body, the hips widening
+  /// below its waistband and seat, the crotch above its crotch seam, so the torso's clearance
+  /// (the 1st percentile of its signed distances to the body) falls both below and above its
+  /// best height. Offsets within ±50 mm of the contact placement are tried every 2 mm, and the
+  /// lowest within 2 mm of the best clearance is taken (the garment slides down until held);
+  /// when the clearance does not fall by 2 mm on both sides (no pocket), nothing moves. The
+  /// crotch key point (the cloth's crotch raised by a calibrated fraction of the hips' width)
+  /// cannot say how far a garment's crotch hangs below the body's (13–49 mm over the corpus's
+  /// bottoms, a matter of cut), so it only starts the search.
   /// Without a surface, eq. 8–11 as DrivenLimb describes. The surface must index the same posed
   /// body as `body_joints` (m); it is queried, not modified. Throws vfit::Error ("proximity
   /// queries: …") when the placed garment has a non-finite coordinate; `body_joints` is not
   /// validated.
   /// Opt-in: engine/fit_pipeline.cpp does not pass a surface: the contact translation costs
-  /// 20–60 ms per top, and with the rule before the envelope fit (push every point out) left
-  /// the corpus fit with more crossing edges (848 against 798 over 63 garment × pose cases);
-  /// not measured again with the envelope fit.
+  /// 20–60 ms per top (the pocket search, 51 closest-point queries of a bottom's torso, 64–68
+  /// ms more for 4,000-vertex catalogue trousers on a loaded 2-core machine), and with the rule
+  /// before the envelope fit (push every point out) left the corpus fit with more crossing
+  /// edges (848 against 798 over 63 garment × pose cases); not measured again with the
+  /// envelope fit.
   SkeletonDriving drive(const JointPositions& body_joints, const ProximityIndex* body_surface = nullptr) const;
   /// Vertex ids held as handles in the Laplacian solve, ascending.
   const std::vector<std::int32_t>& handles() const { return m_handles; }
