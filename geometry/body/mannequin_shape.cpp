@@ -313,6 +313,11 @@ double MannequinShape::distance(double x, double y, double z, const ShapeInflati
       d = smin(d, ellipsoid_distance(p, e), 0.015 * s);
     }
   }
+  if (inf && inf->legs_gap > 0) {
+    legs[0] = std::max(legs[0], inf->legs_gap - x); // the left leg lies at +x
+    legs[1] = std::max(legs[1], inf->legs_gap + x);
+    return smin(d, std::min(legs[0], legs[1]), 0.035 * s);
+  }
   d = smin(d, legs[0], 0.035 * s);
   return smin(d, legs[1], 0.035 * s);
 }

@@ -44,6 +44,10 @@ struct ShapeInflation {
   double arm_offset = 0;
   double neck_offset = 0;
   bool with_arms = true, with_legs = true, with_head = true, with_hands = true, with_feet = true;
+  /// > 0: each grown leg is cut flat this far (m) from the mid-plane x = 0 and the two are not
+  /// blended with each other, so legs grown wider than the gap between the thighs stay two tubes
+  /// (wide shorts). 0: the legs are grown and blended as the body's.
+  double legs_gap = 0;
 };
 
 class MannequinShape {

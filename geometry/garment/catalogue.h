@@ -25,7 +25,8 @@ struct GarmentOptions {
 };
 
 /// Generates a catalogue garment: the mannequin's distance function grown by the ease
-/// (girth ease / 2π plus 3 mm clearance; skirts hang as a flared elliptic tube from the hips)
+/// (girth ease / 2π plus 3 mm clearance; skirts hang as a flared elliptic tube from the hips;
+/// legs grown into each other at the hem, as shorts P4's, are cut apart at the mid-plane)
 /// → marching tetrahedra → cut at the openings → decimated (openings locked) to the exact
 /// vertex count → relaxed on the surface → part labels (sleeves beyond the plane through the
 /// shoulder joint normal to the arm; legs below planes through the crotch of slope 1, as seed

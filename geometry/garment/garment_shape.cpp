@@ -80,6 +80,16 @@ GarmentShape::GarmentShape(GarmentType type, const BodyMeasurements& body, const
     m_waistband = m_waist - 0.02 * H;
     break;
   }
+  if (m_inflation.with_legs) {
+    // Leg ease wider than the gap between the thighs at the hem (shorts P4 on the average body:
+    // 16 cm of thigh ease where the thighs are 2-3 cm apart) grows both legs into one tube with
+    // one hem. Then the legs are cut flat at the mid-plane, 2 cm apart (the coarsest isosurface
+    // cell is 1.6 cm). Grown legs whose hems keep the clearance between them at the mid-plane
+    // (all the catalogue's sizes on the average body but shorts P4: 7 mm or more) are grown as
+    // before.
+    const double between = m_body.distance(0.0, m_hem, joint(Joint::LEFT_HIP).z(), &m_inflation);
+    if (between < CLEARANCE) m_inflation.legs_gap = 0.01 * s;
+  }
   if (m_has_skirt) {
     // An elliptic tube from the hip line down, large enough for the hips with their ease and
     // for both legs, flaring outwards (dress ~10°, skirt ~8°).
