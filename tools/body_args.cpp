@@ -57,6 +57,7 @@ BodyRequest body_request_from_args(Args& args, const std::string& source) {
   if (auto j = args.value("joints-in")) r.joints_file = *j;
   if (auto u = args.value("units")) r.units = parse_units(*u);
   if (auto up = args.value("up"); up && *up != "auto") r.up = parse_up_axis(*up);
+  if (auto facing = args.value("facing"); facing && *facing != "auto") r.facing = parse_facing(*facing);
   r.repair = args.flag("repair");
   if (auto m = args.value("rig-mapping")) r.rig_mapping_file = *m;
   return r;

@@ -78,7 +78,8 @@ mesh each) and DIR/demo.json. DIR defaults to ./vfit_demo.
 )";
 
 constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
-                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U] [--up A] [--repair]]
+                 [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U] [--up A]
+                 [--facing F] [--repair]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
                  [--rigged FILE.glb] [--quiet]
        vfit body --scan FILE [--units U] [--up A] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
@@ -91,6 +92,8 @@ f) with shape --betas; a rigged glTF (.glb/.gltf; SMPL, Mixamo or MakeHuman bone
 estimated from its geometry. A plain mesh (and --scan) may be stored Y up facing +Z or Z up
 facing -Y (Blender, scanners): the up axis is read from the surface and the body turned
 upright, with a warning; --up +y|+z|-z|-y|+x|-x forces the file's up axis (outputs are Y up).
+A plain mesh whose joints are estimated and whose feet do not point to +Z is tried turned to
+face +Z from -z, +x and -x, with a warning; --facing +z|-z|+x|-x states where it faces.
 
 Without --from, builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
 --height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,

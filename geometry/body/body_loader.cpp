@@ -105,16 +105,43 @@ LoadedBody load_body(const BodyRequest& r) {
     out.warnings.push_back(path.string() + ": stored with +z up (detected), rotated to +y up (force with --up)");
   }
   rotate_to_y_up(parsed.mesh.positions, up);
+  if (r.facing) rotate_to_face_z(parsed.mesh.positions, *r.facing);
   if (r.joints_file) {
     out.rest.mesh = std::move(parsed.mesh);
     out.rest.joints = read_joints_json(*r.joints_file);
     rotate_to_y_up(std::span<double>(out.rest.joints.data(), std::size_t(out.rest.joints.size())), up);
+    if (r.facing) rotate_to_face_z(std::span<double>(out.rest.joints.data(), std::size_t(out.rest.joints.size())), *r.facing);
     out.rest.weights = estimate_skin_weights(out.rest.mesh, out.rest.joints);
     out.rest.source = path.string();
     out.kind = "mesh+joints";
     return out;
   }
-  out.rest = rig_bare_body(std::move(parsed.mesh), path.string());
+  if (r.facing) {
+    out.rest = rig_bare_body(std::move(parsed.mesh), path.string());
+  } else {
+    // The estimator reads the facing from the feet and refuses a body facing elsewhere than +Z
+    // (other tools export figures facing -Z or +X): the body turned each other way is tried,
+    // and when none is accepted, the error is the one for the body as given.
+    try {
+      out.rest = rig_bare_body(parsed.mesh, path.string());
+    } catch (const Error&) {
+      bool rigged = false;
+      for (Facing f : {Facing::NEG_Z, Facing::POS_X, Facing::NEG_X}) {
+        Mesh turned = parsed.mesh;
+        rotate_to_face_z(turned.positions, f);
+        try {
+          out.rest = rig_bare_body(std::move(turned), path.string());
+        } catch (const Error&) {
+          continue;
+        }
+        out.warnings.push_back(path.string() + ": faced " + facing_name(f) +
+                               " (detected: its feet), turned to face +z (force with --facing)");
+        rigged = true;
+        break;
+      }
+      if (!rigged) throw;
+    }
+  }
   out.kind = "scan";
   return out;
 }

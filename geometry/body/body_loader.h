@@ -31,6 +31,11 @@ struct BodyRequest {
   /// rotate_to_y_up(). Absent: detect_body_up_axis() on the mesh (+Y when it cannot tell), with a
   /// warning when it turns the body.
   std::optional<UpAxis> up;
+  /// Where a plain mesh's front faces once upright (with its joints file, if any): turned to +Z
+  /// by rotate_to_face_z(). Absent: +Z, and when joint estimation refuses the body as given
+  /// (its feet must point to +Z), the body turned to face +Z from −Z, +X and −X in turn, the
+  /// first that the estimator accepts kept with a warning (no joints file only).
+  std::optional<Facing> facing;
   /// A plain mesh file: drop degenerate and duplicate faces (read_mesh()'s ReadOptions::repair,
   /// with warnings) instead of failing on them.
   bool repair = false;
@@ -59,8 +64,8 @@ private:
 };
 
 /// Loads the requested body. A plain mesh is converted to metres, welded
-/// (weld_coincident_vertices()) and turned upright (BodyRequest::up), each with a warning when
-/// it changes something. Throws vfit::Error naming the file and the problem (missing file,
+/// (weld_coincident_vertices()), turned upright (BodyRequest::up) and to face +Z
+/// (BodyRequest::facing), each with a warning when it changes something. Throws vfit::Error naming the file and the problem (missing file,
 /// unknown format, no recognisable skeleton, joints file incomplete, ...).
 LoadedBody load_body(const BodyRequest& request);
 

@@ -213,9 +213,10 @@ double top_edge_lean(std::span<const float> positions, int axis) {
   return (sum / double(n) - 0.5 * (double(lo) + double(hi))) / (double(hi) - double(lo));
 }
 
-void rotate_to_face_z(std::span<float> positions, Facing facing) {
+namespace {
+template <typename T> void turn_about_y(std::span<T> positions, Facing facing) {
   for (std::size_t i = 0; i + 2 < positions.size(); i += 3) {
-    const float x = positions[i], z = positions[i + 2];
+    const T x = positions[i], z = positions[i + 2];
     switch (facing) {
     case Facing::POS_Z: break;
     case Facing::NEG_Z: positions[i] = -x, positions[i + 2] = -z; break;
@@ -224,6 +225,10 @@ void rotate_to_face_z(std::span<float> positions, Facing facing) {
     }
   }
 }
+} // namespace
+
+void rotate_to_face_z(std::span<float> positions, Facing facing) { turn_about_y(positions, facing); }
+void rotate_to_face_z(std::span<double> positions, Facing facing) { turn_about_y(positions, facing); }
 
 Facing compose_facing(Facing first, Facing then) {
   // Quarter turns about +Y that take each facing to +Z: +Z 0, −X 1, −Z 2, +X 3 (counted the

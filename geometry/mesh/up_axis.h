@@ -106,6 +106,8 @@ double top_edge_lean(std::span<const float> positions, int axis);
 /// Rotates `positions` (#V × 3) about +Y so that a garment facing `facing` faces +Z:
 ///   +Z: identity; −Z: (x, y, z) → (−x, y, −z); +X: (x, y, z) → (−z, y, x); −X: (x, y, z) → (z, y, −x).
 void rotate_to_face_z(std::span<float> positions, Facing facing);
+/// The same for double coordinates (e.g. a row-major #J × 3 joint matrix).
+void rotate_to_face_z(std::span<double> positions, Facing facing);
 
 /// The facing of a garment turned by `first`, then by `then` (both rotate_to_face_z()): the
 /// single rotation that equals the two.

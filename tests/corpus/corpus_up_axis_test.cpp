@@ -118,5 +118,41 @@ TEST(CorpusUpAxis, AZUpBodyFileLoadsUpright) {
   EXPECT_THROW((void)load_body(turned), Error);
 }
 
+// The corpus body stored facing -Z, +X and -X (other tools' frames): joint estimation refuses
+// it as given (its feet must point to +Z), so it is turned until the feet do, with a warning:
+// the same joints as the file facing +Z (exactly: quarter turns only permute and negate), and a
+// stated facing is obeyed without a search.
+TEST(CorpusUpAxis, ABodyFacingAnotherWayIsTurnedByItsFeet) {
+  const auto corpus = test::corpus_dir();
+  if (!corpus) GTEST_SKIP() << "corpus absent (set VFIT_CORPUS)";
+  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
+  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
+  const Mesh body = read_mesh(path).mesh;
+  BodyRequest as_given;
+  as_given.source = path.string();
+  const LoadedBody reference = load_body(as_given);
+  test::TempDir dir;
+  for (Facing f : {Facing::NEG_Z, Facing::POS_X, Facing::NEG_X}) {
+    SCOPED_TRACE(facing_name(f));
+    Mesh stored = body;
+    for (int k = 0; k < (f == Facing::NEG_Z ? 1 : 3); ++k)
+      rotate_to_face_z(stored.positions, f);
+    const auto file = dir.path() / ("hm08_facing_" + std::to_string(static_cast<int>(f)) + ".obj");
+    write_mesh(file, stored);
+    BodyRequest turned;
+    turned.source = file.string();
+    const LoadedBody b = load_body(turned);
+    EXPECT_LE((b.rest.joints - reference.rest.joints).cwiseAbs().maxCoeff(), 1e-4); // OBJ keeps 6 decimals
+    EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(), [&](const std::string& w) {
+      return w.find("faced " + facing_name(f)) != std::string::npos;
+    }));
+    turned.facing = f;
+    const LoadedBody stated = load_body(turned);
+    EXPECT_LE((stated.rest.joints - reference.rest.joints).cwiseAbs().maxCoeff(), 1e-4);
+    EXPECT_TRUE(std::none_of(stated.warnings.begin(), stated.warnings.end(),
+                             [](const std::string& w) { return w.find("faced") != std::string::npos; }));
+  }
+}
+
 } // namespace
 } // namespace vfit
