@@ -58,7 +58,9 @@ struct BodyAttachment {
 // row k, `rank` its inverse. Everything inside Impl (state, masses, springs, adjacency, contacts,
 // attachments) is in the internal numbering; the public API speaks the caller's, mapping indices
 // on the way in (pin, attach_to_body) and out (attached_vertices), and publishing the state in
-// the caller's order (out_x, out_v) at the end of every call that changes it. The numbering
+// the caller's order (out_x, out_v) when it is read (positions(), velocities()) after a call
+// that changed it, not at the end of every such call: a per-frame caller doing step() and
+// move_body() and then reading positions() pays one gather of #V × 3 floats, not four. The numbering
 // keeps the springs' order, so an RK4 step gives the caller's particles the same bits as it
 // would in the caller's numbering (and the implicit step the same up to the CG's float sums).
 struct ClothSim::Impl {
@@ -70,7 +72,11 @@ struct ClothSim::Impl {
   ClothParticles particles;
   std::vector<float> masses; // internal numbering
   std::vector<float> x, v;
-  std::vector<float> out_x, out_v, out_masses; // the caller's numbering
+  // The caller's numbering; out_x and out_v are copies of x and v, refreshed when read while
+  // stale (published_positions(), published_velocities()), so a const read may write them.
+  mutable std::vector<float> out_x, out_v;
+  mutable bool out_x_current = false, out_v_current = false;
+  std::vector<float> out_masses;
   std::vector<float> saved_x, saved_v; // state before the current step, restored on divergence
   Rk4Workspace workspace;
   ImplicitWorkspace implicit_workspace;
@@ -316,10 +322,20 @@ struct ClothSim::Impl {
   // Divergence check and displacement of the step just taken (restores the state on divergence).
   ClothStepReport finish_step(ClothStepReport r);
 
-  // Copies the state into the caller's numbering (positions(), velocities()).
-  void publish() {
-    gather_rows(x, rank, 3, out_x);
-    gather_rows(v, rank, 3, out_v);
+  // Marks the published state (out_x, out_v) stale: called by every operation that changes x
+  // or v; the next read of positions() or velocities() gathers it into the caller's numbering.
+  void state_changed() { out_x_current = out_v_current = false; }
+
+  // The state in the caller's numbering (positions(), velocities()), gathered if stale.
+  const std::vector<float>& published_positions() const {
+    if (!out_x_current) gather_rows(x, rank, 3, out_x);
+    out_x_current = true;
+    return out_x;
+  }
+  const std::vector<float>& published_velocities() const {
+    if (!out_v_current) gather_rows(v, rank, 3, out_v);
+    out_v_current = true;
+    return out_v;
   }
 
   // Attaches the internal particles `rows` to the body (see ClothSim::attach_to_body).
@@ -462,7 +478,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     m.stretch_floor = 0.5f * structural[structural.size() / 2];
   }
   m.update_substep();
-  m.publish();
+  m.state_changed();
   if (options.backend == ClothBackend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);
 }
 
@@ -482,7 +498,7 @@ void ClothSim::pin(std::span<const std::int32_t> vertices) {
       m.v[3 * row + k] = 0.0f;
   }
   m.masses_changed();
-  m.publish();
+  m.state_changed();
 }
 
 void ClothSim::set_body(std::span<const float> positions, std::span<const std::int32_t> triangles) {
@@ -511,13 +527,13 @@ void ClothSim::set_body(std::span<const float> positions, std::span<const std::i
     attach.push_back(a.vertex);
   if (m.options.waistband_pins && !m.waistband_attached) {
     // Searched in the caller's numbering, on the caller's triangles, as the function documents.
-    for (std::int32_t b : waistband_vertices(m.out_x, m.triangles, m.options.waistband_width))
+    for (std::int32_t b : waistband_vertices(m.published_positions(), m.triangles, m.options.waistband_width))
       attach.push_back(m.rank[static_cast<std::size_t>(b)]);
     m.waistband_attached = true;
   }
   m.attachments.clear();
   if (!attach.empty()) m.attach_rows(attach);
-  m.publish();
+  m.state_changed();
 }
 
 void ClothSim::attach_to_body(std::span<const std::int32_t> vertices) {
@@ -532,7 +548,7 @@ void ClothSim::attach_to_body(std::span<const std::int32_t> vertices) {
     rows.push_back(m.rank[static_cast<std::size_t>(p)]);
   }
   m.attach_rows(rows);
-  m.publish();
+  m.state_changed();
 }
 
 void ClothSim::Impl::attach_rows(std::span<const std::int32_t> vertices) {
@@ -620,7 +636,7 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
       m.x[row + k] = static_cast<float>(to[k]);
     }
   }
-  m.publish();
+  m.state_changed();
 }
 
 ClothStepReport ClothSim::step(double dt) {
@@ -659,10 +675,10 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
     m.v = m.saved_v;
     m.hits_valid = false;
     m.candidates_valid = false;
-    m.publish();
+    m.state_changed();
     return r;
   }
-  m.publish();
+  m.state_changed();
   double total = 0;
   for (std::size_t c = 0; c < m.masses.size(); ++c) { // in the caller's order: the sum as before
     const auto i = static_cast<std::size_t>(m.rank[c]);
@@ -708,18 +724,19 @@ ClothRestReport ClothSim::run_to_rest(const ClothRestOptions& options) {
 
 std::size_t ClothSim::particle_count() const { return m_impl->masses.size(); }
 std::size_t ClothSim::spring_count() const { return m_impl->springs.size(); }
-std::span<const float> ClothSim::positions() const { return m_impl->out_x; }
-std::span<const float> ClothSim::velocities() const { return m_impl->out_v; }
+std::span<const float> ClothSim::positions() const { return m_impl->published_positions(); }
+std::span<const float> ClothSim::velocities() const { return m_impl->published_velocities(); }
 std::span<const float> ClothSim::masses() const { return m_impl->out_masses; }
 double ClothSim::stable_substep() const { return m_impl->substep; }
 ClothStatus ClothSim::status() const { return m_impl->status; }
 
 double ClothSim::kinetic_energy() const {
   const Impl& m = *m_impl;
+  const std::vector<float>& v = m.published_velocities();
   double e = 0;
   for (std::size_t i = 0; i < m.out_masses.size(); ++i)
     for (int k = 0; k < 3; ++k)
-      e += 0.5 * m.out_masses[i] * double(m.out_v[3 * i + k]) * m.out_v[3 * i + k];
+      e += 0.5 * m.out_masses[i] * double(v[3 * i + k]) * v[3 * i + k];
   return e;
 }
 

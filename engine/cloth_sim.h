@@ -287,8 +287,15 @@ public:
 
   std::size_t particle_count() const;
   std::size_t spring_count() const;
-  std::span<const float> positions() const;  ///< #V × 3 (m)
-  std::span<const float> velocities() const; ///< #V × 3 (m/s)
+  /// #V × 3 (m), in the caller's vertex numbering. The simulator integrates in a numbering of
+  /// its own (kernels/cloth_ordering.h) and copies the state into the caller's when it is read
+  /// after a call that changed it (step, move_body, pin, …), so a frame of step() and
+  /// move_body() costs one copy, at the read; the same values as a copy after every call. The
+  /// span stays valid and unchanged until the next non-const call. A first read after a change
+  /// writes the copy: reading one ClothSim from several threads at once is not supported.
+  std::span<const float> positions() const;
+  /// #V × 3 (m/s), in the caller's numbering, copied when read as positions() is.
+  std::span<const float> velocities() const;
   std::span<const float> masses() const;     ///< #V (kg); 0 for an isolated vertex
   double stable_substep() const;             ///< the (sub)step in use (s): RK4's or implicit_step
   ClothStatus status() const;

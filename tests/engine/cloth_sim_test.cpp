@@ -551,6 +551,60 @@ TEST(ClothSim, AttachedVerticesFollowARotatingBody) {
     EXPECT_NEAR(sim.positions()[36 + k], expected[k], 1e-5f) << "axis " << k;
 }
 
+// The state is copied into the caller's numbering when read, not after every call: a sim read
+// after every step() and move_body() (the copy made eagerly) and one read once a frame, or at
+// the end only, hold the same bits frame by frame, positions and velocities, with a body that
+// moves and drags an attached vertex (move_body changes the state) and a cloth whose numbering
+// ClothSim changes internally (a grid with its vertices shuffled: not row by row).
+TEST(ClothSim, StateReadLazilyEqualsTheStateReadAfterEveryCall) {
+  const Mesh sphere = make_uv_sphere(12, 24, 0.25f);
+  const Mesh grid = make_grid(9, 9, 0.4f, 0.4f);
+  std::vector<std::int32_t> to(grid.vertex_count()); // caller vertex of each grid vertex
+  for (std::size_t i = 0; i < to.size(); ++i)
+    to[i] = std::int32_t(i);
+  std::shuffle(to.begin(), to.end(), std::mt19937(7));
+  std::vector<float> positions(grid.positions.size());
+  for (std::size_t i = 0; i < to.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      positions[3 * std::size_t(to[i]) + k] = grid.positions[3 * i + k] + (k == 1 ? 0.27f : 0.0f);
+  std::vector<std::int32_t> triangles(grid.triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    triangles[t] = to[std::size_t(grid.triangles[t])];
+  ClothSim eager(positions, triangles, square_options(200.0));
+  ClothSim lazy(positions, triangles, square_options(200.0));
+  const std::vector<std::int32_t> centre = {to[40]};
+  for (ClothSim* sim : {&eager, &lazy}) {
+    sim->set_body(sphere.position_view(), sphere.triangle_view());
+    sim->attach_to_body(centre);
+  }
+  const std::vector<float> start(eager.positions().begin(), eager.positions().end());
+  Mesh turned = sphere;
+  for (int f = 1; f <= 4; ++f) {
+    const float a = 0.05f * float(f), c = std::cos(a), s = std::sin(a);
+    for (std::size_t i = 0; i < sphere.vertex_count(); ++i) {
+      const float x = sphere.positions[3 * i], y = sphere.positions[3 * i + 1];
+      turned.positions[3 * i] = c * x - s * y;
+      turned.positions[3 * i + 1] = s * x + c * y;
+    }
+    // A frame: step, then move the body (which moves the attached vertex), then read.
+    ASSERT_EQ(eager.step(1.0 / 60.0).status, ClothStatus::OK);
+    const std::vector<float> stepped(eager.positions().begin(), eager.positions().end());
+    ASSERT_TRUE(all_finite(eager.velocities()));
+    eager.move_body(turned.position_view(), 1.0 / 60.0);
+    ASSERT_TRUE(all_finite(eager.velocities()));
+    EXPECT_FALSE(same_bits(stepped, eager.positions())) << "frame " << f << ": the body moved nothing";
+    ASSERT_EQ(lazy.step(1.0 / 60.0).status, ClothStatus::OK);
+    lazy.move_body(turned.position_view(), 1.0 / 60.0);
+    if (f % 2 == 0) continue; // read every other frame: two frames' changes behind one read
+    EXPECT_TRUE(same_bits(lazy.positions(), eager.positions())) << "frame " << f;
+    EXPECT_TRUE(same_bits(lazy.velocities(), eager.velocities())) << "frame " << f;
+  }
+  EXPECT_FALSE(same_bits(start, eager.positions()));
+  EXPECT_TRUE(same_bits(lazy.positions(), eager.positions()));
+  EXPECT_TRUE(same_bits(lazy.velocities(), eager.velocities()));
+  EXPECT_EQ(lazy.kinetic_energy(), eager.kinetic_energy());
+}
+
 double mean_y(std::span<const float> x, std::span<const std::int32_t> vertices) {
   double y = 0;
   for (std::int32_t v : vertices)
