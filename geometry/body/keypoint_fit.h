@@ -15,7 +15,8 @@
 /// near it, so 3 px of keypoint noise is not explained by bending limbs in depth, levelling off
 /// ~0.5 rad away, so a pose the keypoints show is not dragged along its depth ambiguity; weaker on
 /// elbow and knee flexion (visible in 2D), stronger on what 2D joints cannot see (twists, hands,
-/// feet). The fit tries per-limb depth hypotheses (each arm and leg lifted onto its keypoints'
+/// feet); an elbow whose wrist keypoint is missing is pulled toward a typical 17° flexion instead
+/// of the relaxed pose's 9° (its forearm is seen by nothing but the prior). The fit tries per-limb depth hypotheses (each arm and leg lifted onto its keypoints'
 /// camera rays with its elbow or knee and its wrist or ankle nearer or farther, limb_lift.h) and
 /// lets the objective, priors included, pick the winner.
 

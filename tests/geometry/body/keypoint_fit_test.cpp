@@ -232,14 +232,18 @@ struct SyntheticPose {
 // truth ends within a few mm of the cold fit: the misses are where the objective's minimum lies
 // for these keypoints, not search failures. Why it lies there: a dropped limb keypoint leaves a
 // forearm or shin to the priors (a_pose: left elbow and wrist; back_view: both wrists; lunge,
-// squat: right wrist; walking, running: right elbow); elsewhere bones turned towards or away
-// from the camera foreshorten by a few pixels only, which the 3 px noise and the free limb
-// lengths absorb, and the pull toward the relaxed pose then wins (lunge's and walking's arm
-// swings, tree_pose's raised knee). throw's right arm (raised, bent 80°, seen end-on) fits its
-// keypoints equally well straight, which the priors prefer.
+// squat: right wrist; walking, running: right elbow) — since a hidden forearm is pulled toward
+// a typical 17° elbow flexion rather than the near-straight relaxed pose (keypoint_fit.cpp),
+// back_view went from 53 to 42 mm, lunge 68 to 63, squat 54 to 52, a_pose 38 to 36, while kick
+// (right wrist dropped, true elbow 9°) went from 25 to 29.6 mm, under the bar; elsewhere bones
+// turned towards or away from the camera foreshorten by a few pixels only, which the 3 px noise
+// and the free limb lengths absorb, and the pull toward the relaxed pose then wins (lunge's and
+// walking's arm swings, tree_pose's raised knee). throw's right arm (raised, bent 80°, seen
+// end-on) fits its keypoints equally well straight, which the priors prefer (doubling the cost on
+// limbs pointing behind the body fits it at 48 mm, but worsened held-out draw 2026: not kept).
 double known_miss_mm(std::string_view name) {
   static const std::vector<std::pair<std::string_view, double>> guards = {
-      {"a_pose", 49},   {"walking", 58},      {"squat", 71},     {"back_view", 69},    {"lunge", 89},
+      {"a_pose", 46},   {"walking", 58},      {"squat", 67},     {"back_view", 54},    {"lunge", 82},
       {"throw", 120},   {"basketball_shot", 73}, {"running", 68}, {"tree_pose", 54},  {"boxing_guard", 42},
       {"head_turned", 54}, {"walking_seen_from_above", 47}};
   for (const auto& [n, mm] : guards)
@@ -502,7 +506,7 @@ TEST(LimbLift, PutsJointsOnTheirRaysAndOneChoiceIsTheTruth) {
 // whose keypoints were dropped). Two draws: 2026, the set checked when the priors were last
 // changed, and 7919, added later as a second held-out check of every prior or search change (a
 // change that helps the 23 named poses but not both draws is not kept). Bars at ~1.3 × the
-// values measured (2026: median 51 mm, 6 of 16 within 30 mm; 7919: median 65 mm, 3 of 16);
+// values measured (2026: median 50 mm, 6 of 16 within 30 mm; 7919: median 61 mm, 3 of 16);
 // every fit reprojects within the 5 px.
 struct HeldOutDraw {
   unsigned pose_seed;     ///< seed of the pose, shape and view draws
@@ -535,14 +539,18 @@ TEST_P(HeldOutRandomPoses, GuardTheWholeDraw) {
   const auto within = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 30; });
   double mean = 0;
   for (double e : errors) mean += e / static_cast<double>(errors.size());
-  std::printf("[random poses, seed %u] 3D median %.1f mm, mean %.1f mm, worst %.1f mm, %d of %zu within 30 mm\n", draw_set.pose_seed,
-              sorted[sorted.size() / 2], mean, sorted.back(), static_cast<int>(within), errors.size());
+  std::string each;
+  for (double e : errors) each += " " + std::to_string(static_cast<int>(std::lround(e)));
+  std::printf("[random poses, seed %u] 3D median %.1f mm, mean %.1f mm, worst %.1f mm, %d of %zu within 30 mm;"
+              " each (mm):%s\n",
+              draw_set.pose_seed, sorted[sorted.size() / 2], mean, sorted.back(), static_cast<int>(within),
+              errors.size(), each.c_str());
   EXPECT_LE(sorted[sorted.size() / 2], draw_set.max_median_mm);
   EXPECT_GE(within, draw_set.min_within_30mm);
 }
 
 INSTANTIATE_TEST_SUITE_P(KeypointFit, HeldOutRandomPoses,
-                         testing::Values(HeldOutDraw{2026u, 5000u, 66.0, 4}, HeldOutDraw{7919u, 9000u, 85.0, 2}),
+                         testing::Values(HeldOutDraw{2026u, 5000u, 65.0, 4}, HeldOutDraw{7919u, 9000u, 80.0, 2}),
                          [](const testing::TestParamInfo<HeldOutDraw>& draw_info) { return "Seed" + std::to_string(draw_info.param.pose_seed); });
 
 INSTANTIATE_TEST_SUITE_P(Poses, SyntheticKeypointFit, testing::Range(0, static_cast<int>(synthetic_poses().size())));
