@@ -14,6 +14,7 @@
 #include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
 #include "geometry/garment/skeleton_driving.h"
+#include "geometry/mesh/orient.h"
 #include "geometry/mesh/weld.h"
 #include "engine/layering.h"
 #include "kernels/edge_crossings.h"
@@ -119,6 +120,11 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
     report.vertices = mesh.vertex_count();
     report.faces = mesh.face_count();
   }
+  // Triangles wound against their neighbours (hand edits, some exporters): turned to agree.
+  if (const OrientReport orient = orient_consistently(mesh); orient.changed())
+    report.warnings.push_back("turned over " + std::to_string(orient.flipped) + " of " +
+                              std::to_string(mesh.face_count()) +
+                              " triangles wound against their neighbours (inconsistent orientation)");
   report.timings.units_ms = ms_since(t0);
   sink.done(input.name, "units", report.timings.units_ms, units_name(report.units));
 

@@ -11,6 +11,7 @@
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/obj_format.h"
+#include "geometry/mesh/orient.h"
 #include "geometry/mesh/primitives.h"
 #include "geometry/mesh/weld.h"
 
@@ -90,6 +91,22 @@ void BM_weld(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * std::int64_t(input.vertex_count()));
 }
 BENCHMARK(BM_weld)->ArgsProduct({{10000, 100000, 1000000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// orient_consistently() on a consistently wound mesh (the fit pipeline runs it on every garment
+// and body mesh: nothing to turn) and with every third triangle turned over.
+void BM_orient(benchmark::State& state) {
+  vfit::Mesh input = fixture(state.range(0)).mesh;
+  if (state.range(1))
+    for (std::size_t f = 0; f < input.face_count(); f += 3) std::swap(input.triangles[3 * f + 1], input.triangles[3 * f + 2]);
+  for (auto _ : state) {
+    state.PauseTiming();
+    vfit::Mesh m = input;
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(vfit::orient_consistently(m));
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(input.face_count()));
+}
+BENCHMARK(BM_orient)->ArgsProduct({{10000, 100000, 1000000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace
 

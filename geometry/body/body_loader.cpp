@@ -10,6 +10,7 @@
 #include "gltf_body.h"
 #include "json_input.h"
 #include "joint_estimation.h"
+#include "geometry/mesh/orient.h"
 #include "geometry/mesh/weld.h"
 #include "kernels/error.h"
 #include "rig_mapping.h"
@@ -97,6 +98,10 @@ LoadedBody load_body(const BodyRequest& r) {
     out.warnings.push_back(path.string() + ": welded " + std::to_string(weld.welded) + " coincident vertices, dropped " +
                            std::to_string(weld.unreferenced) + " unused vertices and " + std::to_string(weld.collapsed) +
                            " collapsed triangles");
+  if (const OrientReport orient = orient_consistently(parsed.mesh); orient.changed())
+    out.warnings.push_back(path.string() + ": turned over " + std::to_string(orient.flipped) + " of " +
+                           std::to_string(parsed.mesh.face_count()) +
+                           " triangles wound against their neighbours (inconsistent orientation)");
   UpAxis up = UpAxis::POS_Y;
   if (r.up) {
     up = *r.up;

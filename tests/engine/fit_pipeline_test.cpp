@@ -223,6 +223,26 @@ TEST(FitPipeline, TurnsATeeStoredFacingXAndFitsItAsTheOriginal) {
   EXPECT_EQ(stated.garments[0].mesh.positions, original.garments[0].mesh.positions);
 }
 
+// The tee with a third of its triangles wound the other way (hand edits, some exporters): turned
+// back (with a warning) and fitted exactly like the original.
+TEST(FitPipeline, TurnsBackTrianglesWoundAgainstTheirNeighbours) {
+  std::vector<FitGarmentInput> in = {tee_and_trousers()[0]};
+  std::vector<FitGarmentInput> sloppy = in;
+  Mesh& m = sloppy[0].mesh;
+  for (std::size_t f = 0; f < m.face_count(); f += 3) {
+    std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+    if (m.has_uvs()) std::swap(m.uv_triangles[3 * f + 1], m.uv_triangles[3 * f + 2]);
+  }
+  FitOptions o;
+  o.simulate = false;
+  const FitResult original = fit_garments(mannequin(), in, o);
+  const FitResult mended = fit_garments(mannequin(), sloppy, o);
+  const auto& w = mended.report.garments[0].warnings;
+  EXPECT_TRUE(std::any_of(w.begin(), w.end(), [](const std::string& s) { return s.find("turned over") != std::string::npos; }));
+  EXPECT_EQ(mended.garments[0].mesh.triangles, original.garments[0].mesh.triangles);
+  EXPECT_EQ(mended.garments[0].mesh.positions, original.garments[0].mesh.positions);
+}
+
 // The tee exported as two pattern pieces, each with its own copy of the seam's vertices down
 // the middle: welded back (with a warning), segmented and driven like the tee itself.
 TEST(FitPipeline, WeldsPatternPiecesThatShareSeamPositions) {
