@@ -102,6 +102,8 @@ LoadedBody load_body(const BodyRequest& r) {
     out.warnings.push_back(path.string() + ": turned over " + std::to_string(orient.flipped) + " of " +
                            std::to_string(parsed.mesh.face_count()) +
                            " triangles wound against their neighbours (inconsistent orientation)");
+  if (orient_outward(parsed.mesh))
+    out.warnings.push_back(path.string() + ": wound inside out (negative enclosed volume): every triangle turned over");
   UpAxis up = UpAxis::POS_Y;
   if (r.up) {
     up = *r.up;

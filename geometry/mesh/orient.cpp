@@ -107,4 +107,28 @@ OrientReport orient_consistently(Mesh& mesh) {
   return report;
 }
 
+double signed_volume(const Mesh& mesh) {
+  double six_v = 0;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const auto p = [&](int k) {
+      const auto v = 3 * static_cast<std::size_t>(mesh.triangles[3 * f + static_cast<std::size_t>(k)]);
+      return std::array<double, 3>{mesh.positions[v], mesh.positions[v + 1], mesh.positions[v + 2]};
+    };
+    const auto a = p(0), b = p(1), c = p(2);
+    six_v += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+  }
+  return six_v / 6;
+}
+
+bool orient_outward(Mesh& mesh) {
+  if (!(signed_volume(mesh) < 0)) return false;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    std::swap(mesh.triangles[3 * f + 1], mesh.triangles[3 * f + 2]);
+    if (mesh.uv_triangles.size() == mesh.triangles.size()) std::swap(mesh.uv_triangles[3 * f + 1], mesh.uv_triangles[3 * f + 2]);
+    if (mesh.normal_triangles.size() == mesh.triangles.size())
+      std::swap(mesh.normal_triangles[3 * f + 1], mesh.normal_triangles[3 * f + 2]);
+  }
+  return true;
+}
+
 } // namespace vfit

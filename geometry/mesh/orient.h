@@ -27,4 +27,16 @@ struct OrientReport {
 /// `conflicts` and left as it is. Linear in the mesh (vertex → triangle lists).
 OrientReport orient_consistently(Mesh& mesh);
 
+/// The signed volume (in the mesh's units cubed) enclosed by the triangles, Σ v0 · (v1 × v2) / 6:
+/// positive for a closed surface wound counter-clockwise seen from outside (outward normals),
+/// negative for one wound inside out; for a surface with small holes, close to that of the
+/// closed surface. 0 without triangles.
+double signed_volume(const Mesh& mesh);
+
+/// Turns every triangle of a body-like surface (closed, or with small holes: a scan) over when
+/// its signed volume is negative (wound inside out, normals pointing in), so that inside and
+/// outside are read the right way round; UV and normal corners follow. Returns whether it did.
+/// Meant for bodies: an open garment encloses no volume to judge by.
+bool orient_outward(Mesh& mesh);
+
 } // namespace vfit

@@ -154,5 +154,36 @@ TEST(CorpusUpAxis, ABodyFacingAnotherWayIsTurnedByItsFeet) {
   }
 }
 
+// The corpus body with every triangle wound inside out, and with a fifth of them reversed: loaded
+// wound outward again (the original's triangles exactly), each with its warning; inside and
+// outside would otherwise be read the wrong way round by penetration removal.
+TEST(CorpusUpAxis, ABodyWoundInsideOutOrInconsistentlyIsTurnedOutward) {
+  const auto corpus = test::corpus_dir();
+  if (!corpus) GTEST_SKIP() << "corpus absent (set VFIT_CORPUS)";
+  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
+  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
+  const Mesh body = read_mesh(path).mesh;
+  BodyRequest as_given;
+  as_given.source = path.string();
+  const LoadedBody reference = load_body(as_given);
+  test::TempDir dir;
+  for (int every : {1, 5}) {
+    SCOPED_TRACE("every " + std::to_string(every) + " triangle(s) reversed");
+    Mesh m = body;
+    for (std::size_t f = 0; f < m.face_count(); f += static_cast<std::size_t>(every))
+      std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+    const auto file = dir.path() / ("hm08_wound_" + std::to_string(every) + ".obj");
+    write_mesh(file, m);
+    BodyRequest request;
+    request.source = file.string();
+    const LoadedBody b = load_body(request);
+    EXPECT_EQ(b.rest.mesh.triangles, reference.rest.mesh.triangles);
+    EXPECT_LE((b.rest.joints - reference.rest.joints).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(), [](const std::string& w) {
+      return w.find("inside out") != std::string::npos || w.find("turned over") != std::string::npos;
+    }));
+  }
+}
+
 } // namespace
 } // namespace vfit

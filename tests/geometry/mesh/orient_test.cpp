@@ -104,5 +104,20 @@ TEST(Orient, NonManifoldEdgesJoinNothing) {
   EXPECT_EQ(m.triangles, before);
 }
 
+// A sphere wound inside out encloses a negative volume and is turned outward, exactly back to the
+// original; an outward one is left alone; the volume is a sphere's within its tessellation.
+TEST(Orient, TurnsAnInsideOutClosedSurfaceOutward) {
+  const Mesh sphere = make_uv_sphere(24, 48, 1.0f);
+  EXPECT_NEAR(signed_volume(sphere), 4.0 / 3.0 * std::numbers::pi, 0.05); // 24 × 48 facets: ~1 % short
+  Mesh m = sphere;
+  EXPECT_FALSE(orient_outward(m));
+  for (std::size_t f = 0; f < m.face_count(); ++f) std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+  EXPECT_LT(signed_volume(m), 0);
+  EXPECT_TRUE(orient_outward(m));
+  EXPECT_EQ(m.triangles, sphere.triangles);
+  Mesh empty;
+  EXPECT_FALSE(orient_outward(empty));
+}
+
 } // namespace
 } // namespace vfit
