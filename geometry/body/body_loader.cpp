@@ -1,6 +1,7 @@
 #include "body_loader.h"
 
 #include <cmath>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -13,6 +14,7 @@
 #include "geometry/mesh/orient.h"
 #include "geometry/mesh/weld.h"
 #include "kernels/error.h"
+#include "kernels/hole_caps.h"
 #include "rig_mapping.h"
 #include "smpl_model.h"
 
@@ -123,32 +125,71 @@ LoadedBody load_body(const BodyRequest& r) {
     out.kind = "mesh+joints";
     return out;
   }
+  // A scan is rarely closed, and the estimator follows the body's cross-sections, which holes
+  // break open (a corpus body with 2 % of its triangles missing lost its torso above the
+  // waist): when the body as given is refused and has holes, its joints are estimated on a copy
+  // with each hole capped by a fan (hole_caps.h), and the body as given is rigged with them.
+  std::size_t capped_holes = 0;
+  auto rig = [&](Mesh body) {
+    try {
+      return rig_bare_body(body, path.string());
+    } catch (const Error& original) {
+      const HoleCaps caps = build_hole_caps(body.triangles, body.vertex_count());
+      if (caps.loop_count() == 0) throw;
+      Mesh capped = body;
+      capped_positions(body.positions, caps, capped.positions);
+      capped.triangles.insert(capped.triangles.end(), caps.triangles.begin(), caps.triangles.end());
+      capped.uvs.clear();
+      capped.uv_triangles.clear();
+      capped.normals.clear();
+      capped.normal_triangles.clear();
+      capped.face_labels.clear();
+      Body from_capped;
+      try {
+        from_capped = rig_bare_body(std::move(capped), path.string());
+      } catch (const Error&) {
+        throw original; // the body as given says best what is wrong with it
+      }
+      Body b;
+      b.joints = from_capped.joints;
+      b.rest_pose = from_capped.rest_pose;
+      b.weights = estimate_skin_weights(body, b.joints);
+      b.mesh = std::move(body);
+      b.source = path.string();
+      capped_holes = caps.loop_count();
+      return b;
+    }
+  };
   if (r.facing) {
-    out.rest = rig_bare_body(std::move(parsed.mesh), path.string());
+    out.rest = rig(std::move(parsed.mesh));
   } else {
     // The estimator reads the facing from the feet and refuses a body facing elsewhere than +Z
     // (other tools export figures facing -Z or +X): the body turned each other way is tried,
     // and when none is accepted, the error is the one for the body as given.
+    std::optional<Error> first;
     try {
-      out.rest = rig_bare_body(parsed.mesh, path.string());
-    } catch (const Error&) {
-      bool rigged = false;
+      out.rest = rig(parsed.mesh);
+    } catch (const Error& e) {
+      first = e;
       for (Facing f : {Facing::NEG_Z, Facing::POS_X, Facing::NEG_X}) {
         Mesh turned = parsed.mesh;
         rotate_to_face_z(turned.positions, f);
         try {
-          out.rest = rig_bare_body(std::move(turned), path.string());
+          out.rest = rig(std::move(turned));
         } catch (const Error&) {
           continue;
         }
         out.warnings.push_back(path.string() + ": faced " + facing_name(f) +
                                " (detected: its feet), turned to face +z (force with --facing)");
-        rigged = true;
+        first.reset();
         break;
       }
-      if (!rigged) throw;
     }
+    if (first) throw *first;
   }
+  if (capped_holes > 0)
+    out.warnings.push_back(path.string() + ": joints estimated with its " + std::to_string(capped_holes) +
+                           " holes capped");
   out.kind = "scan";
   return out;
 }
