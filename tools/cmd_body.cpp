@@ -15,6 +15,7 @@
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/body/scan_fit.h"
+#include "geometry/body/scan_input.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/mesh_stats.h"
@@ -54,6 +55,7 @@ int run_scan(Args& args, const std::string& path) {
   const auto pose_out = args.value("pose-out");
   const auto units_arg = args.value("units");
   const auto up_arg = args.value("up");
+  const auto facing_arg = args.value("facing");
   for (const char* other : {"from", "keypoints", "joints-in", "betas"})
     if (args.value(other)) throw Error(std::string("--") + other, 0, "cannot be combined with --scan");
   args.positionals(0, 0);
@@ -81,13 +83,18 @@ int run_scan(Args& args, const std::string& path) {
     parsed.warnings.push_back(path + ": stored with +z up (detected), rotated to +y up (force with --up)");
   }
   rotate_to_y_up(parsed.mesh.positions, up);
-  const ScanFit fit = fit_scan(parsed.mesh, path);
+  const PreparedScan prepared = prepare_scan(std::move(parsed.mesh), path,
+                                             facing_arg && *facing_arg != "auto" ? std::optional<Facing>(parse_facing(*facing_arg))
+                                                                                 : std::nullopt);
+  parsed.warnings.insert(parsed.warnings.end(), prepared.warnings.begin(), prepared.warnings.end());
+  ScanFit fit = fit_scan(prepared.mesh, path);
+  restore_scan_surface(fit.rigged, prepared);
   if (!quiet) {
     for (const auto& w : parsed.warnings)
       std::cerr << "vfit: warning: " << w << "\n";
     for (const auto& w : fit.warnings)
       std::cerr << "vfit: warning: " << w << "\n";
-    std::printf("scan: %zu vertices, %zu faces; start from %s\n", parsed.mesh.vertex_count(), parsed.mesh.face_count(),
+    std::printf("scan: %zu vertices, %zu faces; start from %s\n", prepared.vertex_count, prepared.face_count,
                 fit.initialised_from_joints ? "the joints estimated on the scan"
                                             : "the A-pose (joint estimation failed)");
     std::printf("%-8s %10s %10s %10s %12s %12s\n", "stage", "iterations", "candidates", "ms", "mean (mm)",

@@ -82,7 +82,7 @@ constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height 
                  [--facing F] [--repair]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
                  [--rigged FILE.glb] [--quiet]
-       vfit body --scan FILE [--units U] [--up A] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
+       vfit body --scan FILE [--units U] [--up A] [--facing F] [--out FILE] [--joints FILE.json] [--rigged FILE.glb]
                  [--pose NAME|FILE.json] [--pose-out FILE.json] [--quiet]
 
 Builds a body and writes it, posed. --from takes a body you bring instead of the mannequin: an
@@ -93,7 +93,9 @@ estimated from its geometry. A plain mesh (and --scan) may be stored Y up facing
 facing -Y (Blender, scanners): the up axis is read from the surface and the body turned
 upright, with a warning; --up +y|+z|-z|-y|+x|-x forces the file's up axis (outputs are Y up).
 A plain mesh whose joints are estimated and whose feet do not point to +Z is tried turned to
-face +Z from -z, +x and -x, with a warning; --facing +z|-z|+x|-x states where it faces.
+face +Z from -z, +x and -x, with a warning; --facing +z|-z|+x|-x states where it faces. Meshes
+wound inconsistently or inside out are re-wound, and holes are capped for joint estimation and
+for --scan's fit (the rigged scan keeps its own surface), each with a warning.
 
 Without --from, builds the built-in parametric mannequin from the 11 measurements of seed 004 (metres):
 --height, --crotch-height, --knee-height, --arm-length, --forearm-length, --shoulder-width,
