@@ -64,9 +64,14 @@ private:
 };
 
 /// Loads the requested body. A plain mesh is converted to metres, welded
-/// (weld_coincident_vertices()), turned upright (BodyRequest::up) and to face +Z
-/// (BodyRequest::facing), each with a warning when it changes something. Throws vfit::Error naming the file and the problem (missing file,
-/// unknown format, no recognisable skeleton, joints file incomplete, ...).
+/// (weld_coincident_vertices()), re-wound (orient.h), turned upright (BodyRequest::up) and to
+/// face +Z (BodyRequest::facing), each with a warning when it changes something; its joints are
+/// estimated (estimate_joints(), with its holes capped when it has any), and a body in a pose the
+/// estimator does not read (not an A- or T-pose) is rigged by fit_scan() instead when the fitted
+/// mannequin lies on it and it on the mannequin (scan_fit_coverage(): mean distance ≤ 20 mm,
+/// 95th percentile ≤ 60 mm, both ways), with a warning.
+/// Throws vfit::Error naming the file and the problem (missing file, unknown format, no
+/// recognisable skeleton, joints file incomplete, ...).
 LoadedBody load_body(const BodyRequest& request);
 
 /// Reads a joints JSON file {"joints": {"<canonical name>": [x, y, z], ...}} (all 24, metres).

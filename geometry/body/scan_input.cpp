@@ -1,11 +1,15 @@
 #include "scan_input.h"
 
+#include <algorithm>
+#include <cmath>
 #include <utility>
+#include <vector>
 
 #include "geometry/mesh/orient.h"
 #include "joint_estimation.h"
 #include "kernels/error.h"
 #include "kernels/hole_caps.h"
+#include "kernels/proximity.h"
 
 namespace vfit {
 namespace {
@@ -68,6 +72,38 @@ PreparedScan prepare_scan(Mesh scan, const std::string& source, std::optional<Fa
   rotate_to_face_z(scan.positions, p.facing);
   p.mesh = std::move(scan);
   return p;
+}
+
+ScanCoverage scan_fit_coverage(const ScanFit& fit, const Mesh& scan) {
+  if (scan.face_count() == 0) return {};
+  const Body& tmpl = scan_fit_template();
+  // The template's rest vertices follow their joints' shape displacement (rest joints of the
+  // fitted shape over its scale, less the template's), then scale and pose (eq. 3).
+  const double s = fit.scale;
+  const JointPositions dJ = fit.rest_joints / s - tmpl.joints;
+  std::vector<float> shaped(tmpl.mesh.positions.size());
+  for (std::size_t v = 0; v < tmpl.mesh.vertex_count(); ++v) {
+    Eigen::Vector3d p(tmpl.mesh.positions[3 * v], tmpl.mesh.positions[3 * v + 1], tmpl.mesh.positions[3 * v + 2]);
+    for (int k = 0; k < 4; ++k)
+      p += double(tmpl.weights.weights[4 * v + std::size_t(k)]) * dJ.row(tmpl.weights.joints[4 * v + std::size_t(k)]).transpose();
+    for (int a = 0; a < 3; ++a)
+      shaped[3 * v + std::size_t(a)] = static_cast<float>(s * p[a]);
+  }
+  std::vector<float> posed;
+  linear_blend_skinning(shaped, tmpl.weights, skinning_transforms(fit.rest_joints, fit.pose), posed);
+  const ProximityIndex index(scan.positions, scan.triangles);
+  ClosestHits hits;
+  index.closest_points(posed, INFINITY, hits);
+  std::vector<double> d;
+  for (std::size_t i = 0; i < hits.size(); ++i)
+    if (hits.triangles[i] >= 0) d.push_back(std::abs(hits.signed_distances[i]));
+  if (d.empty()) return {};
+  ScanCoverage c;
+  for (double x : d) c.mean += x / double(d.size());
+  const auto k = static_cast<std::size_t>(0.95 * double(d.size() - 1));
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(k), d.end());
+  c.p95 = d[k];
+  return c;
 }
 
 void restore_scan_surface(Body& rigged, const PreparedScan& prepared) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "body.h"
+#include "scan_fit.h"
 #include "geometry/mesh/mesh.h"
 #include "geometry/mesh/up_axis.h"
 
@@ -37,6 +38,16 @@ struct PreparedScan {
 /// scan, which fit_scan()'s own pose search handles) stays as given. A point cloud is only
 /// turned by a stated `facing`. Each change adds a warning naming `source`.
 PreparedScan prepare_scan(Mesh scan, const std::string& source, std::optional<Facing> facing = std::nullopt);
+
+/// How well the body fit_scan() fitted covers the scan: the distances (m) from the fitted
+/// template's vertices (scan_fit_template() shaped and posed as `fit` says) to the scan's
+/// surface, mean and 95th percentile. fit_scan()'s own stage distances go the other way (scan
+/// to template), which a limbless shape passes: the template's limbs find nothing there.
+/// `scan` is the mesh fit_scan() was given (with faces; a point cloud gives zeros).
+struct ScanCoverage {
+  double mean = 0, p95 = 0;
+};
+ScanCoverage scan_fit_coverage(const ScanFit& fit, const Mesh& scan);
 
 /// The rigged scan of fit_scan() on a prepared scan with the caps dropped again (vertices,
 /// weights and triangles past the scan's own) and the scan's UVs, normals and labels back.

@@ -14,6 +14,8 @@
 #include <gtest/gtest.h>
 
 #include "geometry/body/body_loader.h"
+#include "geometry/body/gltf_body.h"
+#include "geometry/body/pose_io.h"
 #include "geometry/garment/segment.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/units.h"
@@ -218,6 +220,36 @@ TEST(CorpusUpAxis, ABodyWithHolesGetsItsJointsFromTheCappedBody) {
   EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(),
                           [](const std::string& w) { return w.find("holes capped") != std::string::npos; }));
   EXPECT_EQ(b.rest.mesh.face_count(), holed.face_count()); // the body as given, not the capped copy
+}
+
+// A bare body mesh in a pose the joint estimator does not read (the corpus body walking, saved
+// as OBJ, as a scan of someone walking would come): rigged by the scan fit instead, with a
+// warning, its joints near the rig's own (mean 2 cm: the scan fit's corpus poses measure
+// 1.1-1.5 cm), and the mesh as given. A limbless pillar of a body's size stays refused
+// (FitCliBadInput.limbless_body).
+TEST(CorpusUpAxis, APosedBareBodyIsRiggedByTheScanFit) {
+  const auto corpus = test::corpus_dir();
+  if (!corpus) GTEST_SKIP() << "corpus absent (set VFIT_CORPUS)";
+  const auto rig_path = *corpus / "makehuman" / "derived" / "hm08_body_rigged.glb";
+  if (!std::filesystem::is_regular_file(rig_path)) GTEST_SKIP() << rig_path << " absent";
+  const Body rig = read_gltf_body(rig_path.string());
+  const Body walking = pose_body(rig, named_pose("walking", RestPose::APOSE));
+  test::TempDir dir;
+  const auto file = dir.path() / "walking.obj";
+  Mesh bare = walking.mesh;
+  bare.uv_triangles.clear();
+  bare.uvs.clear();
+  bare.normal_triangles.clear();
+  bare.normals.clear();
+  write_mesh(file, bare);
+  BodyRequest request;
+  request.source = file.string();
+  const LoadedBody b = load_body(request);
+  EXPECT_EQ(b.kind, "scan");
+  EXPECT_EQ(b.rest.mesh.vertex_count(), walking.mesh.vertex_count());
+  EXPECT_LE((b.rest.joints - walking.joints).rowwise().norm().mean(), 0.02);
+  EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(),
+                          [](const std::string& w) { return w.find("fitting the mannequin") != std::string::npos; }));
 }
 
 } // namespace
