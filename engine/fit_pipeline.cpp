@@ -94,6 +94,101 @@ Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions&
 }
 
 // Units and segmentation: what decides the processing order.
+// An outfit file: several garments in one mesh (MakeHuman's outfits, a design tool's export of a
+// look). After welding (pattern pieces that share seams are one garment), each connected piece
+// with at least this share of the file's vertices is a garment of its own; smaller pieces
+// (buttons, labels, a detached collar) stay with the largest, as extra components.
+constexpr double OUTFIT_SHARE = 0.2;
+
+struct SplitInputs {
+  std::vector<FitGarmentInput> garments;
+  std::vector<std::string> notes; ///< per garment: how it came out of its file ("" when whole)
+};
+
+// Union–find over vertices: the root of v's piece.
+std::int32_t root_of(std::vector<std::int32_t>& parent, std::int32_t v) {
+  while (parent[static_cast<std::size_t>(v)] != v) {
+    parent[static_cast<std::size_t>(v)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(v)])];
+    v = parent[static_cast<std::size_t>(v)];
+  }
+  return v;
+}
+
+SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs) {
+  SplitInputs out;
+  for (const FitGarmentInput& input : inputs) {
+    Mesh m = input.mesh;
+    weld_coincident_vertices(m);
+    const std::size_t nv = m.vertex_count(), nf = m.face_count();
+    std::vector<std::int32_t> parent(nv);
+    std::iota(parent.begin(), parent.end(), 0);
+    for (std::size_t f = 0; f < nf; ++f)
+      for (int k = 1; k < 3; ++k) {
+        const std::int32_t a = root_of(parent, m.triangles[3 * f]), b = root_of(parent, m.triangles[3 * f + std::size_t(k)]);
+        if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+      }
+    std::map<std::int32_t, std::size_t> size; // piece root → referenced vertices
+    std::vector<char> used(nv, 0);
+    for (std::int32_t v : m.triangles) used[static_cast<std::size_t>(v)] = 1;
+    for (std::size_t v = 0; v < nv; ++v)
+      if (used[v]) ++size[root_of(parent, static_cast<std::int32_t>(v))];
+    std::vector<std::pair<std::size_t, std::int32_t>> big;
+    for (const auto& [root, n] : size)
+      if (static_cast<double>(n) >= OUTFIT_SHARE * static_cast<double>(nv)) big.emplace_back(n, root);
+    if (big.size() < 2) {
+      out.garments.push_back(input);
+      out.notes.emplace_back();
+      continue;
+    }
+    std::sort(big.begin(), big.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::map<std::int32_t, std::size_t> garment_of; // piece root → index into big; small pieces → 0
+    for (std::size_t g = 0; g < big.size(); ++g) garment_of[big[g].second] = g;
+    for (std::size_t g = 0; g < big.size(); ++g) {
+      Mesh piece;
+      piece.uvs = m.uvs;
+      piece.normals = m.normals;
+      piece.label_names = m.label_names;
+      auto garment_index = [&](std::int32_t v) {
+        const auto it = garment_of.find(root_of(parent, v));
+        return it == garment_of.end() ? std::size_t{0} : it->second;
+      };
+      // The piece's vertices and triangles keep their order in the file.
+      std::vector<std::int32_t> remap(nv, -1);
+      for (std::size_t v = 0; v < nv; ++v)
+        if (used[v] && garment_index(static_cast<std::int32_t>(v)) == g) {
+          remap[v] = static_cast<std::int32_t>(piece.vertex_count());
+          piece.positions.insert(piece.positions.end(), m.positions.begin() + std::ptrdiff_t(3 * v),
+                                 m.positions.begin() + std::ptrdiff_t(3 * v + 3));
+        }
+      std::map<std::int32_t, std::size_t> labels;
+      for (std::size_t f = 0; f < nf; ++f) {
+        if (garment_index(m.triangles[3 * f]) != g) continue;
+        for (int k = 0; k < 3; ++k) {
+          const auto v = static_cast<std::size_t>(m.triangles[3 * f + std::size_t(k)]);
+          piece.triangles.push_back(remap[v]);
+          if (m.has_uvs()) piece.uv_triangles.push_back(m.uv_triangles[3 * f + std::size_t(k)]);
+          if (m.has_normals()) piece.normal_triangles.push_back(m.normal_triangles[3 * f + std::size_t(k)]);
+        }
+        if (m.has_labels()) {
+          piece.face_labels.push_back(m.face_labels[f]);
+          ++labels[m.face_labels[f]];
+        }
+      }
+      // Named by its group when one group holds nearly all of it (OBJ `g`/`o`), else numbered.
+      std::string suffix = "#" + std::to_string(g + 1);
+      for (const auto& [label, count] : labels)
+        if (static_cast<double>(count) >= 0.9 * static_cast<double>(piece.face_count()) && label >= 0 &&
+            static_cast<std::size_t>(label) < m.label_names.size() && !m.label_names[static_cast<std::size_t>(label)].empty())
+          suffix = ":" + m.label_names[static_cast<std::size_t>(label)];
+      out.garments.push_back({input.name + suffix, std::move(piece)});
+      out.notes.push_back("one of " + std::to_string(big.size()) + " garments in " + input.name +
+                          " (its connected pieces with " + std::to_string(static_cast<int>(100 * OUTFIT_SHARE)) +
+                          " % of the vertices or more), fitted on its own");
+    }
+  }
+  return out;
+}
+
 void read_garment(const FitGarmentInput& input, const FitOptions& options, const StageSink& sink, FittedGarment& out,
                   GarmentFitReport& report) {
   report.name = input.name;
@@ -336,8 +431,10 @@ std::string cpu_model_name() {
   return "unknown";
 }
 
-FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options) {
+FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& inputs, const FitOptions& options) {
   const auto t_total = Clock::now();
+  const SplitInputs split = split_outfits(inputs);
+  const std::vector<FitGarmentInput>& garments = split.garments;
   if (options.simulate) (void)fabric_preset(options.fabric); // unknown fabric: fail before any work
   FitResult result;
   FitReport& report = result.report;
@@ -367,8 +464,10 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& gar
   // after segmentation, so every garment is segmented first, then dressed in that order.
   result.garments.resize(garments.size());
   report.garments.resize(garments.size());
-  for (std::size_t i = 0; i < garments.size(); ++i)
+  for (std::size_t i = 0; i < garments.size(); ++i) {
     read_garment(garments[i], options, sinks[i], result.garments[i], report.garments[i]);
+    if (!split.notes[i].empty()) report.garments[i].warnings.insert(report.garments[i].warnings.begin(), split.notes[i]);
+  }
   // Debug output starts once every garment is known to be one, so a mesh that is not a
   // garment leaves no files behind.
   std::optional<FitDebugWriter> debug;

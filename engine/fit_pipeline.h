@@ -90,7 +90,11 @@ struct FitGarmentInput {
   std::string name; ///< names it in the report and in output files (e.g. the file name)
   /// Any length unit; Y up facing +Z, or see FitOptions::garment_up. Vertices at bit-identical
   /// positions (pattern pieces' seams) are welded first (weld_coincident_vertices()), so the
-  /// fitted mesh can have fewer vertices than this one (the report says so).
+  /// fitted mesh can have fewer vertices than this one (the report says so). An outfit (several
+  /// garments in one mesh: after welding, two or more connected pieces with 20 % of the vertices
+  /// or more each) is split into its garments, named "<name>#k" in the file's order of pieces by
+  /// size (or "<name>:<group>" when one OBJ group holds 90 % of a piece), smaller pieces staying
+  /// with the largest; each is reported and fitted as a garment of its own.
   Mesh mesh;
 };
 

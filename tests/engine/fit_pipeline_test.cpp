@@ -243,6 +243,47 @@ TEST(FitPipeline, TurnsBackTrianglesWoundAgainstTheirNeighbours) {
   EXPECT_EQ(mended.garments[0].mesh.positions, original.garments[0].mesh.positions);
 }
 
+// An outfit in one mesh (tee and trousers, as MakeHuman and design tools export a look): split
+// into its garments, each fitted on its own exactly as when given apart (the pieces keep the
+// file's vertex order), each saying where it came from.
+TEST(FitPipeline, SplitsAnOutfitFileIntoItsGarments) {
+  const std::vector<FitGarmentInput>& apart = tee_and_trousers();
+  FitGarmentInput outfit{"outfit", apart[0].mesh};
+  const Mesh& trousers = apart[1].mesh;
+  const auto offset = static_cast<std::int32_t>(outfit.mesh.vertex_count());
+  outfit.mesh.positions.insert(outfit.mesh.positions.end(), trousers.positions.begin(), trousers.positions.end());
+  for (std::int32_t v : trousers.triangles) outfit.mesh.triangles.push_back(v + offset);
+  outfit.mesh.uvs.clear();
+  outfit.mesh.uv_triangles.clear();
+  outfit.mesh.normals.clear();
+  outfit.mesh.normal_triangles.clear();
+  outfit.mesh.face_labels.clear();
+  outfit.mesh.label_names.clear();
+  FitOptions o;
+  o.simulate = false;
+  std::vector<FitGarmentInput> plain = apart;
+  for (FitGarmentInput& g : plain) {
+    g.mesh.uvs.clear();
+    g.mesh.uv_triangles.clear();
+    g.mesh.normals.clear();
+    g.mesh.normal_triangles.clear();
+    g.mesh.face_labels.clear();
+    g.mesh.label_names.clear();
+  }
+  const FitResult separate = fit_garments(mannequin(), plain, o);
+  const FitResult split = fit_garments(mannequin(), std::vector<FitGarmentInput>{outfit}, o);
+  ASSERT_EQ(split.garments.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const GarmentFitReport& g = split.report.garments[k];
+    SCOPED_TRACE(g.name);
+    EXPECT_EQ(g.name, "outfit#" + std::to_string(k + 1));
+    EXPECT_EQ(g.type, separate.report.garments[k].type);
+    EXPECT_TRUE(std::any_of(g.warnings.begin(), g.warnings.end(),
+                            [](const std::string& w) { return w.find("one of 2 garments") != std::string::npos; }));
+    EXPECT_EQ(split.garments[k].mesh.positions, separate.garments[k].mesh.positions);
+  }
+}
+
 // The tee exported as two pattern pieces, each with its own copy of the seam's vertices down
 // the middle: welded back (with a warning), segmented and driven like the tee itself.
 TEST(FitPipeline, WeldsPatternPiecesThatShareSeamPositions) {
