@@ -30,13 +30,16 @@ const Mesh& bench_scan() {
   return scan;
 }
 
-// Arg: Ceres threads (1 = serial, 2 = the bar's two cores).
+// Args: Ceres threads (1 = serial, 2 = the bar's two cores), and the pose search's limb
+// alternatives (ScanPoseSearchOptions::limb_alternatives; 1 = the plain best candidate, to
+// compare the cost of refining the others in one run).
 void BM_ScanFit(benchmark::State& state) {
   const Mesh& scan = bench_scan();
   scan_fit_template();        // built once per process, outside the timing
   mannequin_keypoint_model(); // the shape basis, likewise
   ScanFitOptions options;
   options.threads = static_cast<int>(state.range(0));
+  options.search.limb_alternatives = static_cast<std::size_t>(state.range(1));
   ScanFit fit;
   for (auto _ : state) {
     fit = fit_scan(scan, "bench scan", options);
@@ -53,7 +56,7 @@ void BM_ScanFit(benchmark::State& state) {
   state.counters["mean_mm"] = 1000 * fit.stages.back().mean_distance;
   state.counters["p95_mm"] = 1000 * fit.stages.back().p95_distance;
 }
-BENCHMARK(BM_ScanFit)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ScanFit)->Args({1, 4})->Args({2, 4})->Args({2, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace
 

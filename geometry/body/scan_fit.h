@@ -20,6 +20,7 @@
 #include "body.h"
 #include "keypoint_fit.h"
 #include "measurements.h"
+#include "scan_pose_search.h"
 
 namespace vfit {
 
@@ -33,6 +34,7 @@ struct ScanFitOptions {
   /// half of it by the last round as the fit closes in.
   double reject_distance = 0.10;
   int threads = 2; ///< Ceres threads, clamped to [1, 2]; the ICP pairs are split into as many residual blocks
+  ScanPoseSearchOptions search; ///< stage 2, the starting pose's search (scan_pose_search.h)
 };
 
 /// One stage of the fit.

@@ -27,6 +27,16 @@ struct ScanPoseSearchOptions {
   /// Then each limb joint (shoulders, elbows, hips, knees) is turned about its parent's three
   /// axes by each of these steps (degrees) in turn, keeping improvements.
   std::vector<double> refine_steps_deg = {16, 8, 4};
+  /// After each arm's candidate sweep, this many of its best-scoring candidates that place the
+  /// arm differently (elbow or wrist more than `alternative_separation` apart) are each refined
+  /// (shoulder and elbow turned by `alternative_steps_deg`, as above) and the best refined one
+  /// is kept: on the candidate grid (20-45° apart) an arm near its true pose can score worse
+  /// than one in a wrong place that happens to cover part of the scan's arm (an upper arm
+  /// hanging against the torso earns little, the torso lying as near), and a few degrees
+  /// decide. 1 keeps the plain best candidate.
+  std::size_t limb_alternatives = 4;
+  double alternative_separation = 0.08; ///< m
+  std::vector<double> alternative_steps_deg = {16, 8, 4};
 };
 
 /// The result of search_scan_pose().
@@ -49,8 +59,10 @@ std::vector<std::size_t> spread_indices(std::size_t n, std::size_t count);
 /// rewarded both for explaining scan points and for lying on the scan. Each part is tried in a
 /// fixed set of orientations (upper arms over 35 directions and 3 twists, elbows 0–120°,
 /// thighs over 24 directions, knees 0–100°, torso bend and twist, global yaw ±30°, x/z shifts,
-/// scale ±15 %), every candidate placed on the scan's floor (lowest points level); then each
-/// limb joint is turned about its parent's axes by options.refine_steps_deg in turn. A
+/// scale ±15 %), every candidate placed on the scan's floor (lowest points level); after each
+/// arm's sweep its options.limb_alternatives best distinct placements are refined and the best
+/// refined one kept; then each limb joint is turned about its parent's axes by
+/// options.refine_steps_deg in turn. A
 /// candidate replaces the current value only when it scores better, so the result never
 /// scores worse than `start`. Deterministic. Needs at least one scan point; never throws for finite input.
 ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,

@@ -181,6 +181,7 @@ TEST_F(ScanFitTest, PoseSearchRefinementImprovesTheScore) {
   ScanPoseSearchOptions coarse;
   coarse.passes = 1;
   coarse.refine_steps_deg.clear();
+  coarse.limb_alternatives = 1; // the arms' alternatives refine too: off, to see this refinement alone
   ScanPoseSearchOptions refined = coarse;
   refined.refine_steps_deg = {16, 8, 4};
   const double log_scale = std::log(s_fit->scale);
@@ -192,6 +193,17 @@ TEST_F(ScanFitTest, PoseSearchRefinementImprovesTheScore) {
   EXPECT_LT(b.score, a.score);
   // Per step and limb joint: the base pose scored once, then ± a turn about 3 axes.
   EXPECT_EQ(b.evaluations, a.evaluations + 3 * 8 * (1 + 6));
+
+  // The arms' alternatives, each refined, from the same start: one pass, so that the arms are
+  // the last parts searched and the score cannot be worse than the plain best candidate's.
+  ScanPoseSearchOptions alternatives = coarse;
+  alternatives.limb_alternatives = 4;
+  const ScanPoseSearch c = search_scan_pose(t, s_scan->mesh.positions, start, log_scale, alternatives);
+  std::cout << "with 4 arm alternatives refined: " << 1000 * c.score << " mm\n";
+  EXPECT_LT(c.score, a.score);
+  // At most 4 alternatives per arm, each turned ± about 3 axes at 2 joints per step.
+  EXPECT_GT(c.evaluations, a.evaluations);
+  EXPECT_LE(c.evaluations, a.evaluations + 2 * 4 * 3 * 2 * 6);
 }
 
 // The dominant joint's chain (scan_skin_transfer.h) of vertex v.
