@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -32,6 +33,22 @@ std::vector<float> stored_with(std::vector<float> p, UpAxis up) {
   for (int k = 0; k < (up == UpAxis::NEG_Y ? 1 : 3); ++k)
     rotate_to_y_up(p, up);
   return p;
+}
+
+// The corpus body's bare mesh (hm08_body.obj), or nullopt when the corpus is absent.
+std::optional<std::filesystem::path> corpus_body_path() {
+  const auto corpus = test::corpus_dir();
+  if (!corpus) return std::nullopt;
+  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
+  if (!std::filesystem::is_regular_file(path)) return std::nullopt;
+  return path;
+}
+
+// load_body() of a body file with the default request (joints estimated, facing detected).
+LoadedBody load_file(const std::filesystem::path& path) {
+  BodyRequest request;
+  request.source = path.string();
+  return load_body(request);
 }
 
 TEST(CorpusUpAxis, EveryRecognisedGarmentIsFoundYUpAndZUp) {
@@ -126,14 +143,10 @@ TEST(CorpusUpAxis, AZUpBodyFileLoadsUpright) {
 // the same joints as the file facing +Z (exactly: quarter turns only permute and negate), and a
 // stated facing is obeyed without a search.
 TEST(CorpusUpAxis, ABodyFacingAnotherWayIsTurnedByItsFeet) {
-  const auto corpus = test::corpus_dir();
-  if (!corpus) GTEST_SKIP() << "corpus absent (set VFIT_CORPUS)";
-  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
-  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
-  const Mesh body = read_mesh(path).mesh;
-  BodyRequest as_given;
-  as_given.source = path.string();
-  const LoadedBody reference = load_body(as_given);
+  const auto path = corpus_body_path();
+  if (!path) GTEST_SKIP() << "corpus or its hm08_body.obj absent (set VFIT_CORPUS)";
+  const Mesh body = read_mesh(*path).mesh;
+  const LoadedBody reference = load_file(*path);
   test::TempDir dir;
   for (Facing f : {Facing::NEG_Z, Facing::POS_X, Facing::NEG_X}) {
     SCOPED_TRACE(facing_name(f));
@@ -142,13 +155,13 @@ TEST(CorpusUpAxis, ABodyFacingAnotherWayIsTurnedByItsFeet) {
       rotate_to_face_z(stored.positions, f);
     const auto file = dir.path() / ("hm08_facing_" + std::to_string(static_cast<int>(f)) + ".obj");
     write_mesh(file, stored);
-    BodyRequest turned;
-    turned.source = file.string();
-    const LoadedBody b = load_body(turned);
+    const LoadedBody b = load_file(file);
     EXPECT_LE((b.rest.joints - reference.rest.joints).cwiseAbs().maxCoeff(), 1e-4); // OBJ keeps 6 decimals
     EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(), [&](const std::string& w) {
       return w.find("faced " + facing_name(f)) != std::string::npos;
     }));
+    BodyRequest turned;
+    turned.source = file.string();
     turned.facing = f;
     const LoadedBody stated = load_body(turned);
     EXPECT_LE((stated.rest.joints - reference.rest.joints).cwiseAbs().maxCoeff(), 1e-4);
@@ -161,14 +174,10 @@ TEST(CorpusUpAxis, ABodyFacingAnotherWayIsTurnedByItsFeet) {
 // wound outward again (the original's triangles exactly), each with its warning; inside and
 // outside would otherwise be read the wrong way round by penetration removal.
 TEST(CorpusUpAxis, ABodyWoundInsideOutOrInconsistentlyIsTurnedOutward) {
-  const auto corpus = test::corpus_dir();
-  if (!corpus) GTEST_SKIP() << "corpus absent (set VFIT_CORPUS)";
-  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
-  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
-  const Mesh body = read_mesh(path).mesh;
-  BodyRequest as_given;
-  as_given.source = path.string();
-  const LoadedBody reference = load_body(as_given);
+  const auto path = corpus_body_path();
+  if (!path) GTEST_SKIP() << "corpus or its hm08_body.obj absent (set VFIT_CORPUS)";
+  const Mesh body = read_mesh(*path).mesh;
+  const LoadedBody reference = load_file(*path);
   test::TempDir dir;
   for (int every : {1, 5}) {
     SCOPED_TRACE("every " + std::to_string(every) + " triangle(s) reversed");
@@ -177,9 +186,7 @@ TEST(CorpusUpAxis, ABodyWoundInsideOutOrInconsistentlyIsTurnedOutward) {
       std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
     const auto file = dir.path() / ("hm08_wound_" + std::to_string(every) + ".obj");
     write_mesh(file, m);
-    BodyRequest request;
-    request.source = file.string();
-    const LoadedBody b = load_body(request);
+    const LoadedBody b = load_file(file);
     EXPECT_EQ(b.rest.mesh.triangles, reference.rest.mesh.triangles);
     EXPECT_LE((b.rest.joints - reference.rest.joints).cwiseAbs().maxCoeff(), 1e-9);
     EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(), [](const std::string& w) {
@@ -192,14 +199,10 @@ TEST(CorpusUpAxis, ABodyWoundInsideOutOrInconsistentlyIsTurnedOutward) {
 // which follows closed cross-sections, refuses it as given; its joints are estimated with the
 // holes capped, within 5 mm of the intact body's (measured 1.0 mm), with a warning.
 TEST(CorpusUpAxis, ABodyWithHolesGetsItsJointsFromTheCappedBody) {
-  const auto corpus = test::corpus_dir();
-  if (!corpus) GTEST_SKIP() << "corpus absent (set VFIT_CORPUS)";
-  const auto path = *corpus / "makehuman" / "derived" / "hm08_body.obj";
-  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
-  const Mesh body = read_mesh(path).mesh;
-  BodyRequest as_given;
-  as_given.source = path.string();
-  const LoadedBody reference = load_body(as_given);
+  const auto path = corpus_body_path();
+  if (!path) GTEST_SKIP() << "corpus or its hm08_body.obj absent (set VFIT_CORPUS)";
+  const Mesh body = read_mesh(*path).mesh;
+  const LoadedBody reference = load_file(*path);
   Mesh holed = body;
   holed.triangles.clear();
   std::mt19937 rng(3);
@@ -213,9 +216,7 @@ TEST(CorpusUpAxis, ABodyWithHolesGetsItsJointsFromTheCappedBody) {
   test::TempDir dir;
   const auto file = dir.path() / "hm08_holes.obj";
   write_mesh(file, holed);
-  BodyRequest request;
-  request.source = file.string();
-  const LoadedBody b = load_body(request);
+  const LoadedBody b = load_file(file);
   EXPECT_LE((b.rest.joints - reference.rest.joints).rowwise().norm().maxCoeff(), 0.005);
   EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(),
                           [](const std::string& w) { return w.find("holes capped") != std::string::npos; }));

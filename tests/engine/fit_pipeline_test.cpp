@@ -243,6 +243,16 @@ TEST(FitPipeline, TurnsBackTrianglesWoundAgainstTheirNeighbours) {
   EXPECT_EQ(mended.garments[0].mesh.positions, original.garments[0].mesh.positions);
 }
 
+// Drops a mesh's UVs, normals and labels (an outfit joined from two meshes has neither's).
+void geometry_only(Mesh& m) {
+  m.uvs.clear();
+  m.uv_triangles.clear();
+  m.normals.clear();
+  m.normal_triangles.clear();
+  m.face_labels.clear();
+  m.label_names.clear();
+}
+
 // An outfit in one mesh (tee and trousers, as MakeHuman and design tools export a look): split
 // into its garments, each fitted on its own exactly as when given apart (the pieces keep the
 // file's vertex order), each saying where it came from.
@@ -253,23 +263,11 @@ TEST(FitPipeline, SplitsAnOutfitFileIntoItsGarments) {
   const auto offset = static_cast<std::int32_t>(outfit.mesh.vertex_count());
   outfit.mesh.positions.insert(outfit.mesh.positions.end(), trousers.positions.begin(), trousers.positions.end());
   for (std::int32_t v : trousers.triangles) outfit.mesh.triangles.push_back(v + offset);
-  outfit.mesh.uvs.clear();
-  outfit.mesh.uv_triangles.clear();
-  outfit.mesh.normals.clear();
-  outfit.mesh.normal_triangles.clear();
-  outfit.mesh.face_labels.clear();
-  outfit.mesh.label_names.clear();
+  geometry_only(outfit.mesh);
   FitOptions o;
   o.simulate = false;
   std::vector<FitGarmentInput> plain = apart;
-  for (FitGarmentInput& g : plain) {
-    g.mesh.uvs.clear();
-    g.mesh.uv_triangles.clear();
-    g.mesh.normals.clear();
-    g.mesh.normal_triangles.clear();
-    g.mesh.face_labels.clear();
-    g.mesh.label_names.clear();
-  }
+  for (FitGarmentInput& g : plain) geometry_only(g.mesh);
   const FitResult separate = fit_garments(mannequin(), plain, o);
   const FitResult split = fit_garments(mannequin(), std::vector<FitGarmentInput>{outfit}, o);
   ASSERT_EQ(split.garments.size(), 2u);
