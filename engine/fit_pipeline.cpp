@@ -127,31 +127,29 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs) {
         const std::int32_t a = root_of(parent, m.triangles[3 * f]), b = root_of(parent, m.triangles[3 * f + std::size_t(k)]);
         if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
       }
-    std::map<std::int32_t, std::size_t> size; // piece root → referenced vertices
+    std::vector<std::size_t> size(nv, 0); // by piece root: referenced vertices
     std::vector<char> used(nv, 0);
     for (std::int32_t v : m.triangles) used[static_cast<std::size_t>(v)] = 1;
     for (std::size_t v = 0; v < nv; ++v)
-      if (used[v]) ++size[root_of(parent, static_cast<std::int32_t>(v))];
+      if (used[v]) ++size[static_cast<std::size_t>(root_of(parent, static_cast<std::int32_t>(v)))];
     std::vector<std::pair<std::size_t, std::int32_t>> big;
-    for (const auto& [root, n] : size)
-      if (static_cast<double>(n) >= OUTFIT_SHARE * static_cast<double>(nv)) big.emplace_back(n, root);
+    for (std::size_t root = 0; root < nv; ++root)
+      if (size[root] > 0 && static_cast<double>(size[root]) >= OUTFIT_SHARE * static_cast<double>(nv))
+        big.emplace_back(size[root], static_cast<std::int32_t>(root));
     if (big.size() < 2) {
       out.garments.push_back(input);
       out.notes.emplace_back();
       continue;
     }
-    std::sort(big.begin(), big.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    std::map<std::int32_t, std::size_t> garment_of; // piece root → index into big; small pieces → 0
-    for (std::size_t g = 0; g < big.size(); ++g) garment_of[big[g].second] = g;
+    std::stable_sort(big.begin(), big.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::vector<std::size_t> garment_of(nv, 0); // by piece root: index into big (small pieces: 0)
+    for (std::size_t g = 0; g < big.size(); ++g) garment_of[static_cast<std::size_t>(big[g].second)] = g;
     for (std::size_t g = 0; g < big.size(); ++g) {
       Mesh piece;
       piece.uvs = m.uvs;
       piece.normals = m.normals;
       piece.label_names = m.label_names;
-      auto garment_index = [&](std::int32_t v) {
-        const auto it = garment_of.find(root_of(parent, v));
-        return it == garment_of.end() ? std::size_t{0} : it->second;
-      };
+      auto garment_index = [&](std::int32_t v) { return garment_of[static_cast<std::size_t>(root_of(parent, v))]; };
       // The piece's vertices and triangles keep their order in the file.
       std::vector<std::int32_t> remap(nv, -1);
       for (std::size_t v = 0; v < nv; ++v)
