@@ -114,19 +114,39 @@ std::int32_t root_of(std::vector<std::int32_t>& parent, std::int32_t v) {
   return v;
 }
 
+// Union–find of `m`'s vertices over its triangles: parent links (roots: parent[v] == v).
+std::vector<std::int32_t> vertex_pieces(const Mesh& m) {
+  std::vector<std::int32_t> parent(m.vertex_count());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    for (int k = 1; k < 3; ++k) {
+      const std::int32_t a = root_of(parent, m.triangles[3 * f]), b = root_of(parent, m.triangles[3 * f + std::size_t(k)]);
+      if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+    }
+  return parent;
+}
+
+// Whether every triangle of `m` lies in one piece (then welding cannot make two).
+bool one_piece(const Mesh& m) {
+  std::vector<std::int32_t> parent = vertex_pieces(m);
+  for (std::size_t i = 1; i < m.triangles.size(); ++i)
+    if (root_of(parent, m.triangles[i]) != root_of(parent, m.triangles[0])) return false;
+  return true;
+}
+
 SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs) {
   SplitInputs out;
   for (const FitGarmentInput& input : inputs) {
+    // The usual garment is one piece as given: no copy, no weld (read_garment() welds it).
+    if (one_piece(input.mesh)) {
+      out.garments.push_back(input);
+      out.notes.emplace_back();
+      continue;
+    }
     Mesh m = input.mesh;
     weld_coincident_vertices(m);
     const std::size_t nv = m.vertex_count(), nf = m.face_count();
-    std::vector<std::int32_t> parent(nv);
-    std::iota(parent.begin(), parent.end(), 0);
-    for (std::size_t f = 0; f < nf; ++f)
-      for (int k = 1; k < 3; ++k) {
-        const std::int32_t a = root_of(parent, m.triangles[3 * f]), b = root_of(parent, m.triangles[3 * f + std::size_t(k)]);
-        if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-      }
+    std::vector<std::int32_t> parent = vertex_pieces(m);
     std::vector<std::size_t> size(nv, 0); // by piece root: referenced vertices
     std::vector<char> used(nv, 0);
     for (std::int32_t v : m.triangles) used[static_cast<std::size_t>(v)] = 1;

@@ -36,7 +36,7 @@ struct ScanPoseSearchOptions {
   /// decide. 1 keeps the plain best candidate.
   std::size_t limb_alternatives = 4;
   double alternative_separation = 0.08; ///< m
-  std::vector<double> alternative_steps_deg = {16, 8, 4};
+  std::vector<double> alternative_steps_deg = {16, 8, 4}; ///< degrees: each alternative's refinement steps, in turn
 };
 
 /// The result of search_scan_pose().

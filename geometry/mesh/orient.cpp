@@ -1,24 +1,31 @@
 #include "orient.h"
 
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <utility>
 #include <vector>
 
+#include "kernels/vertex_normals_math.h"
+
 namespace vfit {
 namespace {
 
+// The triangle's area (mesh units²), by the shared per-triangle math of the vertex normals.
 double triangle_area(const Mesh& m, std::size_t f) {
   auto p = [&](int k) {
     const auto v = 3 * static_cast<std::size_t>(m.triangles[3 * f + static_cast<std::size_t>(k)]);
-    return std::array<double, 3>{m.positions[v], m.positions[v + 1], m.positions[v + 2]};
+    return vfit_vec3{m.positions[v], m.positions[v + 1], m.positions[v + 2]};
   };
-  const auto a = p(0), b = p(1), c = p(2);
-  const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
-  const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
-  const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
-  return 0.5 * std::sqrt(nx * nx + ny * ny + nz * nz);
+  const vfit_vec3 n = vfit_triangle_area_normal(p(0), p(1), p(2));
+  return 0.5 * std::sqrt(double(n.x) * n.x + double(n.y) * n.y + double(n.z) * n.z);
+}
+
+// Turns triangle f over (corners 1 and 2 swapped), its UV and normal corners with it.
+void turn_over(Mesh& mesh, std::size_t f) {
+  std::swap(mesh.triangles[3 * f + 1], mesh.triangles[3 * f + 2]);
+  if (mesh.uv_triangles.size() == mesh.triangles.size()) std::swap(mesh.uv_triangles[3 * f + 1], mesh.uv_triangles[3 * f + 2]);
+  if (mesh.normal_triangles.size() == mesh.triangles.size())
+    std::swap(mesh.normal_triangles[3 * f + 1], mesh.normal_triangles[3 * f + 2]);
 }
 
 } // namespace
@@ -96,13 +103,10 @@ OrientReport orient_consistently(Mesh& mesh) {
       for (std::size_t f : piece)
         flip[f] = static_cast<std::int8_t>(1 - flip[f]);
   }
-  auto swap_corners = [](std::vector<std::int32_t>& t, std::size_t f) { std::swap(t[3 * f + 1], t[3 * f + 2]); };
   for (std::size_t f = 0; f < nf; ++f) {
     if (flip[f] != 1) continue;
     ++report.flipped;
-    swap_corners(mesh.triangles, f);
-    if (mesh.uv_triangles.size() == mesh.triangles.size()) swap_corners(mesh.uv_triangles, f);
-    if (mesh.normal_triangles.size() == mesh.triangles.size()) swap_corners(mesh.normal_triangles, f);
+    turn_over(mesh, f);
   }
   return report;
 }
@@ -122,12 +126,8 @@ double signed_volume(const Mesh& mesh) {
 
 bool orient_outward(Mesh& mesh) {
   if (!(signed_volume(mesh) < 0)) return false;
-  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    std::swap(mesh.triangles[3 * f + 1], mesh.triangles[3 * f + 2]);
-    if (mesh.uv_triangles.size() == mesh.triangles.size()) std::swap(mesh.uv_triangles[3 * f + 1], mesh.uv_triangles[3 * f + 2]);
-    if (mesh.normal_triangles.size() == mesh.triangles.size())
-      std::swap(mesh.normal_triangles[3 * f + 1], mesh.normal_triangles[3 * f + 2]);
-  }
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    turn_over(mesh, f);
   return true;
 }
 

@@ -116,13 +116,24 @@ std::optional<UpAxis> detect_up_axis(std::span<const float> positions, std::span
   return up;
 }
 
-std::optional<UpAxis> detect_body_up_axis(std::span<const float> positions, std::span<const std::int32_t> triangles) {
-  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+namespace {
+// The axis-aligned bounding box of #V × 3 positions: ±∞ bounds for no positions.
+struct Box {
+  std::array<float, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+};
+Box bounding_box(std::span<const float> positions) {
+  Box b;
   for (std::size_t i = 0; i + 2 < positions.size(); i += 3)
     for (std::size_t c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], positions[i + c]);
-      hi[c] = std::max(hi[c], positions[i + c]);
+      b.lo[c] = std::min(b.lo[c], positions[i + c]);
+      b.hi[c] = std::max(b.hi[c], positions[i + c]);
     }
+  return b;
+}
+} // namespace
+
+std::optional<UpAxis> detect_body_up_axis(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  const auto [lo, hi] = bounding_box(positions);
   const double height_y = double(hi[1]) - double(lo[1]), height_z = double(hi[2]) - double(lo[2]);
   if (height_y >= 2 * height_z) return UpAxis::POS_Y;
   if (height_z >= 2 * height_y) return UpAxis::POS_Z;
@@ -178,13 +189,8 @@ bool lateral_axis_is_z(std::span<const float> positions, std::span<const std::in
   // so such a garment must pass the extent cue, which a skirt as deep as wide does not).
   constexpr double EXTENT_RATIO = 1.2;
   constexpr double SYMMETRY_MARGIN = 0.02;
-  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (std::size_t i = 0; i + 2 < positions.size(); i += 3)
-    for (std::size_t c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], positions[i + c]);
-      hi[c] = std::max(hi[c], positions[i + c]);
-    }
   if (positions.size() < 3) return false;
+  const auto [lo, hi] = bounding_box(positions);
   const double ext_x = double(hi[0]) - double(lo[0]), ext_z = double(hi[2]) - double(lo[2]);
   if (!(ext_z >= EXTENT_RATIO * ext_x)) return false;
   const auto asym = mirror_asymmetry(positions, triangles);
@@ -193,13 +199,8 @@ bool lateral_axis_is_z(std::span<const float> positions, std::span<const std::in
 
 double top_edge_lean(std::span<const float> positions, int axis) {
   const auto a = static_cast<std::size_t>(axis);
-  float lo_y = INFINITY, hi_y = -INFINITY, lo = INFINITY, hi = -INFINITY;
-  for (std::size_t i = 0; i + 2 < positions.size(); i += 3) {
-    lo_y = std::min(lo_y, positions[i + 1]);
-    hi_y = std::max(hi_y, positions[i + 1]);
-    lo = std::min(lo, positions[i + a]);
-    hi = std::max(hi, positions[i + a]);
-  }
+  const Box box = bounding_box(positions);
+  const float lo_y = box.lo[1], hi_y = box.hi[1], lo = box.lo[a], hi = box.hi[a];
   if (!(hi > lo) || !(hi_y > lo_y)) return 0;
   const double band = double(hi_y) - 0.05 * (double(hi_y) - double(lo_y));
   double sum = 0;
