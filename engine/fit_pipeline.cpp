@@ -376,7 +376,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     if (report.simulation != SimulationOutcome::DIVERGED) {
       t0 = Clock::now();
       const PenetrationStats s = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
-      if (s.max_depth > POST_SIMULATION_TOLERANCE || s.crossing_edges > 0 || s.layer_inside_count > 0) {
+      if (s.max_depth > POST_SIMULATION_TOLERANCE || s.crossing_edges > 0 || s.layer_inside_count > 0 ||
+          s.layer_crossing_edges > 0) {
         remove_penetration(mesh, body_index, crossings, layers, po);
         report.post_simulation_cleanup = true;
         // A settled garment that removal cannot bring back outside the body (cloth drawn into
@@ -384,7 +385,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
         // removal left it, and say so.
         const PenetrationStats cleaned = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
         if (cleaned.max_depth > std::max(POST_SIMULATION_TOLERANCE, report.after_removal.max_depth) ||
-            cleaned.layer_inside_count > report.after_removal.layer_inside_count) {
+            cleaned.layer_inside_count > report.after_removal.layer_inside_count ||
+            cleaned.layer_crossing_edges > report.after_removal.layer_crossing_edges) {
           mesh.positions = before_simulation;
           before_simulation.clear();
           report.simulation_discarded = true;

@@ -145,7 +145,8 @@ struct GarmentFitReport {
   /// Garments fitted before this one that it was kept outside of (its inner layers).
   std::size_t inner_layers = 0;
   /// After the coarse move, before removal (depths m). Crossing edges are always measured;
-  /// layer_inside_count counts vertices inside the inner layers.
+  /// layer_inside_count counts vertices inside the inner layers, layer_crossing_edges the inner
+  /// layers' edges through this garment.
   PenetrationStats before;
   PenetrationStats after_removal;  ///< after remove_penetration()
   PenetrationStats after;          ///< of the returned mesh

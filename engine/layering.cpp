@@ -97,6 +97,17 @@ InnerLayer::InnerLayer(const Mesh& garment, const ProximityIndex& body, double c
   // One-sided: a garment is an open sheet, and its side is that of the sheet itself (capping
   // its openings, as a body with holes gets, would put the waistband's inside "inside").
   m_index = std::make_unique<ProximityIndex>(oriented.positions, oriented.triangles, OpenMeshSide::ONE_SIDED);
+  const std::size_t nv = garment.vertex_count();
+  m_edges = mesh_edge_endpoints(triangles, nv);
+  m_edge_offsets.assign(nv + 1, 0);
+  for (const std::int32_t v : m_edges) ++m_edge_offsets[std::size_t(v) + 1];
+  for (std::size_t v = 0; v < nv; ++v) m_edge_offsets[v + 1] += m_edge_offsets[v];
+  m_vertex_edges.resize(m_edges.size());
+  std::vector<std::int32_t> fill(m_edge_offsets.begin(), m_edge_offsets.end() - 1);
+  for (std::size_t e = 0; e < m_edges.size(); ++e)
+    m_vertex_edges[std::size_t(fill[std::size_t(m_edges[e])]++)] = std::int32_t(e / 2);
+  m_points = std::move(oriented.positions);
+  m_triangles = std::move(triangles);
 }
 
 InnerLayer::~InnerLayer() = default;
@@ -109,6 +120,11 @@ LayerObstacle InnerLayer::obstacle() const {
   o.boundary = m_boundary;
   o.clearance = m_clearance;
   o.reach = m_reach;
+  o.points = m_points;
+  o.triangles = m_triangles;
+  o.edges = m_edges;
+  o.edge_offsets = m_edge_offsets;
+  o.vertex_edges = m_vertex_edges;
   return o;
 }
 

@@ -23,8 +23,9 @@ class EdgeCrossingIndex;
 /// One resolved garment as a surface that outer garments must stay outside of. Keeps a copy of
 /// the garment's triangles oriented away from the body (the whole garment is flipped when its
 /// area-weighted face normals point towards the body on balance), a proximity index over it,
-/// and which of its edges and corners lie on its boundary (hems, cuffs, waistbands: closest
-/// points there do not count, see LayerObstacle).
+/// which of its edges and corners lie on its boundary (hems, cuffs, waistbands: closest
+/// points there do not count, see LayerObstacle), and its edges, which must not pierce an
+/// outer garment (engine/layer_piercing.h).
 class InnerLayer {
 public:
   /// garment: positions #V × 3 (m) and triangles #F × 3, already resolved against the body;
@@ -47,6 +48,10 @@ public:
 
 private:
   std::unique_ptr<ProximityIndex> m_index;
+  std::vector<float> m_points;            ///< #V × 3, as indexed
+  std::vector<std::int32_t> m_triangles;  ///< #F × 3, oriented away from the body
+  std::vector<std::int32_t> m_edges;      ///< #E × 2 distinct edges
+  std::vector<std::int32_t> m_edge_offsets, m_vertex_edges; ///< CSR: each vertex's edges
   std::vector<std::uint8_t> m_boundary;
   std::size_t m_boundary_edges = 0;
   double m_clearance = 0, m_reach = 0;

@@ -8,6 +8,7 @@
 #include <tuple>
 #include <type_traits>
 
+#include "engine/layer_piercing.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/laplacian.h"
 #include <Eigen/SparseCholesky>
@@ -135,6 +136,9 @@ struct Detection {
   std::vector<std::size_t> crossing;         // the edges with edge_triangles ≥ 0, ascending
   std::vector<ClosestHits> layer_hits;       // per layer, per vertex
   std::vector<std::vector<double>> layer_f;  // per layer, per vertex signed distance; +∞ = does not count
+  // The garment's triangles (#F × 3), for the layer edges piercing them; empty: not checked.
+  std::span<const std::int32_t> triangles;
+  std::vector<std::vector<LayerPiercing>> layer_piercings; // per layer
 };
 
 // Closest points of the vertices `moved` (all when null), written into their rows of `all`.
@@ -339,8 +343,12 @@ void detect(std::span<const float> positions, const ProximityIndex& body, const 
   if (crossings) detect_crossings(positions, d.body, d.drift, *crossings, *edges, moved ? moved_flags : nullptr, d);
   d.layer_hits.resize(layers.size());
   d.layer_f.resize(layers.size());
-  for (std::size_t l = 0; l < layers.size(); ++l)
+  d.layer_piercings.resize(layers.size());
+  for (std::size_t l = 0; l < layers.size(); ++l) {
     detect_layer(positions, layers[l], moved, d.layer_hits[l], d.layer_f[l]);
+    // Found afresh every time: a solve moves triangles that vertices it did not move share.
+    find_layer_piercings(positions, d.triangles, layers[l], d.layer_hits[l], d.layer_piercings[l]);
+  }
 }
 
 // Whether a vertex that moved by `moved` (m) may have changed side or come within κ of the body,
@@ -388,6 +396,7 @@ PenetrationStats stats_of(const Detection& d, double clearance) {
         s.layer_max_depth = std::max(s.layer_max_depth, -f[v]);
       }
   s.layer_inside_count = std::size_t(std::count(inside.begin(), inside.end(), char(1)));
+  for (const std::vector<LayerPiercing>& p : d.layer_piercings) s.layer_crossing_edges += p.size();
   return s;
 }
 
@@ -507,6 +516,10 @@ void push_out_of_layers(std::span<const float> positions, std::span<const LayerO
       const Row n = (y - h) * ((f[v] < 0 ? -1.0 : 1.0) / len);
       pushes.propose(v, (layers[l].clearance - f[v]) * n);
     }
+    // A layer edge through a garment triangle: its corners move out past the edge's outer end.
+    for (const LayerPiercing& p : d.layer_piercings[l])
+      for (int k = 0; k < 3; ++k)
+        if (p.push.squaredNorm() > 0) pushes.propose(std::size_t(d.triangles[3 * std::size_t(p.triangle) + std::size_t(k)]), p.push);
   }
 }
 
@@ -818,7 +831,7 @@ template <class F> auto timed(double& total, F&& f) {
 }
 
 bool resolved(const PenetrationStats& s) {
-  return s.inside_count == 0 && s.crossing_edges == 0 && s.layer_inside_count == 0;
+  return s.inside_count == 0 && s.crossing_edges == 0 && s.layer_inside_count == 0 && s.layer_crossing_edges == 0;
 }
 
 // The direct rounds (PenetrationOptions::direct_rounds): from a state with no vertex deeper
@@ -883,6 +896,7 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
   const double clearance = seed004 ? 0.0 : o.clearance; // seed 004 projects onto the face
   Detection detection;
   detection.reach = near_reach(o.clearance);
+  detection.triangles = garment.triangles;
   PenetrationReport report;
   timed(report.detection_ms, [&] {
     // The garment's Laplacian and edges (serial) are built while the body is queried for
@@ -931,7 +945,8 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
   // Depth beyond the tolerance weighs most (it is what the quality bars and the simulation's
   // contact handling care about), then the number of offences, then the depth.
   auto badness = [&o](const PenetrationStats& st) {
-    return std::make_tuple(st.max_depth > o.tolerance, st.inside_count + st.crossing_edges + st.layer_inside_count,
+    return std::make_tuple(st.max_depth > o.tolerance,
+                           st.inside_count + st.crossing_edges + st.layer_inside_count + st.layer_crossing_edges,
                            st.max_depth);
   };
   std::vector<float> best_positions;
@@ -1081,6 +1096,7 @@ PenetrationStats measure(const Mesh& garment, const ProximityIndex& body, const 
   Detection d;
   d.reach = near_reach(clearance);
   d.adjacency = &L;
+  d.triangles = garment.triangles;
   detect(garment.positions, body, &crossings, &edges, layers, nullptr, nullptr, nullptr, d);
   return stats_of(d, clearance);
 }

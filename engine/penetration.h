@@ -34,6 +34,11 @@ struct PenetrationStats {
   /// Vertices inside an inner garment layer (LayerObstacle; 0 when measured without layers).
   std::size_t layer_inside_count = 0;
   double layer_max_depth = 0; ///< deepest vertex inside an inner layer (m; 0 when none)
+  /// Edges of inner garment layers that pass through the garment's triangles: a layer poking
+  /// out through the garment between its vertices, which layer_inside_count cannot see
+  /// (engine/layer_piercing.h; 0 when measured without layers, or with layers that carry no
+  /// edges).
+  std::size_t layer_crossing_edges = 0;
 };
 
 /// An inner garment layer that remove_penetration() keeps a garment outside of, besides the
@@ -51,6 +56,16 @@ struct LayerObstacle {
   std::span<const std::uint8_t> boundary;
   double clearance = 0.003; ///< k of seed 001 eq. 7 (m): the gap kept outside the layer
   double reach = 0.05;      ///< layer points farther than this (m) are ignored
+  /// The layer's vertices (#V_L × 3, m) and triangles (#F_L × 3, oriented away from the body) as
+  /// `surface` indexes them, its distinct edges (#E_L × 2) and each vertex's incident edges
+  /// (CSR: edge_offsets has #V_L + 1 entries into vertex_edges, which holds edge rows). With
+  /// them the layer's edges that poke out through the garment are found and pushed clear
+  /// (engine/layer_piercing.h); left empty, piercing is neither checked nor counted.
+  std::span<const float> points;
+  std::span<const std::int32_t> triangles;
+  std::span<const std::int32_t> edges;
+  std::span<const std::int32_t> edge_offsets;
+  std::span<const std::int32_t> vertex_edges;
 };
 
 /// Which objective remove_penetration() minimises.
@@ -210,8 +225,12 @@ PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, 
 /// layer's clearance k) gets the target of seed 001 eq. 7, v' = v + (k − f)·n = v + (k + d)·n
 /// with d = −f its depth and n the layer's outward direction at its closest point, smoothed
 /// by the same Laplacian solve as the body targets. Rounds repeat until nothing is inside the
-/// body or a layer and no edge crosses the body. Edges crossing a layer are not resolved.
-/// The statistics count layer_inside_count / layer_max_depth too.
+/// body or a layer, no edge crosses the body and no layer edge pierces the garment: a layer
+/// edge through garment triangle T (the layer poking out between T's corners, which are all
+/// outside it) pushes T's corners out along the layer's outward normal by how far the edge's
+/// outer end lies beyond T, plus k (engine/layer_piercing.h); the pushes are smoothed by the
+/// same solve. The statistics count layer_inside_count / layer_max_depth /
+/// layer_crossing_edges too.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
                                      std::span<const LayerObstacle> layers, const PenetrationOptions& options = {});
 

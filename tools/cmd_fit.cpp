@@ -80,7 +80,8 @@ nlohmann::ordered_json stats_json(const PenetrationStats& s) {
           {"near_count", s.near_count},
           {"crossing_edges", s.crossing_edges},
           {"layer_inside_count", s.layer_inside_count},
-          {"layer_max_depth_mm", s.layer_max_depth * 1e3}};
+          {"layer_max_depth_mm", s.layer_max_depth * 1e3},
+          {"layer_crossing_edges", s.layer_crossing_edges}};
 }
 
 // Over all garments: counts add up, the deepest vertex is the deepest of any garment.
@@ -93,6 +94,7 @@ PenetrationStats combined(const FitReport& report, PenetrationStats GarmentFitRe
     total.near_count += s.near_count;
     total.crossing_edges += s.crossing_edges;
     total.layer_inside_count += s.layer_inside_count;
+    total.layer_crossing_edges += s.layer_crossing_edges;
     total.max_depth = std::max(total.max_depth, s.max_depth);
     total.layer_max_depth = std::max(total.layer_max_depth, s.layer_max_depth);
     depth_sum += s.mean_depth * static_cast<double>(s.inside_count);
@@ -193,11 +195,12 @@ void print_table(const FitReport& report, double body_ms) {
               body_ms, report.body_index_ms, report.backend.c_str(), report.threads, report.cpu_model.c_str());
   for (const GarmentFitReport& g : report.garments) {
     std::printf("%s: %s, %zu vertices; move %s; driving %s; inside %zu -> %zu (max %.2f -> %.2f mm); crossing edges "
-                "%zu -> %zu; inside inner layers %zu -> %zu; simulation %s\n",
+                "%zu -> %zu; inside inner layers %zu -> %zu, through them %zu -> %zu; simulation %s\n",
                 g.name.c_str(), garment_type_name(g.type).c_str(), g.vertices, to_string(g.coarse_move.rule).c_str(),
                 g.driving.c_str(), g.before.inside_count, g.after.inside_count, g.before.max_depth * 1e3,
                 g.after.max_depth * 1e3, g.before.crossing_edges, g.after.crossing_edges, g.before.layer_inside_count,
-                g.after.layer_inside_count, g.simulation_status.c_str());
+                g.after.layer_inside_count, g.before.layer_crossing_edges, g.after.layer_crossing_edges,
+                g.simulation_status.c_str());
   }
   for (const GarmentFitReport& g : report.garments)
     std::printf("%s: %s (%s)\n", std::filesystem::path(g.name).stem().string().c_str(),

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
 
 #include "geometry/mesh/primitives.h"
@@ -118,6 +119,72 @@ TEST(Layering, OrderMattersTheLaterGarmentEndsOutside) {
     max_r = std::max(max_r, radial(s.inner, v, 0.0f));
   }
   EXPECT_GT(max_r, INNER_R + 0.01f);
+}
+
+// A garment whose vertices are all outside the inner layer can still have the layer poking out
+// through one of its triangles (trousers' waistband through a settled tee): one inner-tube
+// vertex pushed out through the middle of a coarse outer tube's triangle.
+TEST(Layering, AnInnerVertexPokingThroughAnOuterTriangleIsFoundAndPushedOut) {
+  Scene s;
+  constexpr float COARSE_R = 0.125f; // faces at least 12.26 cm from the axis, 7.6 mm off the inner tube
+  Mesh outer = tube_at(COARSE_R, 0.0f, 0.05f, 0.5f, 7, 16);
+  // The outer triangle nearest mid-height, and the inner vertex nearest its centroid's direction.
+  float best = INFINITY;
+  Eigen::Vector3f centroid;
+  for (std::size_t f = 0; f < outer.face_count(); ++f) {
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (int k = 0; k < 3; ++k)
+      c += Eigen::Vector3f::Map(&outer.positions[3 * std::size_t(outer.triangles[3 * f + std::size_t(k)])]) / 3.0f;
+    if (std::fabs(c.y() - 0.3f) < best) {
+      best = std::fabs(c.y() - 0.3f);
+      centroid = c;
+    }
+  }
+  std::size_t bump = 0;
+  float nearest = INFINITY;
+  for (std::size_t v = 0; v < s.inner.vertex_count(); ++v) {
+    const Eigen::Vector3f p = Eigen::Vector3f::Map(&s.inner.positions[3 * v]);
+    const float d = (p.normalized() - centroid.normalized()).norm() + std::fabs(p.y() - centroid.y());
+    if (d < nearest) {
+      nearest = d;
+      bump = v;
+    }
+  }
+  // Out to 13.2 cm, past the outer face (about 12.3 cm there) by some 9 mm.
+  const float scale = 0.132f / radial(s.inner, bump, 0.0f);
+  s.inner.positions[3 * bump] *= scale;
+  s.inner.positions[3 * bump + 2] *= scale;
+  const InnerLayer layer(s.inner, s.index, 0.003, 0.05);
+  const LayerObstacle layers[] = {layer.obstacle()};
+  const std::vector<std::int32_t> inner_edges = mesh_edge_endpoints(s.inner.triangles, s.inner.vertex_count());
+  auto brute_force_crossings = [&](const Mesh& m) { // oracle: every inner edge against every outer triangle
+    const EdgeCrossingIndex outer_index(m.positions, m.triangles);
+    SegmentCrossings c;
+    outer_index.first_crossings_brute_force(s.inner.positions, inner_edges, c);
+    return c.crossing_count();
+  };
+  const std::size_t crossing_before = brute_force_crossings(outer);
+  ASSERT_GE(crossing_before, 3u) << "the bumped vertex's edges cross the outer face";
+
+  const PenetrationStats before = measure_penetration(outer, s.index, s.crossings, layers, 0.003);
+  EXPECT_EQ(before.layer_inside_count, 0u) << "no outer vertex is inside the inner tube";
+  EXPECT_EQ(before.layer_crossing_edges, crossing_before);
+
+  const Mesh start = outer;
+  const PenetrationReport r = remove_penetration(outer, s.index, s.crossings, layers);
+  EXPECT_EQ(r.before.layer_crossing_edges, crossing_before);
+  EXPECT_EQ(r.after.layer_crossing_edges, 0u);
+  EXPECT_EQ(r.after.layer_inside_count, 0u);
+  EXPECT_EQ(r.after.inside_count, 0u);
+  EXPECT_EQ(brute_force_crossings(outer), 0u);
+  // Only the pierced spot moved: the tube's other side kept its place.
+  for (std::size_t v = 0; v < outer.vertex_count(); ++v)
+    if (Eigen::Vector3f::Map(&start.positions[3 * v]).dot(centroid) < 0) {
+      EXPECT_EQ(outer.positions[3 * v], start.positions[3 * v]) << v;
+    }
+  std::printf("inner vertex through an outer triangle: %zu crossing edges -> %zu in %d rounds, edge change %.2f %%\n",
+              r.before.layer_crossing_edges, r.after.layer_crossing_edges, r.iterations,
+              100 * test::mean_edge_length_change(start, outer));
 }
 
 TEST(Layering, InnerLayerOrientsAwayFromTheBodyAndSkipsItsOpenings) {
