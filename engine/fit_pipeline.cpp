@@ -262,53 +262,85 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
             garment_type_name(report.type) + (report.up == UpAxis::POS_Y ? "" : " (" + up_axis_name(report.up) + " up)"));
 }
 
-// The stages after segmentation, on out.mesh (already in metres).
-void dress_garment(const Obstacles& obstacles, const FitOptions& options, const StageSink& sink, FittedGarment& out,
-                   GarmentFitReport& report) {
+// What driving a garment needs whatever the body (seed 000 §5.1–5.4): its part skeletons and the
+// driver set up on them (the band's Laplacian factored once), or why it has none. Built on the
+// first body a garment is fitted to and reused for the others.
+struct LimbRig {
+  std::vector<PartSkeleton> skeletons;
+  std::optional<SkeletonDriver> driver;
+  std::string skipped;    // "skipped: …" when there is no driver
+  std::string warning;    // the skeletons' failure, reported with every body
+  double skeletons_ms = 0; // extraction
+  double setup_ms = 0;     // the driver's construction (wall, as driving_ms counts it)
+};
+
+LimbRig rig_limbs(const FitOptions& options, const StageSink& sink, const FittedGarment& out) {
+  LimbRig rig;
+  auto t0 = Clock::now();
+  try {
+    rig.skeletons = extract_limb_skeletons(out.mesh, out.segmentation.vertex_parts, options.skeletons);
+  } catch (const Error& e) {
+    // The coarse move has a fallback without skeletons; a part that cannot be skeletonised
+    // costs the garment its driving, not its fit.
+    rig.warning = std::string("part skeletons failed: ") + e.what();
+  }
+  rig.skeletons_ms = ms_since(t0);
+  sink.done(out.name, "skeletons", rig.skeletons_ms, std::to_string(rig.skeletons.size()) + " limb skeletons");
+  if (sink.debug) sink.debug->write_skeletons(sink.stem, 2, out.mesh, out.segmentation.vertex_parts, rig.skeletons);
+  t0 = Clock::now();
+  if (!rig.skeletons.empty()) {
+    try {
+      rig.driver.emplace(out.mesh, out.segmentation, rig.skeletons, options.driving);
+    } catch (const Error& e) {
+      rig.skipped = std::string("skipped: ") + e.what();
+    }
+  } else {
+    rig.skipped = "skipped: no limb skeletons";
+  }
+  rig.setup_ms = ms_since(t0);
+  return rig;
+}
+
+// The stages after segmentation, on out.mesh (already in metres). `rig` is the garment's limb
+// rig; `rig_is_new`: it was built for this body, whose report carries its time.
+void dress_garment(const Obstacles& obstacles, const FitOptions& options, const StageSink& sink, const LimbRig& rig,
+                   bool rig_is_new, FittedGarment& out, GarmentFitReport& report) {
   const Body& body = obstacles.body;
   const ProximityIndex& body_index = obstacles.index;
   const EdgeCrossingIndex& crossings = obstacles.crossings;
   const std::span<const LayerObstacle> layers = obstacles.layers;
   const auto t_dress = Clock::now();
   Mesh& mesh = out.mesh;
-  auto t0 = Clock::now();
-  std::vector<PartSkeleton> skeletons;
-  try {
-    skeletons = extract_limb_skeletons(mesh, out.segmentation.vertex_parts, options.skeletons);
-  } catch (const Error& e) {
-    // The coarse move has a fallback without skeletons; a part that cannot be skeletonised
-    // costs the garment its driving, not its fit.
-    report.warnings.push_back(std::string("part skeletons failed: ") + e.what());
-  }
-  report.timings.skeletons_ms = ms_since(t0);
-  report.skeleton_parts = skeletons.size();
-  sink.done(out.name, "skeletons", report.timings.skeletons_ms, std::to_string(skeletons.size()) + " limb skeletons");
-  if (sink.debug) sink.debug->write_skeletons(sink.stem, 2, mesh, out.segmentation.vertex_parts, skeletons);
+  if (!rig.warning.empty()) report.warnings.push_back(rig.warning);
+  report.timings.skeletons_ms = rig_is_new ? rig.skeletons_ms : 0.0;
+  report.skeleton_parts = rig.skeletons.size();
+  if (!rig_is_new)
+    sink.done(out.name, "skeletons", 0.0, std::to_string(rig.skeletons.size()) + " limb skeletons, shared");
 
   // Skeleton driving (seed 000 §5.2–5.4): orientation, limbs onto the body's bones, Laplacian
   // continuity; it includes the translation of eq. 16–17. Garments it cannot drive (skirts,
   // dresses, sleeveless tops: no key joints) keep their own pose and get the coarse move alone.
   const std::vector<float> as_modelled = mesh.positions; // rest lengths for the fit feedback
   bool driven = false;
-  t0 = Clock::now();
-  if (!skeletons.empty()) {
+  auto t0 = Clock::now();
+  if (rig.driver) {
     try {
-      const SkeletonDriver driver(mesh, out.segmentation, skeletons, options.driving);
-      const SkeletonDriving d = driver.drive(body.joints);
+      const SkeletonDriving d = rig.driver->drive(body.joints);
       mesh.positions = d.positions;
       driven = true;
       char line[160];
-      std::snprintf(line, sizeof line, "driven: %zu limbs (orientation %.1f, driving %.1f, Laplacian %.1f, setup %.1f ms)",
-                    d.limbs.size(), d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms,
-                    driver.setup_ms());
+      std::snprintf(line, sizeof line,
+                    "driven: %zu limbs (orientation %.1f, driving %.1f, Laplacian %.1f, setup %.1f ms%s)", d.limbs.size(),
+                    d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms, rig.driver->setup_ms(),
+                    rig_is_new ? "" : ", shared");
       report.driving = line;
     } catch (const Error& e) {
       report.driving = std::string("skipped: ") + e.what();
     }
   } else {
-    report.driving = "skipped: no limb skeletons";
+    report.driving = rig.skipped;
   }
-  report.timings.driving_ms = ms_since(t0);
+  report.timings.driving_ms = ms_since(t0) + (rig_is_new ? rig.setup_ms : 0.0);
   sink.done(out.name, "driving", report.timings.driving_ms, report.driving);
   sink.write(3, "driving", out, report.driving);
 
@@ -316,7 +348,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   if (driven) {
     report.coarse_move.rule = CoarseMoveRule::IN_DRIVING;
   } else {
-    report.coarse_move = compute_coarse_move(report.type, out.segmentation.key_points, skeletons, body.joints);
+    report.coarse_move = compute_coarse_move(report.type, out.segmentation.key_points, rig.skeletons, body.joints);
     translate_positions(mesh.positions, report.coarse_move.translation);
   }
   report.timings.coarse_move_ms = ms_since(t0);
@@ -416,7 +448,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   report.regions = out.feedback.regions;
   report.timings.feedback_ms = ms_since(t0);
   sink.done(out.name, "feedback", report.timings.feedback_ms, size_verdict_name(report.verdict));
-  report.timings.total_ms = report.timings.units_ms + report.timings.segmentation_ms + ms_since(t_dress);
+  report.timings.total_ms = report.timings.units_ms + report.timings.segmentation_ms + ms_since(t_dress) +
+                            (rig_is_new ? rig.skeletons_ms + rig.setup_ms : 0.0);
 }
 
 } // namespace
@@ -451,23 +484,18 @@ std::string cpu_model_name() {
   return "unknown";
 }
 
-FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& inputs, const FitOptions& options) {
+std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bodies,
+                                                const std::vector<FitGarmentInput>& inputs, const FitOptions& options) {
   const auto t_total = Clock::now();
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    if (!bodies[b]) throw Error("body " + std::to_string(b), 0, "null body");
+  if (bodies.size() > 1 && !options.debug_dir.empty())
+    throw Error(options.debug_dir, 0, "debug output takes one body, not " + std::to_string(bodies.size()));
   const SplitInputs split = split_outfits(inputs);
   const std::vector<FitGarmentInput>& garments = split.garments;
   if (options.simulate) (void)fabric_preset(options.fabric); // unknown fabric: fail before any work
-  FitResult result;
-  FitReport& report = result.report;
-  report.backend = options.backend == ClothBackend::SERIAL ? "serial" : "tbb";
-  report.threads = parallel_thread_count();
-  report.cpu_model = cpu_model_name();
-  report.body_vertices = body.mesh.vertex_count();
-  report.body_faces = body.mesh.face_count();
-
-  auto t0 = Clock::now();
-  const ProximityIndex body_index(body.mesh.positions, body.mesh.triangles);
-  const EdgeCrossingIndex body_crossings(body.mesh.positions, body.mesh.triangles);
-  report.body_index_ms = ms_since(t0);
+  std::vector<FitResult> results(bodies.size());
+  if (bodies.empty()) return results;
 
   // Debug file stems, made unique by the garment's input index when two names share one.
   std::vector<StageSink> sinks;
@@ -481,61 +509,94 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& inp
   }
 
   // Bottoms before tops (seed 000 §6: the top is dressed over the trousers). The type is known
-  // after segmentation, so every garment is segmented first, then dressed in that order.
-  result.garments.resize(garments.size());
-  report.garments.resize(garments.size());
+  // after segmentation, so every garment is segmented first (once, whatever the bodies), then
+  // dressed in that order.
+  std::vector<FittedGarment> read(garments.size());
+  std::vector<GarmentFitReport> read_reports(garments.size());
   for (std::size_t i = 0; i < garments.size(); ++i) {
-    read_garment(garments[i], options, sinks[i], result.garments[i], report.garments[i]);
-    if (!split.notes[i].empty()) report.garments[i].warnings.insert(report.garments[i].warnings.begin(), split.notes[i]);
+    read_garment(garments[i], options, sinks[i], read[i], read_reports[i]);
+    if (!split.notes[i].empty()) read_reports[i].warnings.insert(read_reports[i].warnings.begin(), split.notes[i]);
   }
   // Debug output starts once every garment is known to be one, so a mesh that is not a
   // garment leaves no files behind.
   std::optional<FitDebugWriter> debug;
   if (!options.debug_dir.empty()) {
     debug.emplace(options.debug_dir);
-    debug->write_body(body.mesh);
+    debug->write_body(bodies[0]->mesh);
     for (std::size_t i = 0; i < garments.size(); ++i) {
-      const GarmentFitReport& gr = report.garments[i];
+      const GarmentFitReport& gr = read_reports[i];
       sinks[i].debug = &*debug;
-      sinks[i].write(1, "segmentation", result.garments[i], "type " + garment_type_name(gr.type) + ", units " + units_name(gr.units));
+      sinks[i].write(1, "segmentation", read[i], "type " + garment_type_name(gr.type) + ", units " + units_name(gr.units));
     }
   }
   std::vector<std::size_t> order(garments.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
-  std::stable_partition(order.begin(), order.end(), [&](std::size_t i) { return is_bottom(report.garments[i].type); });
-  // Layering (seed 001 §6.3): each garment is kept outside those fitted before it.
-  std::vector<InnerLayer> inner;
-  std::vector<LayerObstacle> layers;
-  inner.reserve(order.size());
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    FittedGarment& g = result.garments[order[k]];
-    GarmentFitReport& gr = report.garments[order[k]];
-    gr.order = k;
-    dress_garment({body, body_index, body_crossings, layers}, options, sinks[order[k]], g, gr);
-    if (k + 1 < order.size()) {
-      t0 = Clock::now();
-      inner.emplace_back(g.mesh, body_index, options.layer_clearance, LAYER_REACH);
-      layers.push_back(inner.back().obstacle());
-      const double layer_ms = ms_since(t0);
-      gr.timings.penetration_ms += layer_ms;
-      gr.timings.total_ms += layer_ms;
-    }
-    sinks[order[k]].done(g.name, "total", gr.timings.total_ms, penetration_note(gr.before, gr.after));
-  }
+  std::stable_partition(order.begin(), order.end(), [&](std::size_t i) { return is_bottom(read_reports[i].type); });
+  std::vector<std::optional<LimbRig>> rigs(garments.size());
 
-  for (const GarmentFitReport& g : report.garments) {
-    report.timings.units_ms += g.timings.units_ms;
-    report.timings.segmentation_ms += g.timings.segmentation_ms;
-    report.timings.skeletons_ms += g.timings.skeletons_ms;
-    report.timings.driving_ms += g.timings.driving_ms;
-    report.timings.coarse_move_ms += g.timings.coarse_move_ms;
-    report.timings.penetration_ms += g.timings.penetration_ms;
-    report.timings.simulation_ms += g.timings.simulation_ms;
-    report.timings.feedback_ms += g.timings.feedback_ms;
-    report.verdict = std::min(report.verdict, g.verdict); // FALLS_OFF < TIGHT < LOOSE < GOOD
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const auto t_body = Clock::now();
+    const Body& body = *bodies[b];
+    FitResult& result = results[b];
+    FitReport& report = result.report;
+    report.backend = options.backend == ClothBackend::SERIAL ? "serial" : "tbb";
+    report.threads = parallel_thread_count();
+    report.cpu_model = cpu_model_name();
+    report.body_vertices = body.mesh.vertex_count();
+    report.body_faces = body.mesh.face_count();
+    auto t0 = Clock::now();
+    const ProximityIndex body_index(body.mesh.positions, body.mesh.triangles);
+    const EdgeCrossingIndex body_crossings(body.mesh.positions, body.mesh.triangles);
+    report.body_index_ms = ms_since(t0);
+
+    // Each body starts from the garments as read; reading and segmenting them is the first
+    // body's time, shared by the others (their reports say 0 ms for those stages).
+    result.garments = read;
+    report.garments = read_reports;
+    if (b > 0)
+      for (GarmentFitReport& gr : report.garments) gr.timings.units_ms = gr.timings.segmentation_ms = 0;
+    // Layering (seed 001 §6.3): each garment is kept outside those fitted before it.
+    std::vector<InnerLayer> inner;
+    std::vector<LayerObstacle> layers;
+    inner.reserve(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      const std::size_t i = order[k];
+      FittedGarment& g = result.garments[i];
+      GarmentFitReport& gr = report.garments[i];
+      gr.order = k;
+      const bool rig_is_new = !rigs[i];
+      if (rig_is_new) rigs[i] = rig_limbs(options, sinks[i], read[i]);
+      dress_garment({body, body_index, body_crossings, layers}, options, sinks[i], *rigs[i], rig_is_new, g, gr);
+      if (k + 1 < order.size()) {
+        t0 = Clock::now();
+        inner.emplace_back(g.mesh, body_index, options.layer_clearance, LAYER_REACH);
+        layers.push_back(inner.back().obstacle());
+        const double layer_ms = ms_since(t0);
+        gr.timings.penetration_ms += layer_ms;
+        gr.timings.total_ms += layer_ms;
+      }
+      sinks[i].done(g.name, "total", gr.timings.total_ms, penetration_note(gr.before, gr.after));
+    }
+
+    for (const GarmentFitReport& g : report.garments) {
+      report.timings.units_ms += g.timings.units_ms;
+      report.timings.segmentation_ms += g.timings.segmentation_ms;
+      report.timings.skeletons_ms += g.timings.skeletons_ms;
+      report.timings.driving_ms += g.timings.driving_ms;
+      report.timings.coarse_move_ms += g.timings.coarse_move_ms;
+      report.timings.penetration_ms += g.timings.penetration_ms;
+      report.timings.simulation_ms += g.timings.simulation_ms;
+      report.timings.feedback_ms += g.timings.feedback_ms;
+      report.verdict = std::min(report.verdict, g.verdict); // FALLS_OFF < TIGHT < LOOSE < GOOD
+    }
+    report.timings.total_ms = ms_since(b == 0 ? t_total : t_body);
   }
-  report.timings.total_ms = ms_since(t_total);
-  return result;
+  return results;
+}
+
+FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& inputs, const FitOptions& options) {
+  const Body* bodies[] = {&body};
+  return std::move(fit_garments_onto_bodies(bodies, inputs, options).front());
 }
 
 } // namespace vfit

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -194,6 +195,22 @@ struct FitResult {
 /// valid (load_body() checked it). A diverged simulation is not an error: it is reported and
 /// the garment keeps its pre-simulation shape.
 FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options = {});
+
+/// Fits the same garments onto each of `bodies` (many bodies, one garment collection: sizes of a
+/// design, a crowd, a shop's customers). Each garment is read, converted, segmented, and its
+/// part skeletons extracted and its skeleton driver set up (the band Laplacian factored, seed
+/// 000 §5.4) once, on the first body; every body then gets its own driving, penetration removal,
+/// layering, simulation and feedback. Result k is what fit_garments(*bodies[k], garments,
+/// options) returns, bit for bit (the shared stages do not depend on the body); the shared
+/// stages' times are reported with the first body, as 0 ms for the others (whose driving line
+/// says "shared"), so the reports' totals add up to the whole call. At 10^5–10^6 garment
+/// vertices the skeletons and the driver's setup are most of a fit without simulation, and each
+/// further body costs only its driving and removal. Throws as fit_garments() does, before any
+/// body is fitted, and vfit::Error for a null body or for debug output (FitOptions::debug_dir)
+/// with more than one body. No bodies: no results.
+std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bodies,
+                                                const std::vector<FitGarmentInput>& garments,
+                                                const FitOptions& options = {});
 
 /// The CPU's model name from /proc/cpuinfo, or "unknown".
 std::string cpu_model_name();

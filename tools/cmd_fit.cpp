@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include <unistd.h>
 
@@ -208,6 +209,28 @@ void print_table(const FitReport& report, double body_ms) {
   std::printf("verdict: %s\n", size_verdict_name(report.verdict).c_str());
 }
 
+// With several bodies, each body's outputs are its own files, named by a tag per body: the body
+// file's stem ("mannequin" for the built-in one), with its position in the list (from 1) added
+// when two bodies would share a tag.
+std::vector<std::string> body_tags(const std::vector<std::string>& sources) {
+  std::vector<std::string> tags;
+  std::map<std::string, int> count;
+  for (const std::string& s : sources)
+    tags.push_back(s == "mannequin" ? s : std::filesystem::path(s).stem().string());
+  for (const std::string& t : tags)
+    ++count[t];
+  for (std::size_t k = 0; k < tags.size(); ++k)
+    if (count[tags[k]] > 1) tags[k] += "_" + std::to_string(k + 1);
+  return tags;
+}
+
+// `path` for one body's output: fit.glb -> fit.<tag>.glb; unchanged for an empty tag (one body).
+std::string per_body_path(const std::string& path, const std::string& tag) {
+  if (tag.empty()) return path;
+  const std::filesystem::path p(path);
+  return (p.parent_path() / (p.stem().string() + "." + tag + p.extension().string())).string();
+}
+
 // One line per finished stage: "vfit: tee.obj: segmentation 1.2 ms (tee)".
 void print_progress(const FitProgress& p) {
   std::string detail = p.detail;
@@ -226,14 +249,20 @@ int run_fit(Args& args) {
   const bool progress_asked = args.flag("progress");
   const bool progress = !quiet && (progress_asked || isatty(STDERR_FILENO) == 1);
   const auto debug_dir = args.value("debug");
-  const std::string source = args.value("body").value_or("mannequin");
-  BodyRequest request = body_request_from_args(args, source);
+  std::vector<std::string> sources = args.values("body");
+  if (sources.empty()) sources.push_back("mannequin");
+  // The body flags apply to every --body.
+  const BodyRequest body_flags = body_request_from_args(args, sources[0]);
+  if (body_flags.joints_file && sources.size() > 1)
+    throw Error("--joints-in", 0, "gives the joints of one body; give one --body");
   const auto pose_arg = args.value("pose");
   const auto keypoints_file = args.value("keypoints");
   bool image_size_token = false;
   KeypointOptions kp_options = keypoint_options_from_args(args, image_size_token);
   if (keypoints_file && pose_arg) throw Error("--keypoints", 0, "the pose comes from the keypoints; drop --pose");
-  if (keypoints_file && source != "mannequin") throw Error("--keypoints", 0, "fits the built-in mannequin; drop --body");
+  if (keypoints_file && (sources.size() > 1 || sources[0] != "mannequin"))
+    throw Error("--keypoints", 0, "fits the built-in mannequin; drop --body");
+  if (debug_dir && sources.size() > 1) throw Error("--debug", 0, "writes the stages of one body; give one --body");
   const auto garment_files = args.values("garment");
   const auto out = args.value("out");
   const auto report_file = args.value("report");
@@ -273,7 +302,7 @@ int run_fit(Args& args) {
   // Read every garment before the (slower) body, so a missing file fails at once.
   std::vector<FitGarmentInput> garments;
   ReadOptions read_options;
-  read_options.repair = request.repair; // --repair, read with the body's flags
+  read_options.repair = body_flags.repair; // --repair, read with the body's flags
   for (const std::string& f : garment_files) {
     ParsedMesh parsed = read_mesh(f, read_options);
     if (!quiet)
@@ -282,62 +311,89 @@ int run_fit(Args& args) {
     garments.push_back({f, std::move(parsed.mesh)});
   }
 
-  auto t0 = Clock::now();
   // A photo's keypoints give the mannequin its measurements and pose (the camera's translation
   // dropped: the body stands in its own frame).
   std::optional<KeypointFit> keypoint_fit;
+  double keypoint_ms = 0;
   if (keypoints_file) {
+    const auto t0 = Clock::now();
     Keypoints kp;
     keypoint_fit = fit_keypoint_file(*keypoints_file, kp_options, quiet, &kp);
-    request.mannequin.measurements = keypoint_fit->measurements;
+    keypoint_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (progress)
       std::fprintf(stderr, "vfit: keypoints: %zu, fitted in %.1f ms, mean reprojection error %.2f px\n", kp.points.size(),
                    keypoint_fit->total_ms, keypoint_fit->mean_reprojection_px);
   }
-  const LoadedBody loaded = load_body(request);
-  Pose pose;
-  if (keypoint_fit) pose = pose_from_keypoint_fit(*keypoint_fit, loaded.rest.rest_pose);
-  if (pose_arg) pose = pose_from_arg(*pose_arg, loaded.rest.rest_pose);
-  const Body body = loaded.posed(pose);
-  const double body_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  if (progress)
-    std::fprintf(stderr, "vfit: body: %s, %zu vertices, %.1f ms\n", loaded.kind.c_str(), body.mesh.vertex_count(), body_ms);
-  if (!quiet)
-    for (const auto& w : loaded.warnings)
-      std::cerr << "vfit: warning: " << w << "\n";
-
-  FitResult result = fit_garments(body, garments, options);
-  if (!quiet)
-    for (const GarmentFitReport& g : result.report.garments)
-      for (const auto& w : g.warnings)
-        std::cerr << "vfit: warning: " << g.name << ": " << w << "\n";
-
-  std::optional<Image> picture;
-  double render_ms = -1;
-  if (render_file) {
-    t0 = Clock::now();
-    std::vector<const Mesh*> meshes = {&body.mesh};
-    for (const FittedGarment& g : result.garments)
-      meshes.push_back(&g.mesh);
-    RenderOptions ro;
-    ro.size = render_size;
-    picture = compose_views(render_views(meshes, ro));
-    render_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  // Every body is loaded (and checked) before any fit, so a bad body file fails at once.
+  std::vector<LoadedBody> loaded;
+  std::vector<Body> bodies;
+  std::vector<double> body_ms;
+  for (const std::string& source : sources) {
+    const auto t0 = Clock::now();
+    BodyRequest request = body_flags;
+    request.source = source;
+    if (keypoint_fit) request.mannequin.measurements = keypoint_fit->measurements;
+    loaded.push_back(load_body(request));
+    Pose pose;
+    if (keypoint_fit) pose = pose_from_keypoint_fit(*keypoint_fit, loaded.back().rest.rest_pose);
+    if (pose_arg) pose = pose_from_arg(*pose_arg, loaded.back().rest.rest_pose);
+    bodies.push_back(loaded.back().posed(pose));
+    body_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count() + keypoint_ms);
+    if (progress)
+      std::fprintf(stderr, "vfit: body: %s, %zu vertices, %.1f ms\n", loaded.back().kind.c_str(),
+                   bodies.back().mesh.vertex_count(), body_ms.back());
+    if (!quiet)
+      for (const auto& w : loaded.back().warnings)
+        std::cerr << "vfit: warning: " << (sources.size() > 1 ? source + ": " : "") << w << "\n";
   }
 
-  if (out) {
-    if (lower_extension(*out) == ".glb") {
-      std::vector<NamedMesh> named = {{"body", &body.mesh, nullptr}};
+  std::vector<const Body*> body_list;
+  for (const Body& b : bodies)
+    body_list.push_back(&b);
+  std::vector<FitResult> results = fit_garments_onto_bodies(body_list, garments, options);
+  const std::vector<std::string> tags = body_tags(sources);
+  for (std::size_t b = 0; b < results.size(); ++b) {
+    const FitResult& result = results[b];
+    const Body& body = bodies[b];
+    const std::string tag = sources.size() > 1 ? tags[b] : "";
+    if (!quiet)
+      for (const GarmentFitReport& g : result.report.garments)
+        for (const auto& w : g.warnings)
+          std::cerr << "vfit: warning: " << (tag.empty() ? "" : tag + ": ") << g.name << ": " << w << "\n";
+
+    std::optional<Image> picture;
+    double render_ms = -1;
+    if (render_file) {
+      const auto t0 = Clock::now();
+      std::vector<const Mesh*> meshes = {&body.mesh};
       for (const FittedGarment& g : result.garments)
-        named.push_back({std::filesystem::path(g.name).stem().string(), &g.mesh, nullptr});
-      write_meshes_glb(*out, named);
-    } else {
-      write_mesh(*out, merge_garments(result.garments), "garments");
+        meshes.push_back(&g.mesh);
+      RenderOptions ro;
+      ro.size = render_size;
+      picture = compose_views(render_views(meshes, ro));
+      render_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    }
+
+    if (out) {
+      const std::string path = per_body_path(*out, tag);
+      if (lower_extension(path) == ".glb") {
+        std::vector<NamedMesh> named = {{"body", &body.mesh, nullptr}};
+        for (const FittedGarment& g : result.garments)
+          named.push_back({std::filesystem::path(g.name).stem().string(), &g.mesh, nullptr});
+        write_meshes_glb(path, named);
+      } else {
+        write_mesh(path, merge_garments(result.garments), "garments");
+      }
+    }
+    if (report_file)
+      write_file_atomically(per_body_path(*report_file, tag),
+                            report_json(result.report, loaded[b], body, body_ms[b], render_ms, options));
+    if (picture) write_png(per_body_path(*render_file, tag), *picture);
+    if (!quiet) {
+      if (!tag.empty()) std::printf("%sbody %s (%s)\n", b > 0 ? "\n" : "", tag.c_str(), sources[b].c_str());
+      print_table(result.report, body_ms[b]);
     }
   }
-  if (report_file) write_file_atomically(*report_file, report_json(result.report, loaded, body, body_ms, render_ms, options));
-  if (picture) write_png(*render_file, *picture);
-  if (!quiet) print_table(result.report, body_ms);
   return 0;
 }
 

@@ -173,7 +173,7 @@ garments darker. Views are composited side by side with their names into FILE.pn
 Files are written atomically (a temporary file renamed); nothing is written on error.
 )";
 
-constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE] [body flags]
+constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE ...] [body flags]
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
@@ -188,7 +188,10 @@ included -> cloth simulation to rest (stops at --max-sim-seconds of simulated ti
 a diverged simulation is discarded and reported) -> fit feedback (strain, ease, size verdict).
 Bottoms are dressed before tops.
 --body takes the same sources and flags as `vfit body --from` (default: the mannequin; use
---pose-rest apose|tpose and the measurement flags); --pose poses it. Garments may be in any
+--pose-rest apose|tpose and the measurement flags); --pose poses it. Several --body options fit
+the same garments onto each body (the flags and --pose apply to all): the garments are read,
+segmented and rigged once, and each body's outputs get its name before their extension
+(--out fit.glb -> fit.walking.glb, fit.mannequin.glb; numbered when two names repeat). Garments may be in any
 length unit (detected, or --garment-units) and stored Y up facing +Z (OBJ, glTF) or Z up facing
 -Y (Blender, scanners): the up axis is read from the surface (its left-right mirror symmetry
 and its normals) and a Z-up garment is turned upright, with a warning in the report. Upright,

@@ -17,6 +17,7 @@
 #include "engine/fit_pipeline.h"
 #include "engine/layering.h"
 #include "geometry/body/mannequin.h"
+#include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/mesh_io.h"
 #include "kernels/edge_crossings.h"
@@ -137,6 +138,46 @@ TEST(FitPipeline, TeeAndTrousersWithoutSimulation) {
     EXPECT_EQ(g.simulation, SimulationOutcome::SKIPPED);
     EXPECT_EQ(g.timings.simulation_ms, 0);
   }
+}
+
+// Many bodies, one garment set: the same results as one fit per body, bit for bit, with the
+// garments read, segmented and rigged once.
+TEST(FitPipeline, FitsTheSameGarmentsOntoSeveralBodiesAsSeparateFitsWould) {
+  FitOptions o;
+  o.max_simulated_seconds = 0.05; // a few steps: the simulation's result must agree too
+  const Body demo = pose_body(mannequin(), named_pose("demo", mannequin().rest_pose));
+  const Body* bodies[] = {&demo, &mannequin()};
+  const std::vector<FitResult> both = fit_garments_onto_bodies(bodies, tee_and_trousers(), o);
+  ASSERT_EQ(both.size(), 2u);
+  for (std::size_t b = 0; b < 2; ++b) {
+    const FitResult alone = fit_garments(*bodies[b], tee_and_trousers(), o);
+    ASSERT_EQ(both[b].garments.size(), alone.garments.size());
+    for (std::size_t i = 0; i < alone.garments.size(); ++i) {
+      EXPECT_EQ(both[b].garments[i].mesh.positions, alone.garments[i].mesh.positions) << "body " << b << ", garment " << i;
+      const GarmentFitReport &shared = both[b].report.garments[i], &own = alone.report.garments[i];
+      EXPECT_EQ(shared.verdict, own.verdict);
+      EXPECT_EQ(shared.after.inside_count, own.after.inside_count);
+      EXPECT_EQ(shared.skeleton_parts, own.skeleton_parts);
+      EXPECT_EQ(shared.simulation_steps, own.simulation_steps);
+      EXPECT_EQ(shared.warnings, own.warnings);
+      // Reading, segmenting and rigging are the first body's time; the second says so.
+      if (b == 0) {
+        EXPECT_GT(shared.timings.segmentation_ms, 0);
+        EXPECT_GT(shared.timings.skeletons_ms, 0);
+      } else {
+        EXPECT_EQ(shared.timings.units_ms, 0);
+        EXPECT_EQ(shared.timings.segmentation_ms, 0);
+        EXPECT_EQ(shared.timings.skeletons_ms, 0);
+        EXPECT_NE(shared.driving.find("shared"), std::string::npos) << shared.driving;
+      }
+    }
+  }
+  // The two bodies' poses differ, so the fits do.
+  EXPECT_NE(both[0].garments[0].mesh.positions, both[1].garments[0].mesh.positions);
+  EXPECT_TRUE(fit_garments_onto_bodies({}, tee_and_trousers(), o).empty());
+  FitOptions debug = o;
+  debug.debug_dir = testing::TempDir() + "/vfit_two_bodies_debug";
+  EXPECT_THROW(fit_garments_onto_bodies(bodies, tee_and_trousers(), debug), Error);
 }
 
 TEST(FitPipeline, TeeAndTrousersWithAShortSimulation) {

@@ -33,6 +33,48 @@ void write_catalogue(const std::filesystem::path& path, GarmentType type) {
   write_mesh(path, make_garment(o).mesh);
 }
 
+// Several --body: one output of each kind per body, named by the body, each the same file as the
+// body's own `vfit fit` writes.
+TEST(FitCli, SeveralBodiesGetTheirOwnOutputsEqualToFittingEachAlone) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const std::vector<std::string> flags = {"--pose-rest", "apose", "--vertices", "3000", "--no-simulation", "--quiet"};
+  auto with_flags = [&](std::vector<std::string> a) {
+    a.insert(a.end(), flags.begin(), flags.end());
+    return a;
+  };
+  // A broader body than the default mannequin, rigged, as a file.
+  const auto body = test::run_cli(
+      {"body", "--pose-rest", "apose", "--vertices", "3000", "--chest", "1.1", "--rigged", (dir / "broad.glb").string()});
+  ASSERT_EQ(body.exit_code, 0) << body.err;
+  const auto both = test::run_cli(with_flags({"fit", "--garment", (dir / "tee.obj").string(), "--body", "mannequin",
+                                              "--body", (dir / "broad.glb").string(), "--out", (dir / "fit.obj").string(),
+                                              "--report", (dir / "fit.json").string()}));
+  ASSERT_EQ(both.exit_code, 0) << both.err;
+  for (const char* tag : {"mannequin", "broad"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / ("fit." + std::string(tag) + ".obj"))) << tag;
+    EXPECT_TRUE(std::filesystem::exists(dir / ("fit." + std::string(tag) + ".json"))) << tag;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "fit.obj"));
+  const auto alone = test::run_cli(with_flags({"fit", "--garment", (dir / "tee.obj").string(), "--body",
+                                               (dir / "broad.glb").string(), "--out", (dir / "alone.obj").string()}));
+  ASSERT_EQ(alone.exit_code, 0) << alone.err;
+  EXPECT_EQ(test::read_file(dir / "fit.broad.obj"), test::read_file(dir / "alone.obj"));
+  EXPECT_NE(test::read_file(dir / "fit.broad.obj"), test::read_file(dir / "fit.mannequin.obj"));
+  const nlohmann::json second = nlohmann::json::parse(test::read_file(dir / "fit.broad.json"));
+  EXPECT_EQ(second["garments"][0]["timings_ms"]["segmentation"].get<double>(), 0.0) << "segmented once, for the first body";
+  // One body file twice: numbered apart. --debug and --joints-in take one body.
+  const auto twice = test::run_cli(with_flags({"fit", "--garment", (dir / "tee.obj").string(), "--body", "mannequin",
+                                               "--body", "mannequin", "--report", (dir / "twice.json").string()}));
+  ASSERT_EQ(twice.exit_code, 0) << twice.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "twice.mannequin_1.json"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "twice.mannequin_2.json"));
+  const auto debug = test::run_cli(with_flags({"fit", "--garment", (dir / "tee.obj").string(), "--body", "mannequin",
+                                               "--body", "mannequin", "--debug", (dir / "debug").string()}));
+  EXPECT_EQ(debug.exit_code, 2) << debug.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "debug"));
+}
+
 TEST(FitCli, FitsObjGarmentsAndWritesMeshReportAndPicture) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
