@@ -19,6 +19,7 @@
 #include "engine/layering.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
+#include "kernels/hole_caps.h"
 #include "kernels/parallel.h"
 #include "kernels/proximity.h"
 
@@ -37,8 +38,9 @@ bool is_bottom(GarmentType type) {
 
 // Deeper than this (m) after simulation triggers one more penetration removal: the contact
 // handler keeps particles at the contact thickness, so anything deeper is a missed contact.
-// So does any edge crossing the body, or any vertex inside an inner garment (the simulation
-// collides with the body only).
+// So does any edge crossing the body, any vertex inside an inner garment or any of its edges
+// through the garment (the simulation collides with the inner garments' surfaces too, but a
+// contact keeps particles off them, not the edges between particles).
 constexpr double POST_SIMULATION_TOLERANCE = 0.0005;
 
 // Layer points farther than this (m) from a vertex are not its inner layer (LayerObstacle::reach).
@@ -262,6 +264,31 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
             garment_type_name(report.type) + (report.up == UpAxis::POS_Y ? "" : " (" + up_axis_name(report.up) + " up)"));
 }
 
+// What the simulated garment collides with: the body and every inner garment (seed 001 §6.3),
+// each inner garment closed by a fan over every opening (waistband, hems, cuffs: hole_caps.h) so
+// the union is a set of closed surfaces, whose side test and contact cache stay exact. The caps
+// lie across the body (a waistband's across the waist, a cuff's across the wrist), inside it
+// or within the clearance of its surface, where the outer garment never is. Without the inner
+// garments the outer one settled through them and penetration removal had to push it back out
+// after the simulation (the demo tee through the trousers, 90 of their edges through it).
+void collision_surface(const Mesh& body, std::span<const LayerObstacle> layers, std::vector<float>& positions,
+                       std::vector<std::int32_t>& triangles) {
+  positions = body.positions;
+  triangles = body.triangles;
+  std::vector<float> capped;
+  for (const LayerObstacle& layer : layers) {
+    const std::size_t nv = layer.points.size() / 3;
+    const HoleCaps caps = build_hole_caps(layer.triangles, nv);
+    capped_positions(layer.points, caps, capped);
+    const auto offset = static_cast<std::int32_t>(positions.size() / 3);
+    positions.insert(positions.end(), capped.begin(), capped.end());
+    for (const std::int32_t v : layer.triangles)
+      triangles.push_back(v + offset);
+    for (const std::int32_t v : caps.triangles)
+      triangles.push_back(v + offset);
+  }
+}
+
 // What driving a garment needs whatever the body (seed 000 §5.1–5.4): its part skeletons and the
 // driver set up on them (the band's Laplacian factored once), or why it has none. Built on the
 // first body a garment is fitted to and reused for the others.
@@ -385,7 +412,14 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     co.backend = options.backend;
     co.contact_thickness = static_cast<float>(options.clearance);
     ClothSim sim(mesh.positions, mesh.triangles, co);
-    sim.set_body(body.mesh.positions, body.mesh.triangles);
+    if (layers.empty()) {
+      sim.set_body(body.mesh.positions, body.mesh.triangles);
+    } else {
+      std::vector<float> positions;
+      std::vector<std::int32_t> triangles;
+      collision_surface(body.mesh, layers, positions, triangles);
+      sim.set_body(positions, triangles);
+    }
     ClothRestOptions ro;
     ro.max_simulated_seconds = options.max_simulated_seconds;
     ro.max_wall_seconds = options.max_wall_seconds;
@@ -408,6 +442,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     if (report.simulation != SimulationOutcome::DIVERGED) {
       t0 = Clock::now();
       const PenetrationStats s = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+      report.after_simulation = s;
       if (s.max_depth > POST_SIMULATION_TOLERANCE || s.crossing_edges > 0 || s.layer_inside_count > 0 ||
           s.layer_crossing_edges > 0) {
         remove_penetration(mesh, body_index, crossings, layers, po);

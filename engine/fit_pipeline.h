@@ -150,6 +150,9 @@ struct GarmentFitReport {
   /// layers' edges through this garment.
   PenetrationStats before;
   PenetrationStats after_removal;  ///< after remove_penetration()
+  /// As the simulation left it, before any clean-up (zeros when not simulated or diverged):
+  /// what the cloth's contacts with the body and the inner garments kept out.
+  PenetrationStats after_simulation;
   PenetrationStats after;          ///< of the returned mesh
   int penetration_iterations = 0;
   SimulationOutcome simulation = SimulationOutcome::SKIPPED;

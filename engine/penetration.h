@@ -214,7 +214,7 @@ PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, 
 /// than `tolerance`; a chord deeper than its edge is long (the garment passes through a limb,
 /// e.g. a T-pose sleeve on an arms-down body) is not pushed, only counted. When the rounds run
 /// out unresolved, the best state seen is returned (least depth beyond `tolerance`, then
-/// fewest vertices inside + crossing edges + vertices inside layers, then least depth).
+/// fewest vertices inside + crossing edges, then fewest layer offences, then least depth).
 /// Rounds repeat until no vertex is inside and no edge crosses (at most max_iterations).
 /// `crossings` indexes the same body mesh as `body`.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
@@ -228,8 +228,8 @@ PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, 
 /// body or a layer, no edge crosses the body and no layer edge pierces the garment: a layer
 /// edge through garment triangle T (the layer poking out between T's corners, which are all
 /// outside it) pushes T's corners out along the layer's outward normal by how far the edge's
-/// outer end lies beyond T, plus k (engine/layer_piercing.h); the pushes are smoothed by the
-/// same solve. The statistics count layer_inside_count / layer_max_depth /
+/// outer end lies beyond T, plus k (engine/layer_piercing.h; like crossing edges, only once no
+/// vertex is deeper in the body than `tolerance`); the pushes are smoothed by the same solve. The statistics count layer_inside_count / layer_max_depth /
 /// layer_crossing_edges too.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
                                      std::span<const LayerObstacle> layers, const PenetrationOptions& options = {});

@@ -149,10 +149,11 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
     gj["driving"] = g.driving;
     const Eigen::Vector3d& t = g.coarse_move.translation;
     gj["coarse_move"] = {{"rule", to_string(g.coarse_move.rule)}, {"translation_m", {t.x(), t.y(), t.z()}}};
-    gj["penetration"] = {{"before", stats_json(g.before)},
-                         {"after_removal", stats_json(g.after_removal)},
-                         {"after", stats_json(g.after)},
-                         {"iterations", g.penetration_iterations}};
+    gj["penetration"] = {{"before", stats_json(g.before)}, {"after_removal", stats_json(g.after_removal)}};
+    if (g.simulation != SimulationOutcome::SKIPPED && g.simulation != SimulationOutcome::DIVERGED)
+      gj["penetration"]["after_simulation"] = stats_json(g.after_simulation);
+    gj["penetration"]["after"] = stats_json(g.after);
+    gj["penetration"]["iterations"] = g.penetration_iterations;
     gj["simulation"] = {{"outcome", to_string(g.simulation)},
                         {"status", g.simulation_status},
                         {"simulated_seconds", g.simulated_seconds},
