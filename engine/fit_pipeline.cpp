@@ -14,6 +14,7 @@
 #include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
 #include "geometry/garment/skeleton_driving.h"
+#include "geometry/garment/thick_shell.h"
 #include "geometry/mesh/orient.h"
 #include "geometry/mesh/weld.h"
 #include "engine/layering.h"
@@ -136,7 +137,7 @@ bool one_piece(const Mesh& m) {
   return true;
 }
 
-SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs) {
+SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitOptions& options) {
   SplitInputs out;
   for (const FitGarmentInput& input : inputs) {
     // The usual garment is one piece as given: no copy, no weld (read_garment() welds it).
@@ -158,7 +159,15 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs) {
     for (std::size_t root = 0; root < nv; ++root)
       if (size[root] > 0 && static_cast<double>(size[root]) >= OUTFIT_SHARE * static_cast<double>(nv))
         big.emplace_back(size[root], static_cast<std::int32_t>(root));
-    if (big.size() < 2) {
+    // A garment modelled with thickness as two separate sheets (a shell and its lining) is one
+    // garment, not an outfit: read_garment() fits its inner sheet.
+    bool thick = false;
+    if (big.size() >= 2) {
+      Mesh metres = m;
+      scale_positions(metres.positions, metres_per_unit(garment_units(m, input.name, options)));
+      thick = find_thick_shell(metres).has_value();
+    }
+    if (big.size() < 2 || thick) {
       out.garments.push_back(input);
       out.notes.emplace_back();
       continue;
@@ -209,8 +218,15 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs) {
   return out;
 }
 
+// A garment modelled with thickness (thick_shell.h): the whole mesh as read (metres, welded,
+// wound consistently) and its inner sheet, which the stages fit in its place.
+struct ShellGarment {
+  ThickShell shell;
+  Mesh whole;
+};
+
 void read_garment(const FitGarmentInput& input, const FitOptions& options, const StageSink& sink, FittedGarment& out,
-                  GarmentFitReport& report) {
+                  GarmentFitReport& report, std::optional<ShellGarment>& shell) {
   report.name = input.name;
   out.name = input.name;
   out.mesh = input.mesh;
@@ -240,6 +256,18 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
     report.warnings.push_back("turned over " + std::to_string(orient.flipped) + " of " +
                               std::to_string(mesh.face_count()) +
                               " triangles wound against their neighbours (inconsistent orientation)");
+  // Modelled with thickness: the inner sheet is fitted, the rest follows it (thick_shell.h).
+  shell.reset();
+  if (std::optional<ThickShell> found = find_thick_shell(mesh)) {
+    char line[200];
+    std::snprintf(line, sizeof line,
+                  "modelled with thickness (%.1f mm between two sheets): its inner sheet (%zu of %zu vertices) is "
+                  "fitted, the rest placed at its offsets from it",
+                  1e3 * found->thickness, found->sheet.vertex_count(), mesh.vertex_count());
+    report.warnings.push_back(line);
+    shell.emplace(ShellGarment{std::move(*found), std::move(mesh)});
+    mesh = shell->shell.sheet;
+  }
   report.timings.units_ms = ms_since(t0);
   sink.done(input.name, "units", report.timings.units_ms, units_name(report.units));
 
@@ -287,6 +315,61 @@ void collision_surface(const Mesh& body, std::span<const LayerObstacle> layers, 
     for (const std::int32_t v : caps.triangles)
       triangles.push_back(v + offset);
   }
+}
+
+// A garment fitted by its inner sheet gets its whole mesh back: sheet vertices where the fit put
+// them, the others at their offsets from the sheet; per-vertex results are spread to the carried
+// vertices from the nearest corner of their sheet triangle (ease measured afresh), and what of
+// the whole mesh is inside the body or an inner garment is removed as any garment's.
+void restore_shell(const ShellGarment& sg, const Obstacles& obstacles, const FitOptions& options, FittedGarment& out,
+                   GarmentFitReport& report) {
+  const auto t0 = Clock::now();
+  const ThickShell& shell = sg.shell;
+  Mesh whole = sg.whole;
+  whole.positions = place_thick_shell(shell, out.mesh.positions);
+  std::vector<std::int32_t> source(shell.whole_vertex_count, -1); // whole vertex → sheet vertex it copies
+  for (std::size_t k = 0; k < shell.sheet_vertices.size(); ++k)
+    source[std::size_t(shell.sheet_vertices[k])] = std::int32_t(k);
+  for (std::size_t k = 0; k < shell.carried.size(); ++k) {
+    const float u = shell.carried_barycentric[2 * k], v = shell.carried_barycentric[2 * k + 1];
+    const int corner = (1 - u - v >= u && 1 - u - v >= v) ? 0 : (u >= v ? 1 : 2);
+    source[std::size_t(shell.carried[k])] =
+        shell.sheet.triangles[3 * std::size_t(shell.carried_triangle[k]) + std::size_t(corner)];
+  }
+  auto spread = [&](auto& values) {
+    if (values.size() != shell.sheet_vertices.size()) return;
+    std::remove_reference_t<decltype(values)> all(source.size());
+    for (std::size_t v = 0; v < source.size(); ++v) all[v] = values[std::size_t(source[v])];
+    values = std::move(all);
+  };
+  spread(out.feedback.strain);
+  spread(out.feedback.ease);
+  spread(out.segmentation.vertex_parts);
+  spread(out.segmentation.coarse_parts);
+  spread(out.segmentation.geodesic);
+  out.mesh = std::move(whole);
+  report.after = measure_penetration(out.mesh, obstacles.index, obstacles.crossings, obstacles.layers, options.clearance);
+  // The outer sheet can meet the body where the inner one faces away from it: a sleeve's outside
+  // against the torso under an arm hanging down. Removal then runs on the whole mesh.
+  if (report.after.inside_count > 0 || report.after.crossing_edges > 0 || report.after.layer_inside_count > 0 ||
+      report.after.layer_crossing_edges > 0) {
+    PenetrationOptions po;
+    po.clearance = options.clearance;
+    po.smoothness = options.smoothness;
+    po.max_iterations = options.penetration_iterations;
+    if (options.penetration_iterations == 0) po.direct_rounds = 0;
+    report.after =
+        remove_penetration(out.mesh, obstacles.index, obstacles.crossings, obstacles.layers, po).after;
+  }
+  // Ease (fit_feedback.h: the signed distance to the body) of the whole mesh as it now lies.
+  if (out.feedback.ease.size() == source.size()) {
+    ClosestHits hits;
+    obstacles.index.closest_points(out.mesh.positions, INFINITY, hits);
+    for (std::size_t v = 0; v < source.size(); ++v) out.feedback.ease[v] = hits.signed_distances[v];
+  }
+  const double ms = ms_since(t0);
+  report.timings.penetration_ms += ms;
+  report.timings.total_ms += ms;
 }
 
 // What driving a garment needs whatever the body (seed 000 §5.1–5.4): its part skeletons and the
@@ -526,7 +609,7 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
     if (!bodies[b]) throw Error("body " + std::to_string(b), 0, "null body");
   if (bodies.size() > 1 && !options.debug_dir.empty())
     throw Error(options.debug_dir, 0, "debug output takes one body, not " + std::to_string(bodies.size()));
-  const SplitInputs split = split_outfits(inputs);
+  const SplitInputs split = split_outfits(inputs, options);
   const std::vector<FitGarmentInput>& garments = split.garments;
   if (options.simulate) (void)fabric_preset(options.fabric); // unknown fabric: fail before any work
   std::vector<FitResult> results(bodies.size());
@@ -547,9 +630,10 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
   // after segmentation, so every garment is segmented first (once, whatever the bodies), then
   // dressed in that order.
   std::vector<FittedGarment> read(garments.size());
+  std::vector<std::optional<ShellGarment>> shells(garments.size());
   std::vector<GarmentFitReport> read_reports(garments.size());
   for (std::size_t i = 0; i < garments.size(); ++i) {
-    read_garment(garments[i], options, sinks[i], read[i], read_reports[i]);
+    read_garment(garments[i], options, sinks[i], read[i], read_reports[i], shells[i]);
     if (!split.notes[i].empty()) read_reports[i].warnings.insert(read_reports[i].warnings.begin(), split.notes[i]);
   }
   // Debug output starts once every garment is known to be one, so a mesh that is not a
@@ -602,6 +686,7 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
       const bool rig_is_new = !rigs[i];
       if (rig_is_new) rigs[i] = rig_limbs(options, sinks[i], read[i]);
       dress_garment({body, body_index, body_crossings, layers}, options, sinks[i], *rigs[i], rig_is_new, g, gr);
+      if (shells[i]) restore_shell(*shells[i], {body, body_index, body_crossings, layers}, options, g, gr);
       if (k + 1 < order.size()) {
         t0 = Clock::now();
         inner.emplace_back(g.mesh, body_index, options.layer_clearance, LAYER_REACH);

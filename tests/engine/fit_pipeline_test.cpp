@@ -9,6 +9,8 @@
 #include <set>
 #include <sstream>
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "test_support.h"
@@ -212,6 +214,40 @@ TEST(FitPipeline, TheTopSettlesOverTheTrousersNotThroughThem) {
   EXPECT_EQ(tee.after.layer_inside_count, 0u);
   EXPECT_EQ(tee.after.layer_crossing_edges, 0u);
   EXPECT_FALSE(tee.simulation_discarded);
+}
+
+// A tee with a lining 3 mm inside it (two pieces, which the outfit split would have fitted as two
+// garments): its inner sheet is fitted and the outer one carried, the whole mesh returned.
+TEST(FitPipeline, FitsATeeModelledWithThicknessByItsInnerSheet) {
+  const Mesh& tee = tee_and_trousers()[0].mesh;
+  const std::size_t nv = tee.vertex_count();
+  const Mesh thick = test::thicken(tee, 0.003f, false);
+  FitOptions o;
+  o.simulate = false;
+  const FitResult r = fit_garments(mannequin(), {{"thick tee", thick}}, o);
+  ASSERT_EQ(r.garments.size(), 1u) << "one garment with a lining, not an outfit of two";
+  const FittedGarment& g = r.garments[0];
+  const GarmentFitReport& gr = r.report.garments[0];
+  EXPECT_EQ(gr.type, GarmentType::TEE);
+  EXPECT_EQ(g.mesh.triangles, thick.triangles);
+  EXPECT_EQ(g.feedback.ease.size(), 2 * nv);
+  EXPECT_EQ(g.segmentation.vertex_parts.size(), 2 * nv);
+  EXPECT_EQ(gr.after.inside_count, 0u);
+  EXPECT_EQ(gr.after.crossing_edges, 0u);
+  // The outer sheet is carried 3 mm outside the inner one, wherever the fit put it.
+  double worst = 0;
+  std::size_t inside_outer = 0, inside_inner = 0;
+  for (std::size_t v = 0; v < nv; ++v) {
+    worst = std::max(worst, std::fabs(double((Eigen::Vector3f::Map(&g.mesh.positions[3 * v]) -
+                                              Eigen::Vector3f::Map(&g.mesh.positions[3 * (v + nv)])).norm()) - 0.003));
+    inside_outer += g.feedback.ease[v] < 0;
+    inside_inner += g.feedback.ease[v + nv] < 0;
+  }
+  std::printf("thick tee: inside outer %zu inner %zu, worst pair %.2f mm\n", inside_outer, inside_inner, 1e3 * worst);
+  EXPECT_LT(worst, 0.0005);
+  EXPECT_NE(std::find_if(gr.warnings.begin(), gr.warnings.end(),
+                         [](const std::string& w) { return w.find("thickness") != std::string::npos; }),
+            gr.warnings.end());
 }
 
 TEST(FitPipeline, ConvertsCentimetreGarmentsToMetres) {
