@@ -63,6 +63,14 @@ TEST(ThickShell, LeavesASingleSheetAndFarApartSheetsAlone) {
   EXPECT_FALSE(find_thick_shell(test::thicken(tube(), 0.03f, true)).has_value()) << "3 cm: two garments, not one thick one";
   // A closed surface that is no shell.
   EXPECT_FALSE(find_thick_shell(make_uv_sphere(16, 32, 0.2f)).has_value());
+  // Catalogue garments as they come (an A-pose tee's sleeves hang within a few cm of its sides).
+  for (GarmentType type : {GarmentType::TEE, GarmentType::TROUSERS}) {
+    GarmentOptions o;
+    o.type = type;
+    o.pose = RestPose::APOSE;
+    o.target_vertices = 10000;
+    EXPECT_FALSE(find_thick_shell(make_garment(o).mesh).has_value()) << garment_type_name(type);
+  }
 }
 
 TEST(ThickShell, FindsTheSheetsOfAThickenedCatalogueTee) {
