@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <type_traits>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -197,8 +198,9 @@ struct TorsoReprojection {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Pose prior: anatomical limits and an L2 toward a relaxed pose (T-pose-relative axis-angle;
-// body faces +Z, +X is its left, so e.g. a knee bends about +X and the left elbow about −Y).
+// Pose prior: anatomical limits and a saturating pull toward a relaxed pose, each arm toward the
+// nearest of three rest places (T-pose-relative axis-angle; body faces +Z, +X is its left, so
+// e.g. a knee bends about +X and the left elbow about −Y).
 
 struct BoxLimit {
   int joint, axis;
@@ -305,23 +307,58 @@ template <typename Observed> std::array<double, BODY_POSE> relaxed_pose_for(Obse
   return mean;
 }
 
+// Where an upper arm rests besides the relaxed pose's ~60° drop (T-pose-relative axis-angle of the
+// shoulder, left arm; the right arm's mirror negates the y and z numbers): reaching forward
+// (horizontal, pointing ahead) and raised overhead. Everyday arms work in these three places
+// (hanging, handling things in front, reaching up); a single relaxed pose pulls a forward or
+// raised arm back down along its depth ambiguity, which the keypoints cannot resist.
+constexpr std::array<std::array<double, 3>, 2> ARM_MODES = {{{0.0, -PI / 2, 0.0}, {0.0, 0.0, PI / 2}}};
+
+template <typename T> double value_of(const T& x) {
+  if constexpr (std::is_same_v<T, double>) {
+    return x;
+  } else {
+    return x.a; // a ceres::Jet: its value, not differentiated
+  }
+}
+
 struct PosePrior {
-  const double* scale; // stage weight, read at each evaluation
   std::array<double, BODY_POSE> relaxed = pose_mean().mean; // the pose pulled toward (relaxed_pose_for())
   static int residual_count() { return BODY_POSE + static_cast<int>(box_limits().size()) + DIRECTION_LIMITS; }
 
   template <typename T> bool operator()(const T* body, T* r) const {
     const PoseMean& m = pose_mean();
-    const T s(*scale);
     int k = 0;
     // Saturating (Geman–McClure-like) pull toward the relaxed pose: quadratic for small
     // deviations, so keypoint noise is not explained by bending limbs in depth, but bounded for
     // large ones (r² → (w·PRIOR_SATURATION)²), so a pose the keypoints clearly show is not
     // dragged along its depth ambiguity toward the relaxed pose.
+    // Each shoulder is pulled toward the nearest of its three rest places (ARM_MODES and the
+    // relaxed pose), nearest by this pull's own cost at the present pose: a mixture prior's
+    // minimum, continuous, with a kink where two places are equally near.
     using std::sqrt;
+    auto pull2 = [&](std::size_t i, double target) {
+      const double d = value_of(body[i]) - target, w = m.weight[i];
+      return w * w * d * d / (1 + d * d / (PRIOR_SATURATION * PRIOR_SATURATION));
+    };
+    std::array<double, BODY_POSE> target = relaxed;
+    for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
+      const auto at = static_cast<std::size_t>(3 * (idx(sh) - 1));
+      const double side = sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
+      double best = pull2(at, relaxed[at]) + pull2(at + 1, relaxed[at + 1]) + pull2(at + 2, relaxed[at + 2]);
+      for (const auto& mode : ARM_MODES) {
+        const double c = pull2(at, mode[0]) + pull2(at + 1, side * mode[1]) + pull2(at + 2, side * mode[2]);
+        if (c < best) {
+          best = c;
+          target[at] = mode[0];
+          target[at + 1] = side * mode[1];
+          target[at + 2] = side * mode[2];
+        }
+      }
+    }
     for (int i = 0; i < BODY_POSE; ++i) {
-      const T d = body[i] - relaxed[static_cast<std::size_t>(i)];
-      r[k++] = s * m.weight[static_cast<std::size_t>(i)] * d / sqrt(T(1) + d * d / T(PRIOR_SATURATION * PRIOR_SATURATION));
+      const T d = body[i] - target[static_cast<std::size_t>(i)];
+      r[k++] = m.weight[static_cast<std::size_t>(i)] * d / sqrt(T(1) + d * d / T(PRIOR_SATURATION * PRIOR_SATURATION));
     }
     auto excess = [](const T& x, double lo, double hi) { return x > T(hi) ? x - T(hi) : (x < T(lo) ? x - T(lo) : T(0)); };
     for (const BoxLimit& b : box_limits()) r[k++] = T(LIMIT_WEIGHT) * excess(body[3 * (b.joint - 1) + b.axis], b.lo, b.hi);
@@ -355,7 +392,7 @@ struct PosePrior {
       const V3<T> hinge_rest(T(0), T(-side), T(0));
       V3<T> hinge;
       ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), hinge_rest.data(), hinge.data());
-      r[k++] = s * T(HINGE_WEIGHT) * hinge.z();
+      r[k++] = T(HINGE_WEIGHT) * hinge.z();
     }
     // Limbs reach forward further than back (shoulder flexion ~180° against extension ~50°, hip
     // flexion ~120° against extension ~20°): a soft cost on each upper arm, forearm and thigh
@@ -370,14 +407,14 @@ struct PosePrior {
       ceres::AngleAxisRotatePoint(body + 3 * (idx(elbow) - 1), out.data(), a.data());
       ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), a.data(), b.data());
       ceres::AngleAxisRotatePoint(body + 3 * (idx(collar) - 1), b.data(), fore.data());
-      r[k++] = s * T(BEHIND_WEIGHT) * excess(upper.z(), -BEHIND_MARGIN, 10.0);
-      r[k++] = s * T(BEHIND_WEIGHT) * excess(fore.z(), -BEHIND_MARGIN, 10.0);
+      r[k++] = T(BEHIND_WEIGHT) * excess(upper.z(), -BEHIND_MARGIN, 10.0);
+      r[k++] = T(BEHIND_WEIGHT) * excess(fore.z(), -BEHIND_MARGIN, 10.0);
     }
     for (const Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
       const V3<T> down(T(0), T(-1), T(0));
       V3<T> d;
       ceres::AngleAxisRotatePoint(body + 3 * (idx(hip) - 1), down.data(), d.data());
-      r[k++] = s * T(BEHIND_WEIGHT) * excess(d.z(), -BEHIND_MARGIN, 10.0);
+      r[k++] = T(BEHIND_WEIGHT) * excess(d.z(), -BEHIND_MARGIN, 10.0);
     }
     return true;
   }
@@ -654,7 +691,6 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   }
 
   // Stages 2 and 3 share one problem; the shape block is held constant in stage 2.
-  double prior_scale = 1.0;
   const std::array<double, BODY_POSE> relaxed =
       relaxed_pose_for([&](int p) { return observed_pixel(all, p) != nullptr; });
   auto solve_full = [&](State& s, bool with_shape, int& iterations, int max_iterations = 0) {
@@ -663,7 +699,7 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
         new FullReprojection{&model, &all, cam}, 2 * static_cast<int>(all.points.size()));
     problem.AddResidualBlock(cost, nullptr, s.global.data(), s.body.data(), s.trans.data(), s.beta.data());
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, ceres::DYNAMIC, BODY_POSE>(
-                                 new PosePrior{&prior_scale, relaxed}, PosePrior::residual_count()),
+                                 new PosePrior{relaxed}, PosePrior::residual_count()),
                              nullptr, s.body.data());
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ShapePrior, KEYPOINT_SHAPE_PARAMS, KEYPOINT_SHAPE_PARAMS>(new ShapePrior),
                              nullptr, s.beta.data());
@@ -684,7 +720,6 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   // about the viewing axis); fit from both turns and keep the better.
   KeypointFitStage stage2{"pose", 0, 0, 0};
   t0 = Clock::now();
-  prior_scale = 2.0;
   std::vector<State> starts = {best};
   if (!options.initial_pose) {
     const Eigen::Matrix3d R = axis_angle_to_matrix(to_vec(best.global));
@@ -745,11 +780,10 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   stage2.cost = chosen.cost;
   fit.stages.push_back(stage2);
 
-  // Stage 3: shape and pose, the pose prior relaxed.
+  // Stage 3: shape and pose.
   if (options.fit_shape) {
     KeypointFitStage stage3{"shape+pose", 0, 0, 0};
     t0 = Clock::now();
-    prior_scale = 1.0;
     solve_full(chosen, true, stage3.iterations);
     stage3.ms = elapsed_ms(t0);
     stage3.cost = chosen.cost;
@@ -792,10 +826,9 @@ double keypoint_fit_objective(const Keypoints& keypoints, const Pose& pose, cons
   FullReprojection{&model, &su.all, su.camera}(global.data(), body.data(), trans.data(), shape.data(), r.data());
   double sum = 0;
   for (double x : r) sum += x * x;
-  const double scale = 1.0;
   r.assign(static_cast<std::size_t>(PosePrior::residual_count()), 0.0);
   const auto relaxed = relaxed_pose_for([&](int p) { return observed_pixel(su.all, p) != nullptr; });
-  PosePrior{&scale, relaxed}(body.data(), r.data());
+  PosePrior{relaxed}(body.data(), r.data());
   for (double x : r) sum += x * x;
   std::array<double, KEYPOINT_SHAPE_PARAMS> rs{};
   ShapePrior{}(shape.data(), rs.data());

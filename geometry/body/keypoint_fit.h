@@ -11,9 +11,11 @@
 /// upper arms across the body only in front of the chest); a pull toward neutral humeral
 /// rotation (the elbow's hinge axis square to the torso's forward axis); a soft cost on upper
 /// arms, forearms and thighs pointing behind the torso's frontal plane (limbs reach forward
-/// further than back); and a saturating pull toward a relaxed pose (arms ~60° down): quadratic
-/// near it, so 3 px of keypoint noise is not explained by bending limbs in depth, levelling off
-/// ~0.5 rad away, so a pose the keypoints show is not dragged along its depth ambiguity; weaker on
+/// further than back); and a saturating pull toward a relaxed pose (arms ~60° down; each upper arm
+/// toward the nearest of three rest places: hanging so, reaching forward, raised overhead):
+/// quadratic near it, so 3 px of keypoint noise is not explained by bending limbs in depth,
+/// levelling off ~0.5 rad away, so a pose the keypoints show is not dragged along its depth
+/// ambiguity; weaker on
 /// elbow and knee flexion (visible in 2D), stronger on what 2D joints cannot see (twists, hands,
 /// feet); an elbow whose wrist keypoint is missing is pulled toward a typical 17° flexion instead
 /// of the relaxed pose's 9° (its forearm is seen by nothing but the prior). The fit tries per-limb depth hypotheses (each arm and leg lifted onto its keypoints'

@@ -228,23 +228,24 @@ struct SyntheticPose {
 // Poses whose fit misses the issue's 30 mm bar (mean 3D joint error after Procrustes), guarded
 // at ~1.3 × the error measured when the priors were last changed, so that regressions still
 // fail; see the report of issue 8. The fit of each is no worse a minimiser of its objective than
-// a fit started from the truth (asserted below), and for all but throw the fit started from the
-// truth ends within a few mm of the cold fit: the misses are where the objective's minimum lies
-// for these keypoints, not search failures. Why it lies there: a dropped limb keypoint leaves a
-// forearm or shin to the priors (a_pose: left elbow and wrist; back_view: both wrists; lunge,
+// a fit started from the truth (asserted below), and for all but boxing_guard (32.6 against
+// 29.7 mm) the fit started from the truth ends within 0.2 mm of the cold fit: the misses are where
+// the objective's minimum lies for these keypoints, not search failures. Why it lies there: a
+// dropped limb keypoint leaves a forearm or shin to the priors (a_pose: left elbow and wrist; back_view: both wrists; lunge,
 // squat: right wrist; walking, running: right elbow) — since a hidden forearm is pulled toward
 // a typical 17° elbow flexion rather than the near-straight relaxed pose (keypoint_fit.cpp),
 // back_view went from 53 to 42 mm, lunge 68 to 63, squat 54 to 52, a_pose 38 to 36, while kick
 // (right wrist dropped, true elbow 9°) went from 25 to 29.6 mm, under the bar; elsewhere bones
 // turned towards or away from the camera foreshorten by a few pixels only, which the 3 px noise
 // and the free limb lengths absorb, and the pull toward the relaxed pose then wins (lunge's and
-// walking's arm swings, tree_pose's raised knee). throw's right arm (raised, bent 80°, seen
-// end-on) fits its keypoints equally well straight, which the priors prefer (doubling the cost on
-// limbs pointing behind the body fits it at 48 mm, but worsened held-out draw 2026: not kept).
+// walking's arm swings, tree_pose's raised knee). throw (93 mm while every arm was pulled toward
+// the relaxed pose alone; its objective was lower than the truth's, so not a search failure) is
+// within the bar since each arm is pulled toward the nearest of three rest places (hanging,
+// forward, overhead) and stages 2 and 3 weigh the prior alike: 25.0 mm.
 double known_miss_mm(std::string_view name) {
   static const std::vector<std::pair<std::string_view, double>> guards = {
       {"a_pose", 46},   {"walking", 58},      {"squat", 67},     {"back_view", 54},    {"lunge", 82},
-      {"throw", 120},   {"basketball_shot", 73}, {"running", 68}, {"tree_pose", 54},  {"boxing_guard", 42},
+      {"basketball_shot", 74}, {"running", 68}, {"tree_pose", 54},  {"boxing_guard", 42},
       {"head_turned", 54}, {"walking_seen_from_above", 47}};
   for (const auto& [n, mm] : guards)
     if (n == name) return mm;
@@ -503,11 +504,14 @@ TEST(LimbLift, PutsJointsOnTheirRaysAndOneChoiceIsTheTruth) {
 // (fixed seed) over everyday ranges — arms from hanging to overhead, swung 35° back to 75°
 // forward, elbows and knees bent up to ~100°, the body turned ±115° and tipped −11°…23°. A guard
 // on the whole, not on each: some draws are monocularly ambiguous (a bent arm seen end-on, a limb
-// whose keypoints were dropped). Two draws: 2026, the set checked when the priors were last
-// changed, and 7919, added later as a second held-out check of every prior or search change (a
-// change that helps the 23 named poses but not both draws is not kept). Bars at ~1.3 × the
-// values measured (2026: median 50 mm, 6 of 16 within 30 mm; 7919: median 61 mm, 3 of 16);
-// every fit reprojects within the issue's 5 px.
+// whose keypoints were dropped). Four draws: 2026, the set checked when the priors were first
+// tuned, 7919, added later as a second held-out check of every prior or search change (a change
+// that helps the 23 named poses but not the draws is not kept), and 4242 and 1234, added when the
+// arms' three rest places were (stop 18). Bars at ~1.3 × the medians measured then, and at most 2
+// fewer poses within 30 mm (median / within 30 mm, before → after the rest places: 2026 50.1 / 6 →
+// 48.0 / 6; 7919 61.2 / 3 → 50.6 / 4; 4242 53.4 / 6 → 44.4 / 4; 1234 54.0 / 5 → 54.4 / 4; the
+// means 72.6, 57.8, 65.6, 64.3 → 65.4, 55.2, 57.4, 68.6 mm); every fit reprojects within the
+// issue's 5 px.
 struct HeldOutDraw {
   unsigned pose_seed;     ///< seed of the pose, shape and view draws
   unsigned keypoint_seed; ///< first seed of the keypoint noise and drops (one per pose)
@@ -550,7 +554,8 @@ TEST_P(HeldOutRandomPoses, GuardTheWholeDraw) {
 }
 
 INSTANTIATE_TEST_SUITE_P(KeypointFit, HeldOutRandomPoses,
-                         testing::Values(HeldOutDraw{2026u, 5000u, 65.0, 4}, HeldOutDraw{7919u, 9000u, 80.0, 2}),
+                         testing::Values(HeldOutDraw{2026u, 5000u, 63.0, 4}, HeldOutDraw{7919u, 9000u, 66.0, 2},
+                                         HeldOutDraw{4242u, 13000u, 58.0, 2}, HeldOutDraw{1234u, 17000u, 71.0, 2}),
                          [](const testing::TestParamInfo<HeldOutDraw>& draw_info) { return "Seed" + std::to_string(draw_info.param.pose_seed); });
 
 INSTANTIATE_TEST_SUITE_P(Poses, SyntheticKeypointFit, testing::Range(0, static_cast<int>(synthetic_poses().size())));
