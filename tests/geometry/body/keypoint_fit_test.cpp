@@ -231,11 +231,12 @@ struct SyntheticPose {
 // a fit started from the truth (asserted below), and for all but boxing_guard (32.6 against
 // 29.7 mm) the fit started from the truth ends within 0.2 mm of the cold fit: the misses are where
 // the objective's minimum lies for these keypoints, not search failures. Why it lies there: a
-// dropped limb keypoint leaves a forearm or shin to the priors (a_pose: left elbow and wrist; back_view: both wrists; lunge,
-// squat: right wrist; walking, running: right elbow) — since a hidden forearm is pulled toward
-// a typical 17° elbow flexion rather than the near-straight relaxed pose (keypoint_fit.cpp),
-// back_view went from 53 to 42 mm, lunge 68 to 63, squat 54 to 52, a_pose 38 to 36, while kick
-// (right wrist dropped, true elbow 9°) went from 25 to 29.6 mm, under the bar; elsewhere bones
+// dropped limb keypoint leaves a forearm or shin to the priors (a_pose: left elbow and wrist;
+// back_view: both wrists; lunge, squat: right wrist; walking, running: right elbow) — since a
+// hidden forearm is pulled toward a typical 17° elbow flexion rather than the near-straight
+// relaxed pose (keypoint_fit.cpp), back_view went from 53 to 42 mm, lunge 68 to 63, squat 54 to
+// 52, a_pose 38 to 36, while kick (right wrist dropped, true elbow 9°) went from 25 to 29.6 mm
+// (28.6 since the arms' rest places), under the bar; elsewhere bones
 // turned towards or away from the camera foreshorten by a few pixels only, which the 3 px noise
 // and the free limb lengths absorb, and the pull toward the relaxed pose then wins (lunge's and
 // walking's arm swings, tree_pose's raised knee). throw (93 mm while every arm was pulled toward
