@@ -1,6 +1,7 @@
 #include "laplacian_deformation.h"
 
 #include <algorithm>
+#include <mutex>
 #include <numeric>
 
 #include "kernels/error.h"
@@ -12,9 +13,12 @@ namespace {
 // One TBB task per independent piece of the band (a tee has two, one per armhole).
 constexpr std::size_t PIECES_PER_TASK = 1;
 
-// A safety net, not the stopping rule: the V-cycle-preconditioned CG reaches
-// BAND_MULTIGRID_TOLERANCE in far fewer iterations on driven garments (56 at 10^6 vertices).
-constexpr int MULTIGRID_ITERATION_LIMIT = 500;
+// The solver of one piece with `unknowns` free vertices.
+BandSolver piece_solver(BandSolver solver, std::size_t unknowns) {
+  if (solver != BandSolver::AUTO) return solver;
+  if (unknowns >= BAND_PIECE_ITERATIVE_UNKNOWNS) return BandSolver::MULTIGRID;
+  return unknowns >= BAND_PIECE_SUPERNODAL_UNKNOWNS ? BandSolver::SUPERNODAL : BandSolver::DIRECT;
+}
 
 // [L; w·S] where S selects the constrained vertices.
 SparseMatrix stacked_system(const SparseMatrix& L, std::span<const std::int32_t> constrained, double weight) {
@@ -68,25 +72,67 @@ struct BandLaplacianDeformer::Piece {
   std::vector<std::int32_t> rows;    ///< its rows (indices into m_rows), ascending; empty: the whole band
   std::unique_ptr<SparseLeastSquares> direct;
   std::unique_ptr<SupernodalLeastSquares> supernodal;
+  std::unique_ptr<TwoGridLeastSquares> iterative;
+  SparseMatrix system; ///< iterative: L[rows, columns], kept for the fallback factorisation
+  /// iterative: the exact factorisation, made on the first solve that does not converge.
+  mutable std::unique_ptr<SupernodalLeastSquares> fallback;
+  std::unique_ptr<std::mutex> fallback_mutex = std::make_unique<std::mutex>();
 
-  void factor(const SparseMatrix& A, BandSolver solver) {
+  /// near_null: MULTIGRID's (#columns × 4). AUTO's MULTIGRID choice (`exact_if_refused`)
+  /// factors the piece instead when the two-grid setup refuses it.
+  void factor(const SparseMatrix& A, BandSolver solver, const Eigen::MatrixXd& near_null, bool exact_if_refused) {
+    if (solver == BandSolver::MULTIGRID) {
+      iterative = std::make_unique<TwoGridLeastSquares>(A, near_null);
+      if (iterative->ok() || !exact_if_refused) {
+        system = A;
+        return;
+      }
+      iterative.reset();
+      solver = BandSolver::SUPERNODAL;
+    }
     if (solver == BandSolver::SUPERNODAL)
       supernodal = std::make_unique<SupernodalLeastSquares>(A);
     else
       direct = std::make_unique<SparseLeastSquares>(A);
   }
-  bool ok() const { return direct ? direct->ok() : supernodal->ok(); }
-  Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const { return direct ? direct->solve(b) : supernodal->solve(b); }
-  /// Writes its free vertices' rows of x (#F × 3) from b (#R × 3, all rows of the band).
-  void solve_into(const Eigen::MatrixXd& b, Eigen::MatrixXd& x) const {
-    if (columns.empty()) {
-      x = solve(b);
+  bool ok() const { return direct ? direct->ok() : supernodal ? supernodal->ok() : iterative->ok(); }
+
+  /// Writes its free vertices' rows of x (#F × 3) from b (#R × 3, all rows of the band);
+  /// initial (#F × 3, or null for zeros) starts the iteration, `stats` receives it.
+  void solve_into(const Eigen::MatrixXd& b, Eigen::MatrixXd& x, const Eigen::MatrixXd* initial, int iteration_limit,
+                  IterativeSolveStats& stats) const {
+    const bool whole = columns.empty();
+    Eigen::MatrixXd bp, xp;
+    if (whole) {
+      bp = b;
+    } else {
+      bp.resize(static_cast<Eigen::Index>(rows.size()), b.cols());
+      for (std::size_t r = 0; r < rows.size(); ++r)
+        bp.row(static_cast<Eigen::Index>(r)) = b.row(rows[r]);
+    }
+    if (!iterative) {
+      xp = direct ? direct->solve(bp) : supernodal->solve(bp);
+    } else {
+      const auto n = static_cast<Eigen::Index>(whole ? x.rows() : static_cast<Eigen::Index>(columns.size()));
+      xp = Eigen::MatrixXd::Zero(n, b.cols());
+      if (initial)
+        for (Eigen::Index c = 0; c < n; ++c)
+          xp.row(c) = initial->row(whole ? c : columns[static_cast<std::size_t>(c)]);
+      stats = iterative->solve(bp, xp, BAND_MULTIGRID_TOLERANCE, iteration_limit);
+      if (!stats.converged) {
+        // Never a silently inexact answer: the exact factorisation takes over, and says so.
+        const std::lock_guard<std::mutex> lock(*fallback_mutex);
+        if (!fallback) fallback = std::make_unique<SupernodalLeastSquares>(system);
+        if (fallback->ok()) {
+          xp = fallback->solve(bp);
+          stats.fell_back = true;
+        }
+      }
+    }
+    if (whole) {
+      x = std::move(xp);
       return;
     }
-    Eigen::MatrixXd bp(static_cast<Eigen::Index>(rows.size()), b.cols());
-    for (std::size_t r = 0; r < rows.size(); ++r)
-      bp.row(static_cast<Eigen::Index>(r)) = b.row(rows[r]);
-    const Eigen::MatrixXd xp = solve(bp);
     for (std::size_t c = 0; c < columns.size(); ++c)
       x.row(columns[c]) = xp.row(static_cast<Eigen::Index>(c));
   }
@@ -123,8 +169,8 @@ std::vector<float> LaplacianDeformer::deform(const Eigen::MatrixXd& delta, const
 }
 
 BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform,
-                                             BandSolver solver)
-    : m_handles(handles.begin(), handles.end()) {
+                                             BandSolver solver, int iteration_limit)
+    : m_handles(handles.begin(), handles.end()), m_iteration_limit(iteration_limit) {
   const std::size_t nv = mesh.vertex_count();
   // column[v]: index among the free vertices (≥ 0) or −1 − index among the handles.
   std::vector<std::int32_t> column(nv, 0);
@@ -184,34 +230,31 @@ BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const s
   m_handle_block.setFromTriplets(handle_entries.begin(), handle_entries.end());
   if (solver == BandSolver::DIRECT || (solver == BandSolver::AUTO && m_free.size() < BAND_SUPERNODAL_UNKNOWNS)) {
     m_pieces.resize(1);
-    m_pieces.front().factor(m_free_block, BandSolver::DIRECT);
+    m_pieces.front().factor(m_free_block, BandSolver::DIRECT, {}, false);
     return;
   }
-  if (solver != BandSolver::MULTIGRID) {
-    factor_pieces(solver);
-    return;
-  }
-  m_free_block_transpose = m_free_block.transpose();
-  const SparseMatrix normal = m_free_block_transpose * m_free_block;
-  // Near-null space of L_Fᵀ L_F: constants and the linear functions x, y, z, which the
-  // Laplacian annihilates away from the band's edges (SmoothedAggregationSolver).
-  Eigen::MatrixXd near_null(static_cast<Eigen::Index>(m_free.size()), 4);
-  for (std::size_t f = 0; f < m_free.size(); ++f) {
-    const auto v = static_cast<std::size_t>(m_free[f]);
-    near_null.row(static_cast<Eigen::Index>(f)) << 1.0, mesh.positions[3 * v], mesh.positions[3 * v + 1],
-        mesh.positions[3 * v + 2];
-  }
-  m_multigrid = std::make_unique<SmoothedAggregationSolver>(normal, near_null);
+  factor_pieces(solver, mesh.positions);
 }
 
-void BandLaplacianDeformer::factor_pieces(BandSolver solver) {
+void BandLaplacianDeformer::factor_pieces(BandSolver solver, std::span<const float> positions) {
   std::vector<std::int32_t> piece;
   const std::int32_t count = free_pieces(m_free_block, piece);
   m_pieces.resize(static_cast<std::size_t>(count));
+  // MULTIGRID's near-null space of a piece: the constant and its free vertices' x, y, z.
+  auto near_null = [&](const std::vector<std::int32_t>& columns, BandSolver s) {
+    Eigen::MatrixXd B;
+    if (s != BandSolver::MULTIGRID) return B;
+    const std::size_t n = columns.empty() ? m_free.size() : columns.size();
+    B.resize(static_cast<Eigen::Index>(n), 4);
+    for (std::size_t c = 0; c < n; ++c) {
+      const auto v = static_cast<std::size_t>(m_free[columns.empty() ? c : static_cast<std::size_t>(columns[c])]);
+      B.row(static_cast<Eigen::Index>(c)) << 1.0, positions[3 * v], positions[3 * v + 1], positions[3 * v + 2];
+    }
+    return B;
+  };
   if (count == 1) {
-    m_pieces.front().factor(m_free_block, solver == BandSolver::SUPERNODAL || m_free.size() >= BAND_PIECE_SUPERNODAL_UNKNOWNS
-                                              ? BandSolver::SUPERNODAL
-                                              : BandSolver::DIRECT);
+    const BandSolver s = piece_solver(solver, m_free.size());
+    m_pieces.front().factor(m_free_block, s, near_null({}, s), solver == BandSolver::AUTO);
     return;
   }
   // local[f]: f's column within its piece.
@@ -234,18 +277,20 @@ void BandLaplacianDeformer::factor_pieces(BandSolver solver) {
           entries.emplace_back(static_cast<Eigen::Index>(r), local[static_cast<std::size_t>(it.col())], it.value());
       SparseMatrix A(static_cast<Eigen::Index>(p.rows.size()), static_cast<Eigen::Index>(p.columns.size()));
       A.setFromTriplets(entries.begin(), entries.end());
-      p.factor(A, solver == BandSolver::SUPERNODAL || p.columns.size() >= BAND_PIECE_SUPERNODAL_UNKNOWNS
-                      ? BandSolver::SUPERNODAL
-                      : BandSolver::DIRECT);
+      const BandSolver s = piece_solver(solver, p.columns.size());
+      p.factor(A, s, near_null(p.columns, s), solver == BandSolver::AUTO);
     }
   });
 }
 
 std::size_t BandLaplacianDeformer::pieces() const { return m_pieces.size(); }
 
+bool BandLaplacianDeformer::iterative() const {
+  return std::any_of(m_pieces.begin(), m_pieces.end(), [](const Piece& p) { return p.iterative != nullptr; });
+}
+
 bool BandLaplacianDeformer::ok() const {
   if (m_free.empty()) return true;
-  if (m_multigrid) return m_multigrid->ok();
   return std::all_of(m_pieces.begin(), m_pieces.end(), [](const Piece& p) { return p.ok(); });
 }
 
@@ -277,23 +322,29 @@ std::vector<float> BandLaplacianDeformer::deform(const Eigen::MatrixXd& delta, c
   for (std::size_t r = 0; r < m_rows.size(); ++r)
     b.row(static_cast<Eigen::Index>(r)) = delta.row(m_rows[r]);
   b -= m_handle_block * targets;
-  Eigen::MatrixXd x;
-  if (m_pieces.size() == 1) {
-    m_pieces.front().solve_into(b, x);
-  } else if (!m_pieces.empty()) {
-    x.resize(static_cast<Eigen::Index>(m_free.size()), b.cols());
-    parallel_for_range(m_pieces.size(), PIECES_PER_TASK, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; ++i) m_pieces[i].solve_into(b, x);
-    });
-  } else {
-    Eigen::MatrixXd rhs;
-    parallel_multiply(m_free_block_transpose, b, rhs);
-    x = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(m_free.size()), 3);
-    if (initial)
-      for (std::size_t f = 0; f < m_free.size(); ++f)
-        x.row(static_cast<Eigen::Index>(f)) = initial->row(m_free[f]);
-    const IterativeSolveStats s = m_multigrid->solve(rhs, x, BAND_MULTIGRID_TOLERANCE, MULTIGRID_ITERATION_LIMIT);
-    if (stats) *stats = s;
+  // The free vertices' initial guess (#F × 3) for the iterative pieces.
+  Eigen::MatrixXd x0;
+  if (initial && iterative()) {
+    x0.resize(static_cast<Eigen::Index>(m_free.size()), 3);
+    for (std::size_t f = 0; f < m_free.size(); ++f)
+      x0.row(static_cast<Eigen::Index>(f)) = initial->row(m_free[f]);
+  }
+  const Eigen::MatrixXd* guess = x0.size() ? &x0 : nullptr;
+  Eigen::MatrixXd x(static_cast<Eigen::Index>(m_free.size()), b.cols());
+  std::vector<IterativeSolveStats> piece_stats(m_pieces.size());
+  parallel_for_range(m_pieces.size(), PIECES_PER_TASK, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) m_pieces[i].solve_into(b, x, guess, m_iteration_limit, piece_stats[i]);
+  });
+  if (stats && iterative()) {
+    stats->converged = true;
+    for (std::size_t i = 0; i < m_pieces.size(); ++i) {
+      if (!m_pieces[i].iterative) continue;
+      const IterativeSolveStats& s = piece_stats[i];
+      stats->iterations = std::max(stats->iterations, s.iterations);
+      stats->relative_residual = std::max(stats->relative_residual, s.relative_residual);
+      stats->converged = stats->converged && s.converged;
+      stats->fell_back = stats->fell_back || s.fell_back;
+    }
   }
   for (std::size_t f = 0; f < m_free.size(); ++f)
     for (int k = 0; k < 3; ++k)

@@ -15,8 +15,8 @@
 
 #include "geometry/mesh/mesh.h"
 #include "kernels/least_squares.h"
-#include "kernels/smoothed_aggregation.h"
 #include "kernels/supernodal_least_squares.h"
+#include "kernels/two_grid_least_squares.h"
 
 namespace vfit {
 
@@ -49,10 +49,11 @@ private:
 enum class BandSolver {
   /// DIRECT below BAND_SUPERNODAL_UNKNOWNS free vertices (one factorisation of the whole
   /// band: the Table-1 garments' 600–3,300). From there on the band is split into its
-  /// connected pieces (a tee's two armholes), which are independent systems, factored and
-  /// solved concurrently (one TBB task each): by SUPERNODAL when a piece has at least
-  /// BAND_PIECE_SUPERNODAL_UNKNOWNS free vertices, by DIRECT otherwise. The same least-squares
-  /// solution as one factorisation of the whole band, up to round-off.
+  /// connected pieces (a tee's two armholes), which are independent systems, set up and
+  /// solved concurrently (one TBB task each): by MULTIGRID when a piece has at least
+  /// BAND_PIECE_ITERATIVE_UNKNOWNS free vertices, by SUPERNODAL from
+  /// BAND_PIECE_SUPERNODAL_UNKNOWNS, by DIRECT below. The factored pieces give the
+  /// least-squares solution up to round-off, the iterative ones within BAND_MULTIGRID_TOLERANCE.
   AUTO = 0,
   /// Simplicial sparse LDLᵀ (SparseLeastSquares) of the whole band at once: exact; fastest for
   /// small bands, but its fill-in makes the factorisation grow about as #F^1.8 (27 s for the
@@ -60,17 +61,19 @@ enum class BandSolver {
   DIRECT = 1,
   /// CHOLMOD's supernodal Cholesky (SupernodalLeastSquares) of each connected piece of the
   /// band, the pieces concurrently: exact, the same fill-in worked in dense blocks; still
-  /// superlinear (about #F^1.35: 2.3 s of one core for that band).
+  /// superlinear (about #F^1.4: 4.4 s of one core for that band).
   SUPERNODAL = 2,
-  /// Conjugate gradients preconditioned by a smoothed-aggregation V-cycle
-  /// (smoothed_aggregation.h) to BAND_MULTIGRID_TOLERANCE, from the caller's initial guess.
-  /// Opt-in, not chosen by AUTO: the iterations barely grow (17, 20, 22 for bands of 22,523,
-  /// 70,224 and 225,558 vertices) and each is linear in #F, but setup and solve together took
-  /// 0.32, 1.2 and 4.5 s of one core against SUPERNODAL's 0.12, 0.53 and 2.6 s.
+  /// Conjugate gradients preconditioned by a two-grid cycle (TwoGridLeastSquares: aggregates
+  /// of ~20 free vertices carrying the constant and linear functions, the coarse system
+  /// factored) on each connected piece, the pieces concurrently, from the caller's initial
+  /// guess, to BAND_MULTIGRID_TOLERANCE. 15–18 iterations for bands of 22,523 to 225,558
+  /// free vertices; about linear in #F but for the coarse factorisation (of ~#F / 5 unknowns). A piece whose
+  /// iteration does not converge within the iteration limit is factored by SUPERNODAL and
+  /// solved exactly instead, and the solve reports it (IterativeSolveStats::fell_back).
   MULTIGRID = 3,
 };
 
-/// BandSolver::AUTO's switch from one factorisation of the whole band to its pieces factored
+/// BandSolver::AUTO's switch from one factorisation of the whole band to its pieces solved
 /// concurrently. Below it lie the Table-1 garments' bands (600–3,300 free vertices), which
 /// keep their single simplicial factorisation.
 inline constexpr std::size_t BAND_SUPERNODAL_UNKNOWNS = 5000;
@@ -78,11 +81,22 @@ inline constexpr std::size_t BAND_SUPERNODAL_UNKNOWNS = 5000;
 /// smaller ones by DIRECT (one core of a loaded machine: pieces of 3,500 free vertices cost the
 /// same either way, 27 against 30 ms for two; pieces of 11,000, 64 against 87 ms each).
 inline constexpr std::size_t BAND_PIECE_SUPERNODAL_UNKNOWNS = 5000;
-/// BandSolver::MULTIGRID's stopping rule: ‖L_Fᵀ(b − L_F x)‖ ≤ this × ‖L_Fᵀ b‖ per axis. On
-/// driven tees (from the blended rigid guess) it leaves the free vertices within 0.14 mm
-/// (22,523 free), 0.91 mm (70,224) and 1.3 mm (225,558) of the factored solution, 0.017,
-/// 0.12 and 0.18 mm on average.
-inline constexpr double BAND_MULTIGRID_TOLERANCE = 1e-6;
+/// BandSolver::AUTO: pieces with at least this many free vertices are solved by MULTIGRID.
+/// Set up and solved on one core of a loaded machine, a driven tee's two armhole pieces
+/// together took 0.27–0.29 s against CHOLMOD's 0.23 s at 11,000 free vertices each
+/// (10^5-vertex tee), 0.66–0.83 s against 0.93 s at 35,000 (3.16·10^5) and 2.4–2.7 s against
+/// 4.4 s at 113,000 (10^6).
+inline constexpr std::size_t BAND_PIECE_ITERATIVE_UNKNOWNS = 25000;
+/// BandSolver::MULTIGRID's stopping rule: ‖L_Fᵀ(b − L_F x)‖ ≤ this × ‖L_Fᵀ b‖ per axis, ‖L_Fᵀ b‖
+/// the largest of the three axes' (positions share one unit). On driven tees (from the blended
+/// rigid guess, 42 mm at worst from the solution) it left the free vertices within 0.010 mm
+/// (22,523 free), 0.022 mm (70,224) and 0.036 mm (225,558) of the factored solution, 0.001 to
+/// 0.003 mm on average.
+inline constexpr double BAND_MULTIGRID_TOLERANCE = 1e-7;
+/// BandSolver::MULTIGRID's iteration limit per piece, past which the piece falls back to its
+/// exact factorisation: about 3× the 13–18 iterations driven tees need, so that a stalled
+/// iteration costs a few solves' time, not hundreds.
+inline constexpr int BAND_MULTIGRID_ITERATIONS = 50;
 
 /// Laplacian surface deformation with the handles held exactly (hard constraints): only the
 /// free vertices are unknowns, argmin over x_F of ‖L x − δ‖² with x_H = t. Rows of L that touch
@@ -100,24 +114,26 @@ public:
   /// indices held at their targets, in any order, each once; throws vfit::Error("laplacian
   /// deformation", …) naming a handle out of range.
   /// solver: how the free band's system is solved (BandSolver); all give the same positions,
-  /// MULTIGRID up to BAND_MULTIGRID_TOLERANCE.
+  /// MULTIGRID up to BAND_MULTIGRID_TOLERANCE. iteration_limit: MULTIGRID's conjugate-gradient
+  /// iterations per piece before it falls back to the exact factorisation (≥ 0).
   BandLaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> handles, bool uniform = false,
-                        BandSolver solver = BandSolver::AUTO);
+                        BandSolver solver = BandSolver::AUTO, int iteration_limit = BAND_MULTIGRID_ITERATIONS);
   ~BandLaplacianDeformer();
   BandLaplacianDeformer(BandLaplacianDeformer&&) noexcept;
   BandLaplacianDeformer& operator=(BandLaplacianDeformer&&) noexcept;
 
-  /// False when the free band's system is singular (a free piece touches no handle) or the
-  /// multigrid setup failed: callers check it before deform(). True for an empty band.
+  /// False when the free band's system is singular (a free piece touches no handle; for
+  /// MULTIGRID, its coarse system is): callers check it before deform(). True for an empty band.
   bool ok() const;
 
-  /// Independent systems the band is factored as: its connected pieces for AUTO (from
-  /// BAND_SUPERNODAL_UNKNOWNS free vertices on) and SUPERNODAL; 1 for DIRECT and a smaller
-  /// band under AUTO; 0 for MULTIGRID and an empty band.
+  /// Independent systems the band is solved as: its connected pieces for AUTO (from
+  /// BAND_SUPERNODAL_UNKNOWNS free vertices on), SUPERNODAL and MULTIGRID; 1 for DIRECT and a
+  /// smaller band under AUTO; 0 for an empty band.
   std::size_t pieces() const;
 
-  /// True when the free band is solved by BandSolver::MULTIGRID (after AUTO's choice).
-  bool iterative() const { return m_multigrid != nullptr; }
+  /// True when some piece of the free band is solved by BandSolver::MULTIGRID (after AUTO's
+  /// choice): deform() then uses an initial guess.
+  bool iterative() const;
 
   /// δ = L · x for positions (#V × 3 flat, m) of this mesh: #V × 3. Only the rows deform()
   /// reads are kept (free vertices and their neighbours, built from the faces around them);
@@ -128,8 +144,11 @@ public:
   /// are read); targets: #H × 3 (m), in `handles` order. Returns #V × 3 positions as floats
   /// (flat): handles at their targets exactly, free vertices from the least squares.
   /// initial (optional, #V × 3, m; only the free rows are read): MULTIGRID's starting guess,
-  /// e.g. the vertices' rigid positions, which saves iterations; ignored by DIRECT and SUPERNODAL. stats
-  /// (optional) receives MULTIGRID's iterations and residual (zeros for DIRECT and SUPERNODAL).
+  /// e.g. the vertices' rigid positions, which saves iterations (zeros when absent); ignored by
+  /// DIRECT and SUPERNODAL. stats (optional) receives MULTIGRID's iterations and residual, the
+  /// worst over its pieces, converged when every piece's iteration converged, and fell_back
+  /// when some piece was solved by its exact factorisation instead (zeros and converged false
+  /// when no piece is iterative).
   std::vector<float> deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets,
                             const Eigen::MatrixXd* initial = nullptr, IterativeSolveStats* stats = nullptr) const;
 
@@ -137,9 +156,9 @@ public:
   const std::vector<std::int32_t>& free_vertices() const { return m_free; }
 
 private:
-  /// Splits the band into its connected pieces and factors each (concurrently) with `solver`
-  /// (AUTO: by the piece's size).
-  void factor_pieces(BandSolver solver);
+  /// Splits the band into its connected pieces and sets each up (concurrently) with `solver`
+  /// (AUTO: by the piece's size); positions: the mesh's (#V × 3), MULTIGRID's near-null space.
+  void factor_pieces(BandSolver solver, std::span<const float> positions);
 
   SparseMatrix m_laplacian;            ///< #V × #V, rows of the free vertices and their neighbours only
   std::vector<std::int32_t> m_handles; ///< #H, caller's order
@@ -148,12 +167,11 @@ private:
   SparseMatrix m_free_block;           ///< L[rows, F]
   SparseMatrix m_handle_block;         ///< L[rows, H] (columns in `handles` order)
   /// One independent system of the band: a connected piece of free vertices and the rows
-  /// that touch it, factored by SparseLeastSquares or SupernodalLeastSquares (defined in the
-  /// .cpp). DIRECT, SUPERNODAL and AUTO: one or more; MULTIGRID: none.
+  /// that touch it, solved by SparseLeastSquares, SupernodalLeastSquares or
+  /// TwoGridLeastSquares (defined in the .cpp).
   struct Piece;
   std::vector<Piece> m_pieces;
-  SparseMatrix m_free_block_transpose;                     ///< MULTIGRID: L[rows, F]ᵀ
-  std::unique_ptr<SmoothedAggregationSolver> m_multigrid; ///< MULTIGRID, on L_Fᵀ L_F
+  int m_iteration_limit = BAND_MULTIGRID_ITERATIONS;
 };
 
 } // namespace vfit

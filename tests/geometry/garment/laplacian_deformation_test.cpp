@@ -84,6 +84,102 @@ TEST(BandLaplacianDeformerPieces, SplitSolvesAgreeWithOneFactorisationOfTheWhole
   EXPECT_GT(moved, 0.01);
 }
 
+// Largest distance between corresponding vertices of two #V × 3 flat position arrays (m).
+double worst_vertex_distance(const std::vector<float>& a, const std::vector<float>& b) {
+  double worst = 0;
+  for (std::size_t v = 0; 3 * v < a.size(); ++v)
+    worst = std::max(worst, std::hypot(double(a[3 * v] - b[3 * v]), double(a[3 * v + 1] - b[3 * v + 1]),
+                                       double(a[3 * v + 2] - b[3 * v + 2])));
+  return worst;
+}
+
+// The rest positions as a #V × 3 initial guess (the driver passes the blended rigid one).
+Eigen::MatrixXd rest_guess(const Mesh& mesh) {
+  Eigen::MatrixXd x(static_cast<Eigen::Index>(mesh.vertex_count()), 3);
+  for (Eigen::Index v = 0; v < x.rows(); ++v)
+    for (int k = 0; k < 3; ++k) x(v, k) = mesh.positions[static_cast<std::size_t>(3 * v + k)];
+  return x;
+}
+
+// MULTIGRID solves each piece by the two-grid CG to BAND_MULTIGRID_TOLERANCE: against the
+// exact factorisation of the same pieces, within the tolerance's measured accuracy.
+TEST(BandLaplacianDeformerPieces, MultigridAgreesWithTheFactorisationWithinItsTolerance) {
+  const TwoTubes c;
+  const BandLaplacianDeformer exact(c.mesh, c.handles, false, BandSolver::SUPERNODAL);
+  const BandLaplacianDeformer multigrid(c.mesh, c.handles, false, BandSolver::MULTIGRID);
+  ASSERT_TRUE(exact.ok() && multigrid.ok());
+  EXPECT_TRUE(multigrid.iterative());
+  EXPECT_FALSE(exact.iterative());
+  EXPECT_EQ(multigrid.pieces(), 2u);
+  const Eigen::MatrixXd delta = exact.laplacian_coordinates(c.mesh.positions);
+  const Eigen::MatrixXd targets = c.targets(), guess = rest_guess(c.mesh);
+  IterativeSolveStats stats;
+  const std::vector<float> a = exact.deform(delta, targets);
+  const std::vector<float> m = multigrid.deform(delta, targets, &guess, &stats);
+  EXPECT_TRUE(stats.converged);
+  EXPECT_FALSE(stats.fell_back);
+  EXPECT_GT(stats.iterations, 0);
+  EXPECT_LE(stats.relative_residual, BAND_MULTIGRID_TOLERANCE);
+  // BAND_MULTIGRID_TOLERANCE left driven tees' bands within 0.04 mm of the exact solve; these
+  // tubes, sheared 5 cm and twisted, measured 0.004 mm. 0.1 mm: the stated accuracy, with room.
+  EXPECT_LT(worst_vertex_distance(a, m), 1e-4);
+  // The handles are held exactly either way.
+  for (std::int32_t h : c.handles)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a[3 * std::size_t(h) + std::size_t(k)], m[3 * std::size_t(h) + std::size_t(k)]);
+}
+
+// An iteration stopped before it converges is never returned: the piece is factored and solved
+// exactly instead, and the stats say so.
+TEST(BandLaplacianDeformerPieces, MultigridFallsBackToTheFactorisationWhenItDoesNotConverge) {
+  const TwoTubes c;
+  const BandLaplacianDeformer exact(c.mesh, c.handles, false, BandSolver::SUPERNODAL);
+  const BandLaplacianDeformer limited(c.mesh, c.handles, false, BandSolver::MULTIGRID, 2);
+  ASSERT_TRUE(exact.ok() && limited.ok());
+  const Eigen::MatrixXd delta = exact.laplacian_coordinates(c.mesh.positions);
+  const Eigen::MatrixXd targets = c.targets(), guess = rest_guess(c.mesh);
+  IterativeSolveStats stats;
+  const std::vector<float> a = exact.deform(delta, targets);
+  const std::vector<float> m = limited.deform(delta, targets, &guess, &stats);
+  EXPECT_FALSE(stats.converged);
+  EXPECT_TRUE(stats.fell_back);
+  EXPECT_EQ(stats.iterations, 2);
+  EXPECT_GT(stats.relative_residual, BAND_MULTIGRID_TOLERANCE);
+  // The same pieces factored the same way: the same bits.
+  EXPECT_EQ(a, m);
+  // A second solve falls back again, to the factorisation made by the first.
+  const std::vector<float> again = limited.deform(delta, targets, &guess, &stats);
+  EXPECT_TRUE(stats.fell_back);
+  EXPECT_EQ(a, again);
+}
+
+// AUTO solves a piece iteratively from BAND_PIECE_ITERATIVE_UNKNOWNS free vertices on, and
+// factors smaller ones (the two tubes' 3,600).
+TEST(BandLaplacianDeformerPieces, AutoIteratesOnlyOnLargePieces) {
+  const Mesh tube = make_tube(600, 100, 0.05f, 0.4f);
+  std::vector<std::int32_t> handles;
+  for (std::size_t v = 0; v < tube.vertex_count(); ++v)
+    if (tube.positions[3 * v + 1] < 0.1f || tube.positions[3 * v + 1] > 0.3f) handles.push_back(static_cast<std::int32_t>(v));
+  const BandLaplacianDeformer automatic(tube, handles);
+  ASSERT_TRUE(automatic.ok());
+  ASSERT_GE(automatic.free_vertices().size(), BAND_PIECE_ITERATIVE_UNKNOWNS);
+  EXPECT_TRUE(automatic.iterative());
+  EXPECT_FALSE(BandLaplacianDeformer(TwoTubes().mesh, TwoTubes().handles).iterative());
+  const BandLaplacianDeformer exact(tube, handles, false, BandSolver::SUPERNODAL);
+  Eigen::MatrixXd targets(static_cast<Eigen::Index>(handles.size()), 3);
+  for (std::size_t h = 0; h < handles.size(); ++h) {
+    const auto v = static_cast<std::size_t>(handles[h]);
+    targets.row(static_cast<Eigen::Index>(h)) << tube.positions[3 * v] + (tube.positions[3 * v + 1] > 0.3f ? 0.05 : 0.0),
+        tube.positions[3 * v + 1], tube.positions[3 * v + 2];
+  }
+  const Eigen::MatrixXd delta = exact.laplacian_coordinates(tube.positions), guess = rest_guess(tube);
+  IterativeSolveStats stats;
+  const std::vector<float> m = automatic.deform(delta, targets, &guess, &stats);
+  EXPECT_TRUE(stats.converged);
+  EXPECT_FALSE(stats.fell_back);
+  // As in MultigridAgreesWithTheFactorisationWithinItsTolerance.
+  EXPECT_LT(worst_vertex_distance(exact.deform(delta, targets), m), 1e-4);
+}
+
 TEST(BandLaplacianDeformerPieces, SmallBandsKeepOneFactorisation) {
   // One tube alone, 3,600 free vertices: below BAND_SUPERNODAL_UNKNOWNS, AUTO factors the
   // whole band once (the Table-1 garments' path).
@@ -95,7 +191,7 @@ TEST(BandLaplacianDeformerPieces, SmallBandsKeepOneFactorisation) {
   ASSERT_TRUE(deformer.ok());
   EXPECT_LT(deformer.free_vertices().size(), BAND_SUPERNODAL_UNKNOWNS);
   EXPECT_EQ(deformer.pieces(), 1u);
-  EXPECT_EQ(BandLaplacianDeformer(tube, handles, false, BandSolver::MULTIGRID).pieces(), 0u);
+  EXPECT_EQ(BandLaplacianDeformer(tube, handles, false, BandSolver::MULTIGRID).pieces(), 1u);
 }
 
 TEST(BandLaplacianDeformerPieces, APieceWithoutHandlesIsReported) {
