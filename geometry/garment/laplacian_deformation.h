@@ -148,7 +148,9 @@ public:
   /// DIRECT and SUPERNODAL. stats (optional) receives MULTIGRID's iterations and residual, the
   /// worst over its pieces, converged when every piece's iteration converged, and fell_back
   /// when some piece was solved by its exact factorisation instead (zeros and converged false
-  /// when no piece is iterative).
+  /// when no piece is iterative). converged and fell_back both false: a piece's iteration did
+  /// not converge and CHOLMOD refused its factorisation (singular to its bar, not to the
+  /// two-grid setup's); that piece's positions are then the last iterate.
   std::vector<float> deform(const Eigen::MatrixXd& delta, const Eigen::MatrixXd& targets,
                             const Eigen::MatrixXd* initial = nullptr, IterativeSolveStats* stats = nullptr) const;
 
