@@ -196,7 +196,12 @@ struct FitResult {
 /// Throws vfit::Error naming the garment when one is not a garment (segment_garment()'s
 /// errors), when its units cannot be detected, or for an unknown fabric; the body is assumed
 /// valid (load_body() checked it). A diverged simulation is not an error: it is reported and
-/// the garment keeps its pre-simulation shape.
+/// the garment keeps its pre-simulation shape. Garments are dressed bottoms first, each kept
+/// outside the ones before it: penetration removal pushes out its vertices inside them and its
+/// triangles their edges pass through (engine/layer_piercing.h), and its simulation collides
+/// with them as well as with the body. A file holding several garments (an outfit) is split
+/// into them; a garment modelled with thickness (geometry/garment/thick_shell.h) is fitted by
+/// its inner sheet and returned whole, with a warning.
 FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options = {});
 
 /// Fits the same garments onto each of `bodies` (many bodies, one garment collection: sizes of a
