@@ -16,6 +16,7 @@
 #include "geometry/garment/skeleton_driving.h"
 #include "geometry/garment/thick_shell.h"
 #include "geometry/mesh/orient.h"
+#include "geometry/mesh/topology.h"
 #include "geometry/mesh/weld.h"
 #include "engine/layering.h"
 #include "kernels/edge_crossings.h"
@@ -108,32 +109,11 @@ struct SplitInputs {
   std::vector<std::string> notes; ///< per garment: how it came out of its file ("" when whole)
 };
 
-// Union–find over vertices: the root of v's piece.
-std::int32_t root_of(std::vector<std::int32_t>& parent, std::int32_t v) {
-  while (parent[static_cast<std::size_t>(v)] != v) {
-    parent[static_cast<std::size_t>(v)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(v)])];
-    v = parent[static_cast<std::size_t>(v)];
-  }
-  return v;
-}
-
-// Union–find of `m`'s vertices over its triangles: parent links (roots: parent[v] == v).
-std::vector<std::int32_t> vertex_pieces(const Mesh& m) {
-  std::vector<std::int32_t> parent(m.vertex_count());
-  std::iota(parent.begin(), parent.end(), 0);
-  for (std::size_t f = 0; f < m.face_count(); ++f)
-    for (int k = 1; k < 3; ++k) {
-      const std::int32_t a = root_of(parent, m.triangles[3 * f]), b = root_of(parent, m.triangles[3 * f + std::size_t(k)]);
-      if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-    }
-  return parent;
-}
-
 // Whether every triangle of `m` lies in one piece (then welding cannot make two).
 bool one_piece(const Mesh& m) {
-  std::vector<std::int32_t> parent = vertex_pieces(m);
+  const std::vector<std::int32_t> piece = vertex_piece_labels(m.triangles, m.vertex_count());
   for (std::size_t i = 1; i < m.triangles.size(); ++i)
-    if (root_of(parent, m.triangles[i]) != root_of(parent, m.triangles[0])) return false;
+    if (piece[std::size_t(m.triangles[i])] != piece[std::size_t(m.triangles[0])]) return false;
   return true;
 }
 
@@ -149,12 +129,12 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     Mesh m = input.mesh;
     weld_coincident_vertices(m);
     const std::size_t nv = m.vertex_count(), nf = m.face_count();
-    std::vector<std::int32_t> parent = vertex_pieces(m);
+    const std::vector<std::int32_t> piece_of = vertex_piece_labels(m.triangles, nv);
     std::vector<std::size_t> size(nv, 0); // by piece root: referenced vertices
     std::vector<char> used(nv, 0);
     for (std::int32_t v : m.triangles) used[static_cast<std::size_t>(v)] = 1;
     for (std::size_t v = 0; v < nv; ++v)
-      if (used[v]) ++size[static_cast<std::size_t>(root_of(parent, static_cast<std::int32_t>(v)))];
+      if (used[v]) ++size[static_cast<std::size_t>(piece_of[v])];
     std::vector<std::pair<std::size_t, std::int32_t>> big;
     for (std::size_t root = 0; root < nv; ++root)
       if (size[root] > 0 && static_cast<double>(size[root]) >= OUTFIT_SHARE * static_cast<double>(nv))
@@ -180,7 +160,9 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
       piece.uvs = m.uvs;
       piece.normals = m.normals;
       piece.label_names = m.label_names;
-      auto garment_index = [&](std::int32_t v) { return garment_of[static_cast<std::size_t>(root_of(parent, v))]; };
+      auto garment_index = [&](std::int32_t v) {
+        return garment_of[static_cast<std::size_t>(piece_of[static_cast<std::size_t>(v)])];
+      };
       // The piece's vertices and triangles keep their order in the file.
       std::vector<std::int32_t> remap(nv, -1);
       for (std::size_t v = 0; v < nv; ++v)
@@ -216,6 +198,16 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     }
   }
   return out;
+}
+
+// Penetration removal as the fit's options ask for it.
+PenetrationOptions penetration_options(const FitOptions& options) {
+  PenetrationOptions po;
+  po.clearance = options.clearance;
+  po.smoothness = options.smoothness;
+  po.max_iterations = options.penetration_iterations;
+  if (options.penetration_iterations == 0) po.direct_rounds = 0; // detection only
+  return po;
 }
 
 // A garment modelled with thickness (thick_shell.h): the whole mesh as read (metres, welded,
@@ -353,13 +345,9 @@ void restore_shell(const ShellGarment& sg, const Obstacles& obstacles, const Fit
   // against the torso under an arm hanging down. Removal then runs on the whole mesh.
   if (report.after.inside_count > 0 || report.after.crossing_edges > 0 || report.after.layer_inside_count > 0 ||
       report.after.layer_crossing_edges > 0) {
-    PenetrationOptions po;
-    po.clearance = options.clearance;
-    po.smoothness = options.smoothness;
-    po.max_iterations = options.penetration_iterations;
-    if (options.penetration_iterations == 0) po.direct_rounds = 0;
-    report.after =
-        remove_penetration(out.mesh, obstacles.index, obstacles.crossings, obstacles.layers, po).after;
+    report.after = remove_penetration(out.mesh, obstacles.index, obstacles.crossings, obstacles.layers,
+                                      penetration_options(options))
+                       .after;
   }
   // Ease (fit_feedback.h: the signed distance to the body) of the whole mesh as it now lies.
   if (out.feedback.ease.size() == source.size()) {
@@ -469,11 +457,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   sink.write(4, "coarse_move", out, move_note);
 
   t0 = Clock::now();
-  PenetrationOptions po;
-  po.clearance = options.clearance;
-  po.smoothness = options.smoothness;
-  po.max_iterations = options.penetration_iterations;
-  if (options.penetration_iterations == 0) po.direct_rounds = 0; // detection only
+  const PenetrationOptions po = penetration_options(options);
   report.inner_layers = layers.size();
   const PenetrationReport removal = remove_penetration(mesh, body_index, crossings, layers, po);
   report.timings.penetration_ms = ms_since(t0);

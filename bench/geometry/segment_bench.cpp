@@ -3,14 +3,13 @@
 // design: one garment is a few ms. Reports vertices/s; garments are generated once, untimed.
 #include <map>
 
-#include <Eigen/Geometry>
-
 #include <benchmark/benchmark.h>
 
 #include "geometry/garment/catalogue.h"
 #include "geometry/garment/segment.h"
 #include "geometry/garment/table1.h"
 #include "geometry/garment/thick_shell.h"
+#include "geometry/mesh/primitives.h"
 
 namespace {
 
@@ -68,48 +67,13 @@ void BM_segment_table1(benchmark::State& state) {
 }
 BENCHMARK(BM_segment_table1)->DenseRange(0, 8)->Unit(benchmark::kMillisecond);
 
-// A garment modelled with thickness: the tee and a copy 3 mm inside it, wound the other way and
-// stitched at every opening (one closed surface).
-vfit::Mesh solidified(const vfit::Mesh& sheet) {
-  const std::size_t nv = sheet.vertex_count(), nf = sheet.face_count();
-  std::vector<Eigen::Vector3f> normal(nv, Eigen::Vector3f::Zero());
-  auto at = [&](std::int32_t v) { return Eigen::Vector3f::Map(&sheet.positions[3 * std::size_t(v)]); };
-  for (std::size_t f = 0; f < nf; ++f) {
-    const std::int32_t* t = &sheet.triangles[3 * f];
-    const Eigen::Vector3f n = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
-    for (int k = 0; k < 3; ++k) normal[std::size_t(t[k])] += n;
-  }
-  vfit::Mesh m;
-  m.positions = sheet.positions;
-  for (std::size_t v = 0; v < nv; ++v) {
-    const Eigen::Vector3f p = at(std::int32_t(v)) - 0.003f * normal[v].normalized();
-    m.positions.insert(m.positions.end(), {p.x(), p.y(), p.z()});
-  }
-  const auto n = std::int32_t(nv);
-  m.triangles = sheet.triangles;
-  std::map<std::pair<std::int32_t, std::int32_t>, int> uses;
-  for (std::size_t i = 0; i < 3 * nf; ++i) {
-    const std::int32_t a = sheet.triangles[i], b = sheet.triangles[i - i % 3 + (i + 1) % 3];
-    ++uses[{std::min(a, b), std::max(a, b)}];
-  }
-  for (std::size_t f = 0; f < nf; ++f) {
-    const std::int32_t* t = &sheet.triangles[3 * f];
-    m.triangles.insert(m.triangles.end(), {t[0] + n, t[2] + n, t[1] + n});
-  }
-  for (std::size_t i = 0; i < 3 * nf; ++i) {
-    const std::int32_t a = sheet.triangles[i], b = sheet.triangles[i - i % 3 + (i + 1) % 3];
-    if (uses[{std::min(a, b), std::max(a, b)}] == 1) m.triangles.insert(m.triangles.end(), {b, a, a + n, b, a + n, b + n});
-  }
-  return m;
-}
-
 // find_thick_shell() on the plain tee (the cost every garment pays: one sheet is told apart
 // before any ray) and on the tee solidified (the rays and the carrying set-up).
 void BM_find_thick_shell(benchmark::State& state) {
   const vfit::Mesh& tee = catalogue_mesh(vfit::GarmentType::TEE, std::size_t(state.range(0)));
   static std::map<std::size_t, vfit::Mesh> thick;
   const bool solid = state.range(1) != 0;
-  if (solid && !thick.contains(tee.vertex_count())) thick.emplace(tee.vertex_count(), solidified(tee));
+  if (solid && !thick.contains(tee.vertex_count())) thick.emplace(tee.vertex_count(), vfit::make_solidified(tee, 0.003f, true));
   const vfit::Mesh& mesh = solid ? thick.at(tee.vertex_count()) : tee;
   std::size_t sheet_vertices = 0;
   for (auto _ : state) {

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "geometry/mesh/topology.h"
 #include "kernels/proximity.h"
 #include "kernels/ray_caster.h"
 
@@ -75,11 +76,11 @@ int face_pieces(std::span<const std::int32_t> triangles, const std::vector<char>
   return int(ids.size());
 }
 
-// Whether a vertex of the piece whose root is `piece` has an open fan (a neighbour met by one of
+// Whether a vertex of the piece labelled `piece` (vertex_piece_labels()) has an open fan (a neighbour met by one of
 // its triangles only): the piece has a boundary. Vertex → triangle lists (counting sort), then
 // each vertex's neighbours sorted and counted.
-template <class Root>
-bool has_open_fan(std::span<const std::int32_t> t, std::size_t nv, std::int32_t piece, Root&& root) {
+bool has_open_fan(std::span<const std::int32_t> t, std::size_t nv, std::int32_t piece,
+                  const std::vector<std::int32_t>& piece_of) {
   const std::size_t nf = t.size() / 3;
   std::vector<std::int32_t> offsets(nv + 1, 0), corners(t.size());
   for (const std::int32_t v : t) ++offsets[std::size_t(v) + 1];
@@ -89,7 +90,7 @@ bool has_open_fan(std::span<const std::int32_t> t, std::size_t nv, std::int32_t 
     for (int k = 0; k < 3; ++k) corners[std::size_t(fill[std::size_t(t[3 * f + std::size_t(k)])]++)] = std::int32_t(3 * f) + k;
   std::vector<std::int32_t> around;
   for (std::size_t v = 0; v < nv; ++v) {
-    if (offsets[v] == offsets[v + 1] || root(std::int32_t(v)) != piece) continue;
+    if (offsets[v] == offsets[v + 1] || piece_of[v] != piece) continue;
     around.clear();
     for (auto c = offsets[v]; c < offsets[v + 1]; ++c) {
       const auto corner = std::size_t(corners[std::size_t(c)]), base = corner - corner % 3;
@@ -125,14 +126,8 @@ std::optional<ThickShell> find_thick_shell(const Mesh& garment, const ThickShell
   // The mesh's connected pieces (by shared vertices): faces facing the same way can only be each
   // other's partners across two pieces (a lining wound like its shell). Within one closed shell
   // the sheets face opposite ways, and faces facing the same way are neighbours along a rim.
-  std::vector<std::int32_t> parent(nv);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto root = [&](std::int32_t v) {
-    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
-    return v;
-  };
-  for (std::size_t f = 0; f < nf; ++f)
-    for (int k = 1; k < 3; ++k) parent[std::size_t(root(t[3 * f + std::size_t(k)]))] = root(t[3 * f]);
+  const std::vector<std::int32_t> piece_of = vertex_piece_labels(t, nv);
+  auto root = [&](std::int32_t v) { return piece_of[std::size_t(v)]; };
   // The usual garment, one sheet, is told apart before any ray is cast (at 10^6 vertices the
   // rays cost seconds): one dominant piece with an opening cannot be two sheets stitched into a
   // closed surface, and without a second piece of at least a fifth of the faces there is no
@@ -144,7 +139,7 @@ std::optional<ThickShell> find_thick_shell(const Mesh& garment, const ThickShell
     for (const auto& [r, count] : faces_of_piece) sizes.emplace_back(count, r);
     std::sort(sizes.rbegin(), sizes.rend());
     const bool lined = sizes.size() >= 2 && double(sizes[1].first) >= 0.2 * double(nf);
-    if (!lined && has_open_fan(t, nv, sizes[0].second, root)) return std::nullopt;
+    if (!lined && has_open_fan(t, nv, sizes[0].second, piece_of)) return std::nullopt;
   }
   // Each face's partner: the first face met along its normal, either way, within the thickness
   // limit, if parallel. Two rays per face; the nearer valid hit wins.

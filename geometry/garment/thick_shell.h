@@ -7,7 +7,8 @@
 /// so the pipeline fits the inner sheet (the one against the body) and carries every other
 /// vertex along with it: each keeps its offset from its closest point on the inner sheet, in the
 /// frame of that sheet triangle, and is placed again from the fitted sheet. The mesh comes back
-/// with its own vertices, triangles, UVs and normals' layout.
+/// with its own vertices, triangles, UVs and normals' layout. Not in the seeds (their garments
+/// are single sheets); it lets their pipeline (seed 000 §4–6) take such files.
 
 #include <cstddef>
 #include <cstdint>

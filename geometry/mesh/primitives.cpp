@@ -2,7 +2,10 @@
 
 #include <cassert>
 #include <cmath>
+#include <map>
 #include <numbers>
+
+#include <Eigen/Geometry>
 
 namespace vfit {
 
@@ -86,6 +89,43 @@ Mesh make_grid(int nx, int nz, float size_x, float size_z) {
       m.triangles.insert(m.triangles.end(), {v(i, j), v(i + 1, j + 1), v(i, j + 1)});
     }
   m.uv_triangles = m.triangles;
+  return m;
+}
+
+Mesh make_solidified(const Mesh& outer, float thickness, bool stitched) {
+  const std::size_t nv = outer.vertex_count(), nf = outer.face_count();
+  std::vector<Eigen::Vector3f> normal(nv, Eigen::Vector3f::Zero());
+  auto at = [&](std::int32_t v) { return Eigen::Vector3f::Map(&outer.positions[3 * std::size_t(v)]); };
+  for (std::size_t f = 0; f < nf; ++f) {
+    const std::int32_t* t = &outer.triangles[3 * f];
+    const Eigen::Vector3f n = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
+    for (int k = 0; k < 3; ++k) normal[std::size_t(t[k])] += n;
+  }
+  Mesh m;
+  m.positions = outer.positions;
+  for (std::size_t v = 0; v < nv; ++v) {
+    const Eigen::Vector3f p = at(std::int32_t(v)) - thickness * normal[v].normalized();
+    m.positions.insert(m.positions.end(), {p.x(), p.y(), p.z()});
+  }
+  m.triangles = outer.triangles;
+  const auto n = std::int32_t(nv);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const std::int32_t* t = &outer.triangles[3 * f];
+    m.triangles.insert(m.triangles.end(), {t[0] + n, t[2] + n, t[1] + n});
+  }
+  if (stitched) {
+    // Boundary edges a→b (used once) get the strip (b, a, a'), (b, a', b').
+    std::map<std::pair<std::int32_t, std::int32_t>, int> uses;
+    for (std::size_t i = 0; i < 3 * nf; ++i) {
+      const std::int32_t a = outer.triangles[i], b = outer.triangles[i - i % 3 + (i + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+    for (std::size_t i = 0; i < 3 * nf; ++i) {
+      const std::int32_t a = outer.triangles[i], b = outer.triangles[i - i % 3 + (i + 1) % 3];
+      if (uses[{std::min(a, b), std::max(a, b)}] == 1)
+        m.triangles.insert(m.triangles.end(), {b, a, a + n, b, a + n, b + n});
+    }
+  }
   return m;
 }
 

@@ -1,6 +1,7 @@
 #include "topology.h"
 
 #include <algorithm>
+#include <cassert>
 #include <numeric>
 #include <vector>
 
@@ -134,6 +135,23 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
 
   r.euler_characteristic = static_cast<std::int64_t>(nref) - static_cast<std::int64_t>(r.edges) + static_cast<std::int64_t>(nf);
   return r;
+}
+
+std::vector<std::int32_t> vertex_piece_labels(std::span<const std::int32_t> triangles, std::size_t vertex_count) {
+  std::vector<std::int32_t> parent(vertex_count);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto root = [&](std::int32_t v) {
+    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
+    return v;
+  };
+  for (std::size_t f = 0; 3 * f + 2 < triangles.size(); ++f)
+    for (std::size_t k = 1; k < 3; ++k) {
+      assert(std::size_t(triangles[3 * f + k]) < vertex_count && "triangle index out of range");
+      const std::int32_t a = root(triangles[3 * f]), b = root(triangles[3 * f + k]);
+      if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b); // the root stays the piece's smallest
+    }
+  for (std::size_t v = 0; v < vertex_count; ++v) parent[v] = root(std::int32_t(v));
+  return parent;
 }
 
 } // namespace vfit

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace vfit {
 
@@ -30,5 +31,11 @@ struct TopologyReport {
 
 /// Analyses `triangles` (#F × 3 indices in [0, vertex_count)). O(F log F).
 TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::size_t vertex_count);
+
+/// The connected pieces of a triangle mesh by shared vertices: per vertex (#V = vertex_count),
+/// the smallest vertex index of its piece (a vertex in no triangle is its own piece), so two
+/// vertices are in one piece exactly when their labels are equal. `triangles`: #F × 3 indices
+/// in [0, vertex_count) (assert only). Union–find, O(F α(V)).
+std::vector<std::int32_t> vertex_piece_labels(std::span<const std::int32_t> triangles, std::size_t vertex_count);
 
 } // namespace vfit

@@ -22,6 +22,7 @@
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/mesh_io.h"
+#include "geometry/mesh/primitives.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
 #include "kernels/proximity.h"
@@ -221,7 +222,7 @@ TEST(FitPipeline, TheTopSettlesOverTheTrousersNotThroughThem) {
 TEST(FitPipeline, FitsATeeModelledWithThicknessByItsInnerSheet) {
   const Mesh& tee = tee_and_trousers()[0].mesh;
   const std::size_t nv = tee.vertex_count();
-  const Mesh thick = test::thicken(tee, 0.003f, false);
+  const Mesh thick = make_solidified(tee, 0.003f, false);
   FitOptions o;
   o.simulate = false;
   const FitResult r = fit_garments(mannequin(), {{"thick tee", thick}}, o);

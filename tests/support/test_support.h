@@ -65,12 +65,6 @@ Mesh unit_square();
 /// much a deformation stretched or shrank the cloth.
 double mean_edge_length_change(const Mesh& before, const Mesh& after);
 
-// `outer` and a copy offset by `thickness` (m) against its vertex normals with its winding
-// reversed (a solidified sheet: the copy is inside when `outer` is wound outward), its boundary
-// edges joined to the copy's by strips of two triangles when `stitched` (one closed surface),
-// or left as two separate pieces (a shell and its lining).
-Mesh thicken(const Mesh& outer, float thickness, bool stitched);
-
 /// A fan of `rim` triangles around hub vertex 0 at the origin: rim vertex k at angle 2πk/rim,
 /// radius 0.3 + 0.05·u m and height 0.02·u m (u uniform in [−1, 1) from `rng`, radius then
 /// height per vertex, in vertex order). Its hub's spring row is longer than a gather block.

@@ -10,7 +10,6 @@
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/orient.h"
 #include "geometry/mesh/primitives.h"
-#include "test_support.h"
 
 namespace vfit {
 namespace {
@@ -31,7 +30,7 @@ double max_difference(const std::vector<float>& a, const std::vector<float>& b) 
 }
 
 TEST(ThickShell, FindsTheInnerSheetOfAStitchedTubeAndCarriesTheOuterOne) {
-  const Mesh shell_mesh = test::thicken(tube(), 0.003f, true);
+  const Mesh shell_mesh = make_solidified(tube(), 0.003f, true);
   const auto shell = find_thick_shell(shell_mesh);
   ASSERT_TRUE(shell.has_value());
   // Between the faces of two 48-gons 3 mm apart: 3 mm to within the polygon's sagitta.
@@ -52,7 +51,7 @@ TEST(ThickShell, FindsTheInnerSheetOfAStitchedTubeAndCarriesTheOuterOne) {
 }
 
 TEST(ThickShell, FindsASheetAndItsSeparateLining) {
-  const auto shell = find_thick_shell(test::thicken(tube(), 0.005f, false));
+  const auto shell = find_thick_shell(make_solidified(tube(), 0.005f, false));
   ASSERT_TRUE(shell.has_value());
   EXPECT_NEAR(shell->thickness, 0.005, 1e-4);
   EXPECT_EQ(shell->sheet.vertex_count(), tube().vertex_count());
@@ -60,7 +59,7 @@ TEST(ThickShell, FindsASheetAndItsSeparateLining) {
 
 TEST(ThickShell, LeavesASingleSheetAndFarApartSheetsAlone) {
   EXPECT_FALSE(find_thick_shell(tube()).has_value());
-  EXPECT_FALSE(find_thick_shell(test::thicken(tube(), 0.03f, true)).has_value()) << "3 cm: two garments, not one thick one";
+  EXPECT_FALSE(find_thick_shell(make_solidified(tube(), 0.03f, true)).has_value()) << "3 cm: two garments, not one thick one";
   // A closed surface that is no shell.
   EXPECT_FALSE(find_thick_shell(make_uv_sphere(16, 32, 0.2f)).has_value());
   // Catalogue garments as they come (an A-pose tee's sleeves hang within a few cm of its sides).
@@ -82,7 +81,7 @@ TEST(ThickShell, FindsTheSheetsOfAThickenedCatalogueTee) {
   plain.uvs.clear();
   plain.uv_triangles.clear();
   for (bool stitched : {true, false}) {
-    const auto shell = find_thick_shell(test::thicken(plain, 0.003f, stitched));
+    const auto shell = find_thick_shell(make_solidified(plain, 0.003f, stitched));
     ASSERT_TRUE(shell.has_value()) << (stitched ? "stitched" : "lining");
     EXPECT_NEAR(shell->thickness, 0.003, 3e-4);
     EXPECT_EQ(shell->sheet.vertex_count(), tee.vertex_count());

@@ -47,6 +47,22 @@ TEST(Topology, CountsComponentsAndUnreferencedVertices) {
   EXPECT_EQ(r.boundary_loops, 1u);
 }
 
+// The same mesh labelled by pieces: the octahedron's vertices carry 0 (its smallest), the
+// square's its own smallest index, the unreferenced vertex itself.
+TEST(Topology, LabelsEachVertexByItsPiecesSmallestVertex) {
+  Mesh a = test::octahedron();
+  Mesh b = test::unit_square();
+  const std::int32_t off = static_cast<std::int32_t>(a.vertex_count());
+  a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
+  for (std::int32_t v : b.triangles) a.triangles.push_back(v + off);
+  a.positions.insert(a.positions.end(), {9, 9, 9}); // unreferenced
+  const std::vector<std::int32_t> label = vertex_piece_labels(a.triangles, a.vertex_count());
+  ASSERT_EQ(label.size(), a.vertex_count());
+  for (std::int32_t v = 0; v < off; ++v) EXPECT_EQ(label[std::size_t(v)], 0) << v;
+  for (std::size_t v = 0; v < b.vertex_count(); ++v) EXPECT_EQ(label[std::size_t(off) + v], off) << v;
+  EXPECT_EQ(label.back(), std::int32_t(a.vertex_count() - 1));
+}
+
 TEST(Topology, FindsNonManifoldEdgesVerticesAndFlippedFaces) {
   Mesh fin; // three triangles on one edge (0, 1)
   fin.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1};
