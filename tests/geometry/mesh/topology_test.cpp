@@ -34,13 +34,19 @@ TEST(Topology, OpenShapesCountTheirBoundaryLoops) {
   EXPECT_EQ(sphere.euler_characteristic, 2);
 }
 
-TEST(Topology, CountsComponentsAndUnreferencedVertices) {
+// An octahedron, a unit square after it and one unreferenced vertex: three pieces.
+Mesh octahedron_square_and_stray() {
   Mesh a = test::octahedron();
-  Mesh b = test::unit_square();
-  const std::int32_t off = static_cast<std::int32_t>(a.vertex_count());
+  const Mesh b = test::unit_square();
+  const auto off = static_cast<std::int32_t>(a.vertex_count());
   a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
   for (std::int32_t v : b.triangles) a.triangles.push_back(v + off);
   a.positions.insert(a.positions.end(), {9, 9, 9}); // unreferenced
+  return a;
+}
+
+TEST(Topology, CountsComponentsAndUnreferencedVertices) {
+  const Mesh a = octahedron_square_and_stray();
   const TopologyReport r = analyse(a);
   EXPECT_EQ(r.components, 2u);
   EXPECT_EQ(r.unreferenced_vertices, 1u);
@@ -50,16 +56,13 @@ TEST(Topology, CountsComponentsAndUnreferencedVertices) {
 // The same mesh labelled by pieces: the octahedron's vertices carry 0 (its smallest), the
 // square's its own smallest index, the unreferenced vertex itself.
 TEST(Topology, LabelsEachVertexByItsPiecesSmallestVertex) {
-  Mesh a = test::octahedron();
-  Mesh b = test::unit_square();
-  const std::int32_t off = static_cast<std::int32_t>(a.vertex_count());
-  a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
-  for (std::int32_t v : b.triangles) a.triangles.push_back(v + off);
-  a.positions.insert(a.positions.end(), {9, 9, 9}); // unreferenced
+  const Mesh a = octahedron_square_and_stray();
+  const auto off = static_cast<std::int32_t>(test::octahedron().vertex_count());
+  const std::size_t square = test::unit_square().vertex_count();
   const std::vector<std::int32_t> label = vertex_piece_labels(a.triangles, a.vertex_count());
   ASSERT_EQ(label.size(), a.vertex_count());
   for (std::int32_t v = 0; v < off; ++v) EXPECT_EQ(label[std::size_t(v)], 0) << v;
-  for (std::size_t v = 0; v < b.vertex_count(); ++v) EXPECT_EQ(label[std::size_t(off) + v], off) << v;
+  for (std::size_t v = 0; v < square; ++v) EXPECT_EQ(label[std::size_t(off) + v], off) << v;
   EXPECT_EQ(label.back(), std::int32_t(a.vertex_count() - 1));
 }
 
