@@ -1,6 +1,7 @@
 #include "engine/fit_pipeline.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -17,7 +18,9 @@
 #include "geometry/garment/thick_shell.h"
 #include "geometry/mesh/orient.h"
 #include "geometry/mesh/topology.h"
+#include "geometry/mesh/up_axis.h"
 #include "geometry/mesh/weld.h"
+#include "engine/layer_order.h"
 #include "engine/layering.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
@@ -107,6 +110,7 @@ constexpr double OUTFIT_SHARE = 0.2;
 struct SplitInputs {
   std::vector<FitGarmentInput> garments;
   std::vector<std::string> notes; ///< per garment: how it came out of its file ("" when whole)
+  std::vector<std::size_t> source; ///< per garment: the input it came from
 };
 
 // Whether every triangle of `m` lies in one piece (then welding cannot make two).
@@ -121,9 +125,11 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
   SplitInputs out;
   for (const FitGarmentInput& input : inputs) {
     // The usual garment is one piece as given: no copy, no weld (read_garment() welds it).
+    const std::size_t source = static_cast<std::size_t>(&input - inputs.data());
     if (one_piece(input.mesh)) {
       out.garments.push_back(input);
       out.notes.emplace_back();
+      out.source.push_back(source);
       continue;
     }
     Mesh m = input.mesh;
@@ -150,6 +156,7 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     if (big.size() < 2 || thick) {
       out.garments.push_back(input);
       out.notes.emplace_back();
+      out.source.push_back(source);
       continue;
     }
     std::stable_sort(big.begin(), big.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
@@ -195,9 +202,140 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
       out.notes.push_back("one of " + std::to_string(big.size()) + " garments in " + input.name +
                           " (its connected pieces with " + std::to_string(static_cast<int>(100 * OUTFIT_SHARE)) +
                           " % of the vertices or more), fitted on its own");
+      out.source.push_back(source);
     }
   }
   return out;
+}
+
+// Whether two garments from different files may be compared by their geometry as given: only
+// when their files look like one frame (a design tool's export of a look, each garment on the
+// same avatar): the same up axis; overlapping across (each horizontal extent shares half of the
+// narrower one's); and along the up axis, a top above a bottom (its highest point higher, its
+// lowest point higher) or two tops or two bottoms sharing half of the shorter one's height.
+// Garments from unrelated sources, each centred on its own origin, fail it.
+bool frames_agree(const Mesh& a, UpAxis up_a, bool bottom_a, const Mesh& b, UpAxis up_b, bool bottom_b) {
+  if (up_a != up_b || a.face_count() == 0 || b.face_count() == 0) return false;
+  auto box = [&](const Mesh& m) {
+    std::vector<float> p = m.positions;
+    rotate_to_y_up(p, up_a);
+    std::array<double, 6> bx{+INFINITY, +INFINITY, +INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (std::size_t v = 0; v < p.size() / 3; ++v)
+      for (int c = 0; c < 3; ++c) {
+        bx[std::size_t(c)] = std::min(bx[std::size_t(c)], double(p[3 * v + std::size_t(c)]));
+        bx[std::size_t(c) + 3] = std::max(bx[std::size_t(c) + 3], double(p[3 * v + std::size_t(c)]));
+      }
+    return bx;
+  };
+  const auto ba = box(a), bb = box(b);
+  auto shares_half = [&](int c) {
+    const double overlap = std::min(ba[std::size_t(c) + 3], bb[std::size_t(c) + 3]) - std::max(ba[std::size_t(c)], bb[std::size_t(c)]);
+    const double shorter = std::min(ba[std::size_t(c) + 3] - ba[std::size_t(c)], bb[std::size_t(c) + 3] - bb[std::size_t(c)]);
+    return overlap >= 0.5 * shorter;
+  };
+  if (!shares_half(0) || !shares_half(2)) return false;
+  if (bottom_a == bottom_b) return shares_half(1);
+  const auto& top = bottom_a ? bb : ba;
+  const auto& bottom = bottom_a ? ba : bb;
+  return top[4] > bottom[4] && top[1] > bottom[1];
+}
+
+// The order garments are dressed in, inner first (seed 001 §6.3), with a warning on each
+// garment whose place the garments' geometry decided against the type rule (bottoms first).
+std::vector<std::size_t> dressing_order(const FitOptions& options, const SplitInputs& split, const std::vector<Mesh>& as_given,
+                                        std::vector<GarmentFitReport>& reports) {
+  const std::size_t n = reports.size();
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  if (options.layer_order == LayerOrderRule::GIVEN) return order;
+  // Bottoms before tops (seed 000 §6: the top is dressed over the trousers).
+  std::stable_partition(order.begin(), order.end(), [&](std::size_t i) { return is_bottom(reports[i].type); });
+  if (options.layer_order != LayerOrderRule::AUTO || n < 2 || as_given.size() != n) return order;
+
+  std::vector<const Mesh*> meshes(n);
+  for (std::size_t i = 0; i < n; ++i) meshes[i] = &as_given[i];
+  const auto comparable = [&](std::size_t i, std::size_t j) {
+    return split.source[i] == split.source[j] ||
+           frames_agree(as_given[i], reports[i].up, is_bottom(reports[i].type), as_given[j], reports[j].up,
+                        is_bottom(reports[j].type));
+  };
+  const LayerOrder found = infer_layer_order(meshes, order, comparable);
+  std::vector<std::size_t> rank(n);
+  for (std::size_t k = 0; k < n; ++k) rank[order[k]] = k;
+  if (found.contradictory) {
+    reports[order.front()].warnings.push_back(
+        "the garments' geometry as given gives no consistent layer order (their overlaps contradict one another): "
+        "dressed bottoms first");
+    return order;
+  }
+  for (const LayerRelation& r : found.relations) {
+    if (rank[r.under] < rank[r.over]) continue; // as the type rule has it
+    char votes[96];
+    std::snprintf(votes, sizeof votes, "%zu of %zu", r.agree, r.total);
+    reports[r.under].warnings.push_back("worn under " + reports[r.over].name +
+                                        " (read from the garments as given: " + votes +
+                                        " of their nearby vertices agree), so dressed before it, not after as "
+                                        "bottoms-first would have it");
+  }
+  return found.order;
+}
+
+// Trim pieces of a garment: its connected pieces other than the largest (buttons, labels, a
+// pocket or collar modelled apart). No spring ties them to the garment, so free in the
+// simulation they would fall off it (a worksuit's buttons ended metres below the body). They
+// are pinned in the simulation and then follow the garment: each of their vertices moves as the
+// point of the largest piece nearest to it before the simulation (its closest point's
+// barycentric blend of its triangle's corner displacements).
+struct TrimPieces {
+  std::vector<std::int32_t> vertices;      // ascending
+  std::vector<std::int32_t> main_triangles; // the largest piece's triangles, #M × 3
+};
+
+TrimPieces trim_pieces(const Mesh& mesh) {
+  TrimPieces out;
+  const std::size_t nv = mesh.vertex_count();
+  const std::vector<std::int32_t> piece = vertex_piece_labels(mesh.triangles, nv);
+  std::vector<std::size_t> size(nv, 0);
+  std::vector<char> used(nv, 0);
+  for (std::int32_t v : mesh.triangles) used[static_cast<std::size_t>(v)] = 1;
+  for (std::size_t v = 0; v < nv; ++v)
+    if (used[v]) ++size[static_cast<std::size_t>(piece[v])];
+  const auto main = static_cast<std::int32_t>(std::max_element(size.begin(), size.end()) - size.begin());
+  for (std::size_t v = 0; v < nv; ++v)
+    if (used[v] && piece[v] != main) out.vertices.push_back(static_cast<std::int32_t>(v));
+  if (out.vertices.empty()) return out;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    if (piece[static_cast<std::size_t>(mesh.triangles[3 * f])] == main)
+      out.main_triangles.insert(out.main_triangles.end(), mesh.triangles.begin() + std::ptrdiff_t(3 * f),
+                                mesh.triangles.begin() + std::ptrdiff_t(3 * f + 3));
+  return out;
+}
+
+// Moves the trim vertices with the largest piece from `before` to `positions` (both #V × 3).
+void carry_trim(const TrimPieces& trim, std::span<const float> before, std::span<float> positions) {
+  if (trim.vertices.empty() || trim.main_triangles.empty()) return;
+  const ProximityIndex main(before, trim.main_triangles, OpenMeshSide::ONE_SIDED);
+  std::vector<float> queries;
+  queries.reserve(3 * trim.vertices.size());
+  for (std::int32_t v : trim.vertices)
+    queries.insert(queries.end(), before.begin() + 3 * v, before.begin() + 3 * v + 3);
+  ClosestHits hits;
+  main.closest_points(queries, INFINITY, hits);
+  for (std::size_t k = 0; k < trim.vertices.size(); ++k) {
+    const std::int32_t t = hits.triangles[k];
+    if (t < 0) continue;
+    const float u = hits.barycentrics[2 * k], w = hits.barycentrics[2 * k + 1];
+    const float weight[3] = {1 - u - w, u, w};
+    const auto v = static_cast<std::size_t>(trim.vertices[k]);
+    for (int c = 0; c < 3; ++c) {
+      float shift = 0;
+      for (int corner = 0; corner < 3; ++corner) {
+        const auto m = static_cast<std::size_t>(trim.main_triangles[3 * static_cast<std::size_t>(t) + std::size_t(corner)]);
+        shift += weight[corner] * (positions[3 * m + std::size_t(c)] - before[3 * m + std::size_t(c)]);
+      }
+      positions[3 * v + std::size_t(c)] = before[3 * v + std::size_t(c)] + shift;
+    }
+  }
 }
 
 // Penetration removal as the fit's options ask for it.
@@ -217,8 +355,10 @@ struct ShellGarment {
   Mesh whole;
 };
 
+// `as_given`, when not null, receives the garment in metres, welded and wound consistently, still
+// in its file's frame (before the shell's sheet replaces it and segmentation turns it upright).
 void read_garment(const FitGarmentInput& input, const FitOptions& options, const StageSink& sink, FittedGarment& out,
-                  GarmentFitReport& report, std::optional<ShellGarment>& shell) {
+                  GarmentFitReport& report, std::optional<ShellGarment>& shell, Mesh* as_given) {
   report.name = input.name;
   out.name = input.name;
   out.mesh = input.mesh;
@@ -248,6 +388,7 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
     report.warnings.push_back("turned over " + std::to_string(orient.flipped) + " of " +
                               std::to_string(mesh.face_count()) +
                               " triangles wound against their neighbours (inconsistent orientation)");
+  if (as_given) *as_given = mesh;
   // Modelled with thickness: the inner sheet is fitted, the rest follows it (thick_shell.h).
   shell.reset();
   if (std::optional<ThickShell> found = find_thick_shell(mesh)) {
@@ -479,6 +620,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     co.backend = options.backend;
     co.contact_thickness = static_cast<float>(options.clearance);
     ClothSim sim(mesh.positions, mesh.triangles, co);
+    const TrimPieces trim = trim_pieces(mesh);
+    if (!trim.vertices.empty()) sim.pin(trim.vertices);
     if (layers.empty()) {
       sim.set_body(body.mesh.positions, body.mesh.triangles);
     } else {
@@ -503,6 +646,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
       before_simulation = mesh.positions;
       const auto p = sim.positions();
       std::copy(p.begin(), p.end(), mesh.positions.begin());
+      carry_trim(trim, before_simulation, mesh.positions);
     }
     report.timings.simulation_ms = ms_since(t0);
 
@@ -515,17 +659,26 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
         remove_penetration(mesh, body_index, crossings, layers, po);
         report.post_simulation_cleanup = true;
         // A settled garment that removal cannot bring back outside the body (cloth drawn into
-        // a fold between limb and torso) is worse than no simulation: keep the garment as
-        // removal left it, and say so.
+        // a fold between limb and torso), or that ends with more offences against the inner
+        // layers (its vertices inside them and their edges through it, counted together: a
+        // few more vertices inside but far fewer edges through is the better fit), is worse
+        // than no simulation: keep the garment as removal left it, and say so.
         const PenetrationStats cleaned = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+        const auto layer_offences = [](const PenetrationStats& st) { return st.layer_inside_count + st.layer_crossing_edges; };
         if (cleaned.max_depth > std::max(POST_SIMULATION_TOLERANCE, report.after_removal.max_depth) ||
-            cleaned.layer_inside_count > report.after_removal.layer_inside_count ||
-            cleaned.layer_crossing_edges > report.after_removal.layer_crossing_edges) {
+            layer_offences(cleaned) > layer_offences(report.after_removal)) {
           mesh.positions = before_simulation;
           before_simulation.clear();
           report.simulation_discarded = true;
-          report.warnings.push_back("the simulated garment stayed " + std::to_string(cleaned.max_depth * 1e3) +
-                                    " mm inside the body after clean-up: the mesh after penetration removal is kept");
+          char line[320];
+          std::snprintf(line, sizeof line,
+                        "the simulated garment, cleaned up, was worse than before the simulation (%.1f mm inside "
+                        "the body, %zu vertices inside inner layers, %zu of their edges through it; before: %.1f mm, "
+                        "%zu, %zu): the mesh after penetration removal is kept",
+                        1e3 * cleaned.max_depth, cleaned.layer_inside_count, cleaned.layer_crossing_edges,
+                        1e3 * report.after_removal.max_depth, report.after_removal.layer_inside_count,
+                        report.after_removal.layer_crossing_edges);
+          report.warnings.push_back(line);
         }
       }
       report.timings.penetration_ms += ms_since(t0);
@@ -616,8 +769,12 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
   std::vector<FittedGarment> read(garments.size());
   std::vector<std::optional<ShellGarment>> shells(garments.size());
   std::vector<GarmentFitReport> read_reports(garments.size());
+  // The garments as given, for reading their layer order from their geometry.
+  const bool by_geometry = options.layer_order == LayerOrderRule::AUTO && garments.size() > 1;
+  std::vector<Mesh> as_given(by_geometry ? garments.size() : 0);
   for (std::size_t i = 0; i < garments.size(); ++i) {
-    read_garment(garments[i], options, sinks[i], read[i], read_reports[i], shells[i]);
+    read_garment(garments[i], options, sinks[i], read[i], read_reports[i], shells[i],
+                 by_geometry ? &as_given[i] : nullptr);
     if (!split.notes[i].empty()) read_reports[i].warnings.insert(read_reports[i].warnings.begin(), split.notes[i]);
   }
   // Debug output starts once every garment is known to be one, so a mesh that is not a
@@ -632,9 +789,9 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
       sinks[i].write(1, "segmentation", read[i], "type " + garment_type_name(gr.type) + ", units " + units_name(gr.units));
     }
   }
-  std::vector<std::size_t> order(garments.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::stable_partition(order.begin(), order.end(), [&](std::size_t i) { return is_bottom(read_reports[i].type); });
+  const auto t_order = Clock::now();
+  const std::vector<std::size_t> order = dressing_order(options, split, as_given, read_reports);
+  const double layer_order_ms = ms_since(t_order);
   std::vector<std::optional<LimbRig>> rigs(garments.size());
 
   for (std::size_t b = 0; b < bodies.size(); ++b) {
@@ -651,6 +808,7 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
     const ProximityIndex body_index(body.mesh.positions, body.mesh.triangles);
     const EdgeCrossingIndex body_crossings(body.mesh.positions, body.mesh.triangles);
     report.body_index_ms = ms_since(t0);
+    report.layer_order_ms = b == 0 ? layer_order_ms : 0;
 
     // Each body starts from the garments as read; reading and segmenting them is the first
     // body's time, shared by the others (their reports say 0 ms for those stages).

@@ -6,8 +6,10 @@
 /// stage lands) → coarse move (§6.1, eq. 16–17) → penetration removal against the body, its
 /// vertices and its edges crossing the body (§6.2, eq. 18–21) → cloth simulation to rest with
 /// body collision (§6.3; optional). Several garments are layered (seed 001 §6.3, eq. 7;
-/// engine/layering.h): bottoms first, then tops, each resolved against the body and the
-/// garments fitted before it (a tee's hem ends outside the trousers' waistband).
+/// engine/layering.h), inner to outer, each resolved against the body and the garments fitted
+/// before it (a tee's hem ends outside the trousers' waistband). The order is read from the
+/// garments' geometry as given where they overlap in one frame (engine/layer_order.h: a tee
+/// under overalls' bib), bottoms before tops elsewhere (FitOptions::layer_order).
 
 #include <array>
 #include <cstddef>
@@ -45,6 +47,18 @@ struct FitProgress {
   std::string detail; ///< one short line: the detected type, "skipped: ...", the simulation's outcome, ...
 };
 
+/// How the order in which several garments are dressed (inner first) is decided.
+enum class LayerOrderRule {
+  /// From the garments' geometry as given where it tells (infer_layer_order(), layer_order.h):
+  /// for garments of one outfit file, and for garments of several files whose files look like
+  /// one frame (same up axis, overlapping, a top above a bottom); bottoms before tops, then the
+  /// input order, for the rest. A garment whose place the geometry decided against bottoms-first
+  /// says so in its warnings.
+  AUTO,
+  TYPE,  ///< bottoms (trousers, shorts, skirts) before tops, each group in input order
+  GIVEN, ///< the input order, innermost first
+};
+
 /// Every option of the pipeline.
 struct FitOptions {
   ClothBackend backend = ClothBackend::TBB; ///< runs the cloth simulation
@@ -72,9 +86,10 @@ struct FitOptions {
   double smoothness = 1.0;         ///< PenetrationOptions::smoothness (λ2/λ1)
   /// k of seed 001 eq. 7 (m): the gap a garment keeps outside the garments fitted before it.
   double layer_clearance = 0.003;
+  LayerOrderRule layer_order = LayerOrderRule::AUTO; ///< which garment is dressed over which
   /// Called on the calling thread after each stage of each garment, in pipeline order: for every
   /// garment "units" and "segmentation" (all garments are segmented first, in input order), then,
-  /// in processing order (bottoms first), "skeletons", "driving", "coarse_move", "penetration",
+  /// in processing order (inner to outer, FitOptions::layer_order), "skeletons", "driving", "coarse_move", "penetration",
   /// "simulation" (also when skipped: detail "skipped"), "feedback" and "total" — nine calls per
   /// garment that is fitted. Empty: no calls. An exception it throws aborts the fit.
   std::function<void(const FitProgress&)> progress;
@@ -171,6 +186,9 @@ struct FitReport {
   std::vector<GarmentFitReport> garments; ///< in input order
   FitStageTimes timings;                  ///< summed over garments; total_ms = whole call
   double body_index_ms = 0;               ///< building the body's proximity and edge-crossing indices once
+  /// Reading the layer order from the garments' geometry (LayerOrderRule::AUTO with several
+  /// garments; the first body's report, 0 in the others').
+  double layer_order_ms = 0;
   std::size_t body_vertices = 0, body_faces = 0;
   std::string backend;                    ///< "serial" | "tbb"
   int threads = 0;                        ///< TBB worker threads
@@ -196,8 +214,9 @@ struct FitResult {
 /// Throws vfit::Error naming the garment when one is not a garment (segment_garment()'s
 /// errors), when its units cannot be detected, or for an unknown fabric; the body is assumed
 /// valid (load_body() checked it). A diverged simulation is not an error: it is reported and
-/// the garment keeps its pre-simulation shape. Garments are dressed bottoms first, each kept
-/// outside the ones before it: penetration removal pushes out its vertices inside them and its
+/// the garment keeps its pre-simulation shape. Garments are dressed inner to outer
+/// (FitOptions::layer_order: by default read from their geometry as given, else bottoms first),
+/// each kept outside the ones before it: penetration removal pushes out its vertices inside them and its
 /// triangles their edges pass through (engine/layer_piercing.h), and its simulation collides
 /// with them as well as with the body. A file holding several garments (an outfit) is split
 /// into them; a garment modelled with thickness (geometry/garment/thick_shell.h) is fitted by

@@ -117,6 +117,7 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
   nlohmann::ordered_json timings = timings_json(report.timings);
   timings["body"] = body_ms;
   timings["body_index"] = report.body_index_ms;
+  if (report.garments.size() > 1) timings["layer_order"] = report.layer_order_ms;
   if (render_ms >= 0) timings["render"] = render_ms;
   j["timings_ms"] = timings;
   j["penetration"] = {{"before", stats_json(combined(report, &GarmentFitReport::before))},
@@ -282,6 +283,12 @@ int run_fit(Args& args) {
   if (auto up = args.value("garment-up"); up && *up != "auto") options.garment_up = parse_up_axis(*up);
   if (auto facing = args.value("garment-facing"); facing && *facing != "auto")
     options.garment_facing = parse_facing(*facing);
+  if (auto order = args.value("layer-order")) {
+    if (*order == "auto") options.layer_order = LayerOrderRule::AUTO;
+    else if (*order == "type") options.layer_order = LayerOrderRule::TYPE;
+    else if (*order == "given") options.layer_order = LayerOrderRule::GIVEN;
+    else throw Error("--layer-order", 0, "expected auto, type or given, got '" + *order + "'");
+  }
   if (debug_dir) {
     if (debug_dir->empty()) throw Error("--debug", 0, "expected a folder");
     options.debug_dir = *debug_dir;

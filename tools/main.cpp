@@ -178,7 +178,8 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
                 [--garment-up auto|+y|+z|-z|-y|+x|-x] [--garment-facing auto|+z|-z|+x|-x] [--repair]
-                [--quiet] [--debug DIR] [--progress] [--keypoints FILE.json [--image-size W H] [--focal F]]
+                [--layer-order auto|type|given] [--quiet] [--debug DIR] [--progress]
+                [--keypoints FILE.json [--image-size W H] [--focal F]]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
@@ -186,7 +187,9 @@ the placement of eq. 16-17; garments it cannot drive, e.g. skirts, get the coars
 -> penetration removal against the body and the garments under it, edges crossing the body
 included -> cloth simulation to rest (stops at --max-sim-seconds of simulated time, default 3;
 a diverged simulation is discarded and reported) -> fit feedback (strain, ease, size verdict).
-Bottoms are dressed before tops.
+Several garments are dressed inner to outer: as they lie in their files where they overlap in
+one frame (an outfit file, or files exported together: a tee under overalls' bib, a shirt
+tucked in), bottoms before tops otherwise (see --layer-order).
 --body takes the same sources and flags as `vfit body --from` (default: the mannequin; use
 --pose-rest apose|tpose and the measurement flags); --pose poses it. Several --body options fit
 the same garments onto each body (the flags and --pose apply to all): the garments are read,
@@ -200,6 +203,9 @@ sleeves stored back to front (its collar's back lower than its neckline) is turn
 bottoms turned a quarter, front and back are not told apart (see the report's warning).
   --garment-up A    the garments' up axis in their files, when auto (the default) misreads it
   --garment-facing F  where the garments' fronts face once upright, when auto misreads it
+  --layer-order R   auto (default): read from the garments' geometry as given where they
+                    overlap in one frame, bottoms before tops elsewhere; type: bottoms before
+                    tops; given: the --garment order (and an outfit file's order), innermost first
   --repair          drop degenerate and duplicate faces of the garments and of a body mesh
                     file (with a warning each) instead of failing on them
   --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the

@@ -385,6 +385,113 @@ TEST(FitPipeline, SplitsAnOutfitFileIntoItsGarments) {
   }
 }
 
+bool has_warning(const GarmentFitReport& g, const std::string& text) {
+  return std::any_of(g.warnings.begin(), g.warnings.end(), [&](const std::string& w) { return w.find(text) != std::string::npos; });
+}
+
+// Garments exported together (each on the same avatar, in one frame) are dressed as they lie:
+// trousers cut 25 % wider than the tee, whose hem then ends inside their waistband (a tucked-in
+// top), are dressed over it, against bottoms-first, and the tee says so. The same files apart
+// (the trousers 2 m to the side: not one frame) or --layer-order type keep bottoms first;
+// --layer-order given keeps the input order.
+TEST(FitPipeline, ReadsTheLayerOrderFromTheGarmentsAsGiven) {
+  const std::vector<FitGarmentInput>& in = tee_and_trousers();
+  FitOptions o;
+  o.simulate = false;
+  auto order_of = [&](const std::vector<FitGarmentInput>& g, const FitOptions& options) {
+    const FitResult r = fit_garments(mannequin(), g, options);
+    return std::make_pair(r.report.garments[0].order, r.report.garments[1].order);
+  };
+  // As made, the tee is over the trousers: the geometry agrees with bottoms-first, and says nothing.
+  {
+    const FitResult r = fit_garments(mannequin(), in, o);
+    EXPECT_EQ(r.report.garments[0].order, 1u);
+    EXPECT_FALSE(has_warning(r.report.garments[0], "worn under"));
+    EXPECT_GE(r.report.layer_order_ms, 0);
+  }
+  std::vector<FitGarmentInput> tucked = in;
+  Mesh& trousers = tucked[1].mesh;
+  double cx = 0, cz = 0;
+  for (std::size_t v = 0; v < trousers.vertex_count(); ++v) {
+    cx += trousers.positions[3 * v];
+    cz += trousers.positions[3 * v + 2];
+  }
+  cx /= double(trousers.vertex_count());
+  cz /= double(trousers.vertex_count());
+  for (std::size_t v = 0; v < trousers.vertex_count(); ++v) {
+    trousers.positions[3 * v] = float(cx + 1.25 * (trousers.positions[3 * v] - cx));
+    trousers.positions[3 * v + 2] = float(cz + 1.25 * (trousers.positions[3 * v + 2] - cz));
+  }
+  const FitResult r = fit_garments(mannequin(), tucked, o);
+  EXPECT_EQ(r.report.garments[0].order, 0u);
+  EXPECT_EQ(r.report.garments[1].order, 1u);
+  EXPECT_TRUE(has_warning(r.report.garments[0], "worn under trousers"));
+  EXPECT_EQ(r.report.garments[1].inner_layers, 1u);
+
+  FitOptions by_type = o;
+  by_type.layer_order = LayerOrderRule::TYPE;
+  EXPECT_EQ(order_of(tucked, by_type), std::make_pair(std::size_t{1}, std::size_t{0}));
+  FitOptions given = o;
+  given.layer_order = LayerOrderRule::GIVEN;
+  EXPECT_EQ(order_of(in, given), std::make_pair(std::size_t{0}, std::size_t{1}));
+  std::vector<FitGarmentInput> swapped = {in[1], in[0]};
+  EXPECT_EQ(order_of(swapped, given), std::make_pair(std::size_t{0}, std::size_t{1}));
+
+  std::vector<FitGarmentInput> apart = tucked;
+  for (std::size_t v = 0; v < apart[1].mesh.vertex_count(); ++v) apart[1].mesh.positions[3 * v] += 2.0f;
+  EXPECT_EQ(order_of(apart, o), std::make_pair(std::size_t{1}, std::size_t{0}));
+}
+
+// A button (a small closed piece 3 mm off the tee's chest, in the tee's mesh) has no spring to
+// the tee: it is pinned in the simulation and then follows the tee's surface where it sits.
+// Free, it fell away under gravity.
+TEST(FitPipeline, TrimPiecesFollowTheGarmentThroughTheSimulation) {
+  FitGarmentInput tee = tee_and_trousers()[0];
+  geometry_only(tee.mesh);
+  // The tee's front-most vertex at chest height (its upper third).
+  float y_lo = INFINITY, y_hi = -INFINITY;
+  for (std::size_t v = 0; v < tee.mesh.vertex_count(); ++v) {
+    y_lo = std::min(y_lo, tee.mesh.positions[3 * v + 1]);
+    y_hi = std::max(y_hi, tee.mesh.positions[3 * v + 1]);
+  }
+  std::size_t front = 0;
+  for (std::size_t v = 0; v < tee.mesh.vertex_count(); ++v) {
+    const float y = tee.mesh.positions[3 * v + 1];
+    if (y > y_lo + 0.6f * (y_hi - y_lo) && y < y_lo + 0.75f * (y_hi - y_lo) &&
+        std::abs(tee.mesh.positions[3 * v]) < 0.05f && tee.mesh.positions[3 * v + 2] > tee.mesh.positions[3 * front + 2])
+      front = v;
+  }
+  Mesh button = make_uv_sphere(4, 8, 0.006f);
+  const auto offset = static_cast<std::int32_t>(tee.mesh.vertex_count());
+  for (std::size_t v = 0; v < button.vertex_count(); ++v) {
+    tee.mesh.positions.push_back(button.positions[3 * v] + tee.mesh.positions[3 * front]);
+    tee.mesh.positions.push_back(button.positions[3 * v + 1] + tee.mesh.positions[3 * front + 1]);
+    tee.mesh.positions.push_back(button.positions[3 * v + 2] + tee.mesh.positions[3 * front + 2] + 0.009f);
+  }
+  for (std::int32_t v : button.triangles) tee.mesh.triangles.push_back(v + offset);
+  FitOptions o;
+  o.max_simulated_seconds = SETTLE_SECONDS;
+  const FitResult r = fit_garments(mannequin(), std::vector<FitGarmentInput>{tee}, o);
+  ASSERT_EQ(r.garments.size(), 1u);
+  const GarmentFitReport& g = r.report.garments[0];
+  ASSERT_EQ(g.simulation != SimulationOutcome::DIVERGED && !g.simulation_discarded, true) << g.simulation_status;
+  const Mesh& fitted = r.garments[0].mesh;
+  ASSERT_EQ(fitted.vertex_count(), tee.mesh.vertex_count());
+  // The button's centre against the fitted tee's nearest vertex: within the 9 mm it was put off
+  // it plus the tee's local stretch (a few mm); fallen free for SETTLE_SECONDS it would be
+  // decimetres away.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (std::size_t v = std::size_t(offset); v < fitted.vertex_count(); ++v)
+    centre += Eigen::Vector3d(fitted.positions[3 * v], fitted.positions[3 * v + 1], fitted.positions[3 * v + 2]);
+  centre /= double(button.vertex_count());
+  double nearest = INFINITY;
+  for (std::size_t v = 0; v < std::size_t(offset); ++v)
+    nearest = std::min(nearest, (centre - Eigen::Vector3d(fitted.positions[3 * v], fitted.positions[3 * v + 1],
+                                                          fitted.positions[3 * v + 2])).norm());
+  EXPECT_LT(nearest, 0.02);
+  for (float c : fitted.positions) ASSERT_TRUE(std::isfinite(c));
+}
+
 // The tee exported as two pattern pieces, each with its own copy of the seam's vertices down
 // the middle: welded back (with a warning), segmented and driven like the tee itself.
 TEST(FitPipeline, WeldsPatternPiecesThatShareSeamPositions) {

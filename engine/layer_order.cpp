@@ -1,0 +1,162 @@
+#include "engine/layer_order.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "kernels/error.h"
+#include "kernels/hole_caps.h"
+#include "kernels/proximity.h"
+
+namespace vfit {
+namespace {
+
+// Six times the volume of the mesh closed by fan caps over its openings (positive: outward).
+double capped_six_volume(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  const std::size_t nv = positions.size() / 3;
+  const HoleCaps caps = build_hole_caps(triangles, nv);
+  std::vector<float> capped;
+  capped_positions(positions, caps, capped);
+  double six_v = 0;
+  auto add = [&](std::span<const std::int32_t> tris) {
+    for (std::size_t f = 0; f + 2 < tris.size(); f += 3) {
+      const float* a = &capped[3 * static_cast<std::size_t>(tris[f])];
+      const float* b = &capped[3 * static_cast<std::size_t>(tris[f + 1])];
+      const float* c = &capped[3 * static_cast<std::size_t>(tris[f + 2])];
+      six_v += double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
+               double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+               double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0]);
+    }
+  };
+  add(triangles);
+  add(caps.triangles);
+  return six_v;
+}
+
+// One garment's index (wound outward) and the vertices it samples for the other garments.
+struct Indexed {
+  std::optional<ProximityIndex> index;
+  std::vector<float> samples; // #S × 3
+};
+
+Indexed index_garment(const Mesh& mesh, const LayerOrderOptions& options) {
+  Indexed out;
+  if (mesh.face_count() == 0) return out;
+  std::vector<std::int32_t> triangles = mesh.triangles;
+  if (capped_six_volume(mesh.positions, triangles) < 0)
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) std::swap(triangles[3 * f + 1], triangles[3 * f + 2]);
+  out.index.emplace(mesh.positions, triangles, OpenMeshSide::CAP_HOLES);
+
+  std::vector<char> used(mesh.vertex_count(), 0);
+  for (std::int32_t v : mesh.triangles) used[static_cast<std::size_t>(v)] = 1;
+  const auto referenced = static_cast<std::size_t>(std::count(used.begin(), used.end(), char{1}));
+  const std::size_t stride = std::max<std::size_t>(1, (referenced + options.max_samples - 1) / std::max<std::size_t>(1, options.max_samples));
+  std::size_t k = 0;
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    if (!used[v]) continue;
+    if (k++ % stride != 0) continue;
+    out.samples.insert(out.samples.end(), mesh.positions.begin() + std::ptrdiff_t(3 * v),
+                       mesh.positions.begin() + std::ptrdiff_t(3 * v + 3));
+  }
+  return out;
+}
+
+// Votes of `samples` against `target`: (inside, outside) counts among the aligned hits.
+std::pair<std::size_t, std::size_t> side_votes(const std::vector<float>& samples, const ProximityIndex& target,
+                                               const LayerOrderOptions& options) {
+  std::size_t inside = 0, outside = 0;
+  if (samples.empty()) return {0, 0};
+  ClosestHits hits;
+  target.closest_points(samples, static_cast<float>(options.reach), hits);
+  const ProximitySideMesh side = target.side_mesh();
+  for (std::size_t q = 0; q < hits.size(); ++q) {
+    const std::int32_t t = hits.triangles[q];
+    if (t < 0) continue;
+    double d[3], len2 = 0, along = 0;
+    for (int c = 0; c < 3; ++c) {
+      d[c] = double(samples[3 * q + std::size_t(c)]) - hits.points[3 * q + std::size_t(c)];
+      len2 += d[c] * d[c];
+      along += d[c] * side.face_normals[3 * static_cast<std::size_t>(t) + std::size_t(c)];
+    }
+    // A vertex on the other sheet (coincident layers, a shared seam) says nothing about sides.
+    constexpr double ON_SURFACE = 1e-5; // m: 10 µm, far below any gap between two fabrics
+    if (len2 < ON_SURFACE * ON_SURFACE) continue;
+    if (std::abs(along) < options.alignment * std::sqrt(len2)) continue;
+    (hits.signed_distances[q] < 0 ? inside : outside) += 1;
+  }
+  return {inside, outside};
+}
+
+} // namespace
+
+LayerOrder infer_layer_order(std::span<const Mesh* const> garments, std::span<const std::size_t> default_order,
+                             const std::function<bool(std::size_t, std::size_t)>& comparable,
+                             const LayerOrderOptions& options) {
+  const std::size_t n = garments.size();
+  std::vector<std::size_t> position(n, n);
+  if (default_order.size() != n) throw Error("layer order: the default order does not list every garment once");
+  for (std::size_t k = 0; k < n; ++k) {
+    if (default_order[k] >= n || position[default_order[k]] != n)
+      throw Error("layer order: the default order does not list every garment once (entry " + std::to_string(k) + ")");
+    position[default_order[k]] = k;
+  }
+  LayerOrder out;
+  out.order.assign(default_order.begin(), default_order.end());
+  if (n < 2) return out;
+
+  std::vector<std::size_t> wanted(n, 0); // garments in at least one comparable pair
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      if (!comparable || comparable(i, j)) wanted[i] = wanted[j] = 1;
+  std::vector<Indexed> indexed(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (wanted[i]) indexed[i] = index_garment(*garments[i], options);
+
+  std::vector<std::vector<std::size_t>> over_of(n); // under → the garments over it
+  std::vector<std::size_t> preceding(n, 0);          // how many garments must come before
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      if (comparable && !comparable(i, j)) continue;
+      if (!indexed[i].index || !indexed[j].index) continue;
+      LayerPairVotes v{i, j, 0, 0};
+      const auto [i_in_j, i_out_j] = side_votes(indexed[i].samples, *indexed[j].index, options);
+      const auto [j_in_i, j_out_i] = side_votes(indexed[j].samples, *indexed[i].index, options);
+      v.first_under = i_in_j + j_out_i;
+      v.first_over = i_out_j + j_in_i;
+      out.votes.push_back(v);
+      const std::size_t total = v.first_under + v.first_over;
+      const std::size_t best = std::max(v.first_under, v.first_over);
+      if (total < options.min_votes || static_cast<double>(best) < options.majority * static_cast<double>(total))
+        continue;
+      const bool i_under = v.first_under >= v.first_over;
+      const LayerRelation r{i_under ? i : j, i_under ? j : i, best, total};
+      out.relations.push_back(r);
+      over_of[r.under].push_back(r.over);
+      ++preceding[r.over];
+    }
+
+  // Topological sort, earliest in the default order first among the garments that may come next.
+  std::vector<std::size_t> order;
+  std::vector<char> placed(n, 0);
+  while (order.size() < n) {
+    std::size_t next = n;
+    for (std::size_t g = 0; g < n; ++g)
+      if (!placed[g] && preceding[g] == 0 && (next == n || position[g] < position[next])) next = g;
+    if (next == n) { // a cycle: the relations contradict one another
+      out.contradictory = true;
+      out.relations.clear();
+      return out;
+    }
+    placed[next] = 1;
+    order.push_back(next);
+    for (std::size_t o : over_of[next]) --preceding[o];
+  }
+  out.order = std::move(order);
+  return out;
+}
+
+} // namespace vfit
