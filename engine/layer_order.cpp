@@ -1,6 +1,7 @@
 #include "engine/layer_order.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -37,28 +38,62 @@ double capped_six_volume(std::span<const float> positions, std::span<const std::
   return six_v;
 }
 
-// One garment's index (wound outward) and the vertices it samples for the other garments.
-struct Indexed {
+// A garment wound outward (by its capped volume), and its bounding box.
+struct Outward {
+  std::vector<std::int32_t> triangles;
+  std::array<float, 6> box{}; // min x, y, z, max x, y, z of its referenced vertices
+};
+
+Outward outward(const Mesh& mesh) {
+  Outward out;
+  out.triangles = mesh.triangles;
+  if (capped_six_volume(mesh.positions, out.triangles) < 0)
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) std::swap(out.triangles[3 * f + 1], out.triangles[3 * f + 2]);
+  out.box = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+  for (std::int32_t v : mesh.triangles)
+    for (int c = 0; c < 3; ++c) {
+      const float x = mesh.positions[3 * static_cast<std::size_t>(v) + std::size_t(c)];
+      out.box[std::size_t(c)] = std::min(out.box[std::size_t(c)], x);
+      out.box[std::size_t(c) + 3] = std::max(out.box[std::size_t(c) + 3], x);
+    }
+  return out;
+}
+
+bool in_box(const float* p, const std::array<float, 6>& box, float margin) {
+  for (int c = 0; c < 3; ++c)
+    if (p[c] < box[std::size_t(c)] - margin || p[c] > box[std::size_t(c) + 3] + margin) return false;
+  return true;
+}
+
+// The part of a garment within `margin` of the other garment's box: its index (the triangles
+// with a corner there, wound as the whole garment is outward, capped where the crop opens it)
+// and every k-th of its vertices there as samples. Only this part can vote or be voted on; at
+// 10^6 vertices the crop (a tee's hem band against trousers) is what keeps the index builds cheap.
+struct Cropped {
   std::optional<ProximityIndex> index;
   std::vector<float> samples; // #S × 3
 };
 
-Indexed index_garment(const Mesh& mesh, const LayerOrderOptions& options) {
-  Indexed out;
-  if (mesh.face_count() == 0) return out;
-  std::vector<std::int32_t> triangles = mesh.triangles;
-  if (capped_six_volume(mesh.positions, triangles) < 0)
-    for (std::size_t f = 0; f < mesh.face_count(); ++f) std::swap(triangles[3 * f + 1], triangles[3 * f + 2]);
-  out.index.emplace(mesh.positions, triangles, OpenMeshSide::CAP_HOLES);
-
+Cropped crop(const Mesh& mesh, const Outward& whole, const std::array<float, 6>& other_box, const LayerOrderOptions& options) {
+  Cropped out;
+  const auto margin = static_cast<float>(options.reach);
+  std::vector<char> inside(mesh.vertex_count(), 0);
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) inside[v] = in_box(&mesh.positions[3 * v], other_box, margin);
+  std::vector<std::int32_t> triangles;
   std::vector<char> used(mesh.vertex_count(), 0);
-  for (std::int32_t v : mesh.triangles) used[static_cast<std::size_t>(v)] = 1;
-  const auto referenced = static_cast<std::size_t>(std::count(used.begin(), used.end(), char{1}));
-  const std::size_t stride = std::max<std::size_t>(1, (referenced + options.max_samples - 1) / std::max<std::size_t>(1, options.max_samples));
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const std::int32_t* t = &whole.triangles[3 * f];
+    if (!inside[std::size_t(t[0])] && !inside[std::size_t(t[1])] && !inside[std::size_t(t[2])]) continue;
+    triangles.insert(triangles.end(), t, t + 3);
+    for (int k = 0; k < 3; ++k) used[std::size_t(t[k])] = inside[std::size_t(t[k])];
+  }
+  if (triangles.empty()) return out;
+  out.index.emplace(mesh.positions, triangles, OpenMeshSide::CAP_HOLES);
+  const auto count = static_cast<std::size_t>(std::count(used.begin(), used.end(), char{1}));
+  const std::size_t stride = std::max<std::size_t>(1, (count + options.max_samples - 1) / std::max<std::size_t>(1, options.max_samples));
   std::size_t k = 0;
   for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
-    if (!used[v]) continue;
-    if (k++ % stride != 0) continue;
+    if (!used[v] || k++ % stride != 0) continue;
     out.samples.insert(out.samples.end(), mesh.positions.begin() + std::ptrdiff_t(3 * v),
                        mesh.positions.begin() + std::ptrdiff_t(3 * v + 3));
   }
@@ -108,23 +143,21 @@ LayerOrder infer_layer_order(std::span<const Mesh* const> garments, std::span<co
   out.order.assign(default_order.begin(), default_order.end());
   if (n < 2) return out;
 
-  std::vector<std::size_t> wanted(n, 0); // garments in at least one comparable pair
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j)
-      if (!comparable || comparable(i, j)) wanted[i] = wanted[j] = 1;
-  std::vector<Indexed> indexed(n);
-  for (std::size_t i = 0; i < n; ++i)
-    if (wanted[i]) indexed[i] = index_garment(*garments[i], options);
-
+  std::vector<std::optional<Outward>> whole(n); // built for garments in a comparable pair
   std::vector<std::vector<std::size_t>> over_of(n); // under → the garments over it
   std::vector<std::size_t> preceding(n, 0);          // how many garments must come before
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t j = i + 1; j < n; ++j) {
       if (comparable && !comparable(i, j)) continue;
-      if (!indexed[i].index || !indexed[j].index) continue;
+      if (garments[i]->face_count() == 0 || garments[j]->face_count() == 0) continue;
+      for (std::size_t g : {i, j})
+        if (!whole[g]) whole[g] = outward(*garments[g]);
+      const Cropped ci = crop(*garments[i], *whole[i], whole[j]->box, options);
+      const Cropped cj = crop(*garments[j], *whole[j], whole[i]->box, options);
+      if (!ci.index || !cj.index) continue; // too far apart to overlap
       LayerPairVotes v{i, j, 0, 0};
-      const auto [i_in_j, i_out_j] = side_votes(indexed[i].samples, *indexed[j].index, options);
-      const auto [j_in_i, j_out_i] = side_votes(indexed[j].samples, *indexed[i].index, options);
+      const auto [i_in_j, i_out_j] = side_votes(ci.samples, *cj.index, options);
+      const auto [j_in_i, j_out_i] = side_votes(cj.samples, *ci.index, options);
       v.first_under = i_in_j + j_out_i;
       v.first_over = i_out_j + j_in_i;
       out.votes.push_back(v);

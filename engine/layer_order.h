@@ -43,8 +43,8 @@ struct LayerOrderOptions {
   double majority = 0.8;
   /// ... and at least this many votes (a few stray contacts do not make a layer).
   std::size_t min_votes = 30;
-  /// At most this many vertices of each garment are sampled (every k-th vertex), so the cost
-  /// stays near one index build per garment at 10^6 vertices.
+  /// At most this many vertices of each garment's overlapping part are sampled (every k-th), so
+  /// the queries stay cheap at 10^6 vertices.
   std::size_t max_samples = 20000;
 };
 
@@ -74,8 +74,10 @@ struct LayerOrder {
 /// `default_order` (a permutation of the garment indices) where the geometry says nothing.
 /// `comparable(i, j)` (i < j), when given, says whether a pair may be compared at all (e.g.
 /// false for garments from two files whose frames need not agree); absent: every pair. A garment
-/// without triangles casts and receives no vote. Cost: one ProximityIndex per garment and up to
-/// max_samples closest-point queries per garment and pair. Throws vfit::Error when
+/// without triangles casts and receives no vote. Only the part of each garment within `reach`
+/// of the other's bounding box takes part (a tee's hem band against trousers), so the cost per
+/// pair is one ProximityIndex over each part and up to max_samples closest-point queries from
+/// each, plus one pass over each garment to wind it outward. Throws vfit::Error when
 /// default_order is not a permutation of [0, #garments).
 LayerOrder infer_layer_order(std::span<const Mesh* const> garments, std::span<const std::size_t> default_order,
                              const std::function<bool(std::size_t, std::size_t)>& comparable = {},

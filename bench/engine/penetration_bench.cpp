@@ -10,6 +10,9 @@
 //    arms-down mannequin; `vertices_per_s` is the throughput. Bar: 10^6 vertices under 2 s.
 //    Second argument: the region solver, 0 = PenetrationSolver::CHOLESKY, 1 = CONJUGATE_GRADIENT.
 //    The 10^6 tee takes ~40 s to generate; filter it out with --benchmark_filter when in a hurry.
+//  - BM_InferLayerOrder/N: infer_layer_order() (engine/layer_order.h) on the catalogue's T-pose
+//    tee M and trousers P2 of N vertices each, as generated (one frame). Counters: the pair's
+//    votes (tee under / over the trousers), vertices. The 10^6 pair takes minutes to generate.
 // Each iteration copies the pre-removal mesh (a copy of 10^6 × 3 floats is ~1 ms, inside the
 // timing; negligible at the bar's scale).
 #include <benchmark/benchmark.h>
@@ -20,6 +23,7 @@
 #include <string>
 
 #include "engine/fit_pipeline.h"
+#include "engine/layer_order.h"
 #include "engine/penetration.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
@@ -127,6 +131,33 @@ void BM_RemoveScaled(benchmark::State& state) {
   run(state, *c, state.range(1) == 0 ? vfit::PenetrationSolver::CHOLESKY : vfit::PenetrationSolver::CONJUGATE_GRADIENT);
 }
 BENCHMARK(BM_RemoveScaled)->ArgsProduct({{10'000, 100'000, 1'000'000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+void BM_InferLayerOrder(benchmark::State& state) {
+  static std::map<std::int64_t, std::vector<vfit::Mesh>> cache;
+  auto& pair = cache[state.range(0)];
+  if (pair.empty())
+    for (const vfit::GarmentType t : {vfit::GarmentType::TEE, vfit::GarmentType::TROUSERS}) {
+      vfit::GarmentOptions go;
+      go.type = t;
+      if (t == vfit::GarmentType::TROUSERS) go.size.assign("P2");
+      go.target_vertices = std::size_t(state.range(0));
+      pair.push_back(vfit::make_garment(go).mesh);
+    }
+  const vfit::Mesh* garments[] = {&pair[0], &pair[1]};
+  const std::size_t given[] = {1, 0}; // bottoms first
+  vfit::LayerOrder found;
+  for (auto _ : state) {
+    found = vfit::infer_layer_order(garments, given);
+    benchmark::DoNotOptimize(found.order.data());
+  }
+  if (!found.votes.empty()) {
+    state.counters["tee_under"] = double(found.votes[0].first_under);
+    state.counters["tee_over"] = double(found.votes[0].first_over);
+  }
+  state.counters["tee_first"] = found.order[0] == 0 ? 1 : 0;
+  state.counters["vertices"] = double(pair[0].vertex_count() + pair[1].vertex_count());
+}
+BENCHMARK(BM_InferLayerOrder)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 } // namespace
 
