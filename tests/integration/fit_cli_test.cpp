@@ -155,6 +155,18 @@ TEST(FitCli, AnUnknownGarmentFacingExits2) {
   EXPECT_EQ(file_count(dir.path()), 1u);
 }
 
+// A layer order that is not auto, type or given is refused naming the flag, before any work.
+TEST(FitCli, AnUnknownLayerOrderExits2) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--layer-order", "outer-first",
+                                "--out", (dir / "out.obj").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--layer-order"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("outer-first"), std::string::npos) << r.err;
+  EXPECT_EQ(file_count(dir.path()), 1u);
+}
+
 // A garment with a degenerate and a duplicated face: refused naming the file, line and --repair;
 // with --repair both are dropped, each with a warning, and the garment is fitted.
 TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
