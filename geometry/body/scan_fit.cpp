@@ -6,6 +6,7 @@
 #include <ctime>
 #include <numbers>
 #include <optional>
+#include <tuple>
 
 #include <tbb/task_group.h>
 
@@ -466,11 +467,28 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     // Unposed into an A-pose rather than the T-pose: raised hands' fingers can top the head.
     // `drop`: the upper arms' angle below horizontal (rad). A[k]: bone k's skinning transform
     // from that pose into the scan.
+    // Only the limbs and the spine are unposed: the collars, the neck and the head keep their
+    // fitted rotations (each upper arm is turned so that it still points `drop` below
+    // horizontal). Those rotations are mostly the template making up for a shape it cannot take
+    // (the corpus body's rest pose itself fits with collars turned 16-20° and the neck pitched
+    // 9° forward, the head 8° back), and undoing them with the template's weights, which share
+    // the shoulder girdle and the neck with their neighbours differently from the scan's own
+    // rig, bent the unposed scan's shoulders and neck out of shape; the estimator reads collars,
+    // neck and head in whatever modest turn they come. Over the 20 corpus poses: head 1.5-2.9 ->
+    // 0.4-1.2 cm, mean joint error 1.33 -> 1.18 cm, joints past 2.5 cm 20 -> 6, past 3 cm 7 -> 2,
+    // mean re-posing error 5.3 -> 4.5 mm (worst 11.1 -> 9.9 mm).
     std::array<Eigen::Isometry3d, JOINT_COUNT> A;
     auto unpose = [&](const SkinWeights& w, double drop) {
       Pose apose;
-      apose.axis_angle(idx(Joint::LEFT_SHOULDER), 2) = -drop;
-      apose.axis_angle(idx(Joint::RIGHT_SHOULDER), 2) = drop;
+      for (Joint j : {Joint::NECK, Joint::HEAD, Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR})
+        apose.axis_angle.row(idx(j)) = fit.pose.axis_angle.row(idx(j));
+      for (const auto& [collar, shoulder, sign] :
+           {std::tuple{Joint::LEFT_COLLAR, Joint::LEFT_SHOULDER, -1.0},
+            std::tuple{Joint::RIGHT_COLLAR, Joint::RIGHT_SHOULDER, 1.0}}) {
+        const Eigen::Matrix3d girdle = axis_angle_to_matrix(fit.pose.axis_angle.row(idx(collar)).transpose());
+        const Eigen::Matrix3d arm = axis_angle_to_matrix(Vec3(0, 0, sign * drop));
+        apose.axis_angle.row(idx(shoulder)) = matrix_to_axis_angle(Eigen::Matrix3d(girdle.transpose() * arm)).transpose();
+      }
       A = skinning_transforms(fit.rest_joints, fit.pose);
       const auto B = skinning_transforms(fit.rest_joints, apose);
       for (std::size_t k = 0; k < A.size(); ++k)

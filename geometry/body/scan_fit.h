@@ -69,9 +69,10 @@ struct ScanFit {
   BodyMeasurements measurements;                       ///< of the fitted shape (the mannequin's, scaled)
   JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the fitted shape (m)
   /// The joints in the scan (m): estimate_joints() run on the scan unposed into the fitted
-  /// template's A-pose (inverse LBS), each joint carried back by the mean of the skinning
-  /// transforms of its parent's bone and its own; where that estimation fails, the template's posed joints
-  /// posed_joints(rest_joints, pose).
+  /// template's A-pose (inverse LBS of the spine and limbs; the collars, neck and head keep
+  /// their fitted rotations, the upper arms pointing down as in the A-pose), each joint carried
+  /// back by the mean of the skinning transforms of its parent's bone and its own; where that
+  /// estimation fails, the template's posed joints posed_joints(rest_joints, pose).
   JointPositions joints = JointPositions::Zero();
   bool joints_estimated_unposed = false; ///< `joints` come from the unposed scan
   /// The scan as a rigged body: its own mesh in its own (the fitted) pose, `joints` as the
