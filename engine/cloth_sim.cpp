@@ -457,7 +457,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     m.springs.damping[s] = static_cast<float>(2.0 * zeta * std::sqrt(k * reduced));
   }
   // Into the internal numbering (see Impl).
-  m.order = cloth_particle_order(positions, m.springs);
+  m.order = cloth_particle_order(nv, m.springs);
   m.rank = inverse_permutation(m.order);
   m.springs = renumber_cloth_springs(m.springs, m.rank);
   gather_rows(positions, m.order, 3, m.x);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <tbb/global_control.h>
+
 #include "cloth_gather.h"
 #include "parallel.h"
 
@@ -142,35 +144,140 @@ void stage_range(const StagePass& p, const SpringAdjacency& adj, const ClothPart
   stage_range_lanes<STAGE>(p, adj, particles, h, begin, end);
 }
 
-// Runs the four stage passes; `run(kernel)` runs kernel(begin, end) over all slices.
-template <typename Driver>
+// Slices by which stage 0 advances per round of the wavefront (run_wavefront): 256 particles,
+// small against the lag the neighbours impose between stages (a garment's spread between
+// SpringAdjacency::slice_neighbor_first and _last: about a hundred slices at 10^6 particles).
+constexpr std::size_t WAVE_SLICES = 16;
+
+// Runs stage s on slices [b, e).
+VFIT_CLOTH_INLINE void run_stage(int stage, const StagePass& pass, const SpringAdjacency& adj,
+                                 const ClothParticles& particles, float h, std::size_t b, std::size_t e) {
+  if (b >= e) return;
+  switch (stage) {
+  case 0: stage_range<0>(pass, adj, particles, h, b, e); break;
+  case 1: stage_range<1>(pass, adj, particles, h, b, e); break;
+  case 2: stage_range<2>(pass, adj, particles, h, b, e); break;
+  default: stage_range<3>(pass, adj, particles, h, b, e); break;
+  }
+}
+
+// The slices [first[s], last[s]) on which a chunk [a, b) of the slices runs stage s by itself
+// (E_s in rk4_step's comment): E_0 = [a, b), and E_s the widest interval of E_(s−1) whose
+// slices' neighbour ranges (SpringAdjacency::slice_neighbor_first/_last) lie inside E_(s−1).
+// Empty intervals have first == last.
+struct ChunkStages {
+  std::size_t first[4], last[4];
+};
+
+ChunkStages chunk_stages(const SpringAdjacency& adj, std::size_t a, std::size_t b) {
+  ChunkStages c{};
+  c.first[0] = a;
+  c.last[0] = b;
+  for (int s = 1; s < 4; ++s) {
+    const std::size_t lo = c.first[s - 1], hi = c.last[s - 1];
+    std::size_t first = lo, last = hi;
+    for (std::size_t k = lo; k < hi; ++k) {
+      if (static_cast<std::size_t>(adj.slice_neighbor_first[k]) < lo) first = k + 1;
+      if (static_cast<std::size_t>(adj.slice_neighbor_last[k]) >= hi) last = std::min(last, k);
+    }
+    if (first >= last) first = last = lo;
+    c.first[s] = first;
+    c.last[s] = last;
+  }
+  return c;
+}
+
+// Phase 1 of rk4_step on one chunk: stage s on E_s, all four stages in one sweep, stage s
+// following stage s − 1 as closely as the neighbours allow (a slice runs stage s once stage
+// s − 1 has covered its neighbour range), so a slice's spring rows and states are read by its
+// four stages while they are still in the cache, instead of once per full pass.
+void run_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adj, const ClothParticles& particles, float h,
+                   const ChunkStages& c) {
+  std::size_t front[4];
+  for (int s = 0; s < 4; ++s)
+    front[s] = c.first[s];
+  const auto pending = [&] {
+    for (int s = 0; s < 4; ++s)
+      if (front[s] < c.last[s]) return true;
+    return false;
+  };
+  while (pending()) {
+    const std::size_t e0 = std::min(c.last[0], front[0] + WAVE_SLICES);
+    run_stage(0, pass[0], adj, particles, h, front[0], e0);
+    front[0] = e0;
+    for (int s = 1; s < 4; ++s) {
+      std::size_t e = front[s];
+      while (e < c.last[s] && static_cast<std::size_t>(adj.slice_neighbor_last[e]) < front[s - 1])
+        ++e;
+      run_stage(s, pass[s], adj, particles, h, front[s], e);
+      front[s] = e;
+    }
+  }
+}
+
+// One RK4 step over the slices split into `chunks` contiguous chunks.
+//
+// Stage s reads the states stage s − 1 wrote (x, v at stage 0) at a slice's neighbours, and
+// writes the slice's own rows: the next state (a buffer that stage s − 1 or s + 1 also uses:
+// stage_x[s % 2], or x, v at stage 3), the running sums. So stage s may run on a slice once
+// stage s − 1 has run on every slice in its neighbour range (the values it reads are there), and
+// once stage s − 1 has run on every slice whose range holds it (stage s + 1 − 2 = s − 1 has
+// read the buffer stage s overwrites; by symmetry of the springs, the same slices). Each slice's
+// arithmetic is that of the plain stage-by-stage passes whatever the order, so the bits do not
+// depend on the schedule or the number of chunks.
+//
+// Phase 1, chunks in parallel: chunk [a, b) runs stage s on E_s (ChunkStages) by run_wavefront;
+// E_s's neighbour ranges lie in E_(s−1) of the same chunk, so a chunk reads no other chunk's
+// stage states (stage 0 reads x, v, which no chunk writes before its neighbours' E_1 ... E_3 are
+// done: a slice of E_3 has every neighbour in its own chunk). Phase 2: the slices of each stage
+// s ≥ 1 that phase 1 left (within a few neighbour ranges of a chunk boundary), stage by stage,
+// each stage in parallel: by then every slice has run stage s − 1.
+template <typename ForEach>
 void rk4_step(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
-              const ClothParticles& particles, float h, Rk4Workspace& w, const Driver& run) {
+              const ClothParticles& particles, float h, Rk4Workspace& w, std::size_t chunks, const ForEach& for_each) {
   const std::size_t n = positions.size();
   assert(n == 3 * adjacency.particle_count() && velocities.size() == n && "state and adjacency sizes differ");
   assert(particles.inverse_masses.size() == adjacency.particle_count() && "one inverse mass per particle");
+  assert(adjacency.slice_neighbor_last.size() == adjacency.slice_count() && "adjacency from build_spring_adjacency");
   for (auto* buf : {&w.acc_x, &w.acc_v, &w.stage_x[0], &w.stage_x[1], &w.stage_v[0], &w.stage_v[1]})
     buf->resize(n);
   float* x = positions.data();
   float* v = velocities.data();
+  StagePass pass[4];
   const float* read_x = x;
   const float* read_v = v;
   for (int stage = 0; stage < 4; ++stage) {
     const bool last = stage == 3;
     float* write_x = last ? x : w.stage_x[stage % 2].data();
     float* write_v = last ? v : w.stage_v[stage % 2].data();
-    const StagePass pass{read_x, read_v, x, v, w.acc_x.data(), w.acc_v.data(), write_x, write_v};
-    run([&](std::size_t b, std::size_t e) {
-      switch (stage) {
-      case 0: stage_range<0>(pass, adjacency, particles, h, b, e); break;
-      case 1: stage_range<1>(pass, adjacency, particles, h, b, e); break;
-      case 2: stage_range<2>(pass, adjacency, particles, h, b, e); break;
-      default: stage_range<3>(pass, adjacency, particles, h, b, e); break;
-      }
-    });
+    pass[stage] = StagePass{read_x, read_v, x, v, w.acc_x.data(), w.acc_v.data(), write_x, write_v};
     read_x = write_x;
     read_v = write_v;
   }
+  const std::size_t slices = adjacency.slice_count();
+  chunks = std::max<std::size_t>(1, std::min(chunks, slices));
+  w.chunk_stages.resize(4 * 2 * chunks);
+  for_each(chunks, [&](std::size_t c) {
+    const ChunkStages cs = chunk_stages(adjacency, slices * c / chunks, slices * (c + 1) / chunks);
+    run_wavefront(pass, adjacency, particles, h, cs);
+    for (int s = 0; s < 4; ++s) {
+      w.chunk_stages[8 * c + 2 * s] = cs.first[s];
+      w.chunk_stages[8 * c + 2 * s + 1] = cs.last[s];
+    }
+  });
+  if (chunks == 1) return; // E_s is every slice: a slice's neighbours are all in the one chunk
+  for (int stage = 1; stage < 4; ++stage)
+    for_each(2 * chunks, [&](std::size_t k) {
+      const std::size_t c = k / 2, a = slices * c / chunks, b = slices * (c + 1) / chunks;
+      const std::size_t first = w.chunk_stages[8 * c + 2 * stage], last = w.chunk_stages[8 * c + 2 * stage + 1];
+      if (first == last) { // E_s empty: the whole chunk, run by its first half of k
+        if (k % 2 == 0) run_stage(stage, pass[stage], adjacency, particles, h, a, b);
+      } else if (k % 2 == 0) {
+        run_stage(stage, pass[stage], adjacency, particles, h, a, first);
+      } else {
+        run_stage(stage, pass[stage], adjacency, particles, h, last, b);
+      }
+    });
 }
 } // namespace
 
@@ -190,17 +297,34 @@ void cloth_accelerations_serial(std::span<const float> positions, std::span<cons
 
 void rk4_step_serial(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                      const ClothParticles& particles, float h, Rk4Workspace& workspace) {
-  const std::size_t slices = adjacency.slice_count();
-  rk4_step(positions, velocities, adjacency, particles, h, workspace,
-           [slices](const auto& kernel) { kernel(std::size_t{0}, slices); });
+  rk4_step(positions, velocities, adjacency, particles, h, workspace, 1,
+           [](std::size_t count, const auto& kernel) {
+             for (std::size_t k = 0; k < count; ++k)
+               kernel(k);
+           });
+}
+
+void rk4_step_chunked(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
+                      const ClothParticles& particles, float h, Rk4Workspace& workspace, std::size_t chunks) {
+  rk4_step(positions, velocities, adjacency, particles, h, workspace, chunks,
+           [](std::size_t count, const auto& kernel) {
+             parallel_for_range(count, 1, [&](std::size_t b, std::size_t e) {
+               for (std::size_t k = b; k < e; ++k)
+                 kernel(k);
+             });
+           });
 }
 
 void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                   const ClothParticles& particles, float h, Rk4Workspace& workspace) {
-  const std::size_t slices = adjacency.slice_count();
-  rk4_step(positions, velocities, adjacency, particles, h, workspace, [slices](const auto& kernel) {
-    parallel_for_range(slices, CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH, kernel);
-  });
+  // One chunk per thread that may run (the arena's, capped by a tbb::global_control), each of
+  // at least CLOTH_PARTICLE_GRAIN particles.
+  const auto threads = std::max<std::size_t>(
+      1, std::min(static_cast<std::size_t>(std::max(1, parallel_thread_count())),
+                  tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
+  const std::size_t chunks = std::min(threads, std::max<std::size_t>(1, adjacency.slice_count() /
+                                                                             (CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH)));
+  rk4_step_chunked(positions, velocities, adjacency, particles, h, workspace, chunks);
 }
 
 Rk4StepBound rk4_stable_step(const SpringAdjacency& adjacency, const ClothParticles& particles) {

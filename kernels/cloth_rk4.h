@@ -31,6 +31,22 @@
 /// the pass twice as slow on that machine). Both give the same bits. The scattered loads hit the cache when the particles are numbered for locality
 /// (kernels/cloth_ordering.h, as ClothSim numbers them).
 ///
+/// The schedule: a step does not run the four stages as four passes over all particles, each
+/// streaming every spring row and state from memory (at 10^6 particles 0.3 GB a pass, far
+/// beyond the caches). Stage s of a slice needs stage s − 1 done on the slices holding its
+/// neighbours (SpringAdjacency::slice_neighbor_first/_last), and may overwrite a buffer stage
+/// s − 1 read there once those have run stage s − 1 too; so the driver runs the stages as a
+/// wavefront, stage 0 advancing 16 slices at a time and each later stage following its
+/// predecessor as closely as the neighbours allow, and a slice's rows are read by its four
+/// stages while still in cache. In the banded numbering of kernels/cloth_ordering.h the lag
+/// between stages is a few hundred slices at 10^6 particles (a few MB: mostly L2 and L3 hits)
+/// against the whole mesh for a Morton curve. TBB splits the slices into one contiguous chunk
+/// per thread, each running the wavefront on the slices whose neighbours (to the depth of the
+/// stage) lie in the chunk, then finishes the slices near the chunk boundaries stage by stage.
+/// Every slice's arithmetic is that of the stage-by-stage passes in any schedule, so the bits
+/// do not depend on it, on the thread count or on the chunk count. Catalogue tee at 10^6
+/// particles, BM_rk4_tbb_tee, same run on the 2-core benchmark host: see the commit log.
+///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled
 /// damping and stiffness matrices M^{-1/2} C M^{-1/2} and M^{-1/2} K M^{-1/2}, so
@@ -64,6 +80,7 @@ struct ClothParticles {
 struct Rk4Workspace {
   std::vector<float> acc_x, acc_v;           ///< running weighted sums of the slopes
   std::vector<float> stage_x[2], stage_v[2]; ///< stage states, double-buffered
+  std::vector<std::size_t> chunk_stages;     ///< the driver's schedule: per chunk and stage, a slice range
 };
 
 /// Accelerations a(x, v) (m/s², #V × 3, out resized) of every particle: spring gather plus
@@ -78,10 +95,17 @@ void cloth_accelerations_serial(std::span<const float> positions, std::span<cons
 void rk4_step_serial(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                      const ClothParticles& particles, float h, Rk4Workspace& workspace);
 
-/// TBB driver of rk4_step_serial() (grain CLOTH_PARTICLE_GRAIN per stage pass); the same bits
-/// for any thread count.
+/// TBB driver of rk4_step_serial(): one chunk of slices per thread (rk4_step_chunked()), each of
+/// at least CLOTH_PARTICLE_GRAIN particles; the same bits for any thread count.
 void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                   const ClothParticles& particles, float h, Rk4Workspace& workspace);
+
+/// rk4_step_tbb() with the slices (SpringAdjacency::slice_offsets) split into `chunks`
+/// contiguous chunks run in parallel (clamped to [1, #slices]); rk4_step_tbb() takes one per
+/// thread. The same bits for every count (see the schedule in the file comment): the tests of
+/// the schedule call it with counts this machine's thread count would not choose.
+void rk4_step_chunked(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
+                      const ClothParticles& particles, float h, Rk4Workspace& workspace, std::size_t chunks);
 
 /// Radius of the left half-disc used as RK4's stability region in the step bound.
 inline constexpr double RK4_STABILITY_RADIUS = 2.5;

@@ -122,6 +122,19 @@ void build_slices(SpringAdjacency& adj) {
       if (consecutive) adj.slice_consecutive_columns[s] |= std::uint32_t{1} << k;
     }
   }
+  adj.slice_neighbor_first.resize(slices);
+  adj.slice_neighbor_last.resize(slices);
+  for (std::size_t s = 0; s < slices; ++s) {
+    auto first = static_cast<std::int32_t>(s), last = first;
+    for (auto slot = static_cast<std::size_t>(adj.slice_offsets[s]); slot < static_cast<std::size_t>(adj.slice_offsets[s + 1]);
+         ++slot) {
+      const std::int32_t neighbor_slice = adj.slice_neighbor_offsets[slot] / 3 / static_cast<std::int32_t>(W);
+      first = std::min(first, neighbor_slice);
+      last = std::max(last, neighbor_slice);
+    }
+    adj.slice_neighbor_first[s] = first;
+    adj.slice_neighbor_last[s] = last;
+  }
 }
 } // namespace
 

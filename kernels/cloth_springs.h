@@ -81,6 +81,12 @@ struct SpringAdjacency {
   /// states as contiguous vectors; columns k ≥ 32 are never marked. A mesh numbered row by
   /// row marks most columns (98 % of a 1000 × 1000 grid's); the catalogue's tee marks none.
   std::vector<std::uint32_t> slice_consecutive_columns; ///< ⌈#V / W⌉
+  /// Per slice s, the lowest and highest slice holding a neighbour of one of its particles
+  /// (slots' neighbours, null slots included; s itself at least), so first ≤ s ≤ last: a stage
+  /// pass on slice s reads the previous stage's states of these slices only. The RK4 driver
+  /// (cloth_rk4.h) schedules its stages by them; a numbering with little spread between the two
+  /// (kernels/cloth_ordering.h) lets a later stage follow an earlier one closely.
+  std::vector<std::int32_t> slice_neighbor_first, slice_neighbor_last; ///< ⌈#V / W⌉ each
 
   std::size_t particle_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
   std::size_t slice_count() const { return slice_offsets.empty() ? 0 : slice_offsets.size() - 1; }

@@ -81,7 +81,7 @@ Cloth make_cloth(const vfit::Mesh& m, std::size_t pinned_a, std::size_t pinned_b
     s.stiffness[i] = s.kinds[i] == vfit::SpringKind::BENDING ? 4.0f : 400.0f;
     s.damping[i] = 1e-4f;
   }
-  const std::vector<std::int32_t> order = vfit::cloth_particle_order(m.position_view(), s);
+  const std::vector<std::int32_t> order = vfit::cloth_particle_order(m.vertex_count(), s);
   const std::vector<std::int32_t> rank = vfit::inverse_permutation(order);
   s = vfit::renumber_cloth_springs(s, rank);
   c.springs = s.size();
@@ -108,7 +108,7 @@ const Cloth& cloth(std::int64_t particles) {
 }
 
 // The catalogue tee at `particles` vertices, numbered by make_cloth() as ClothSim numbers it
-// internally (cloth_particle_order(): Morton order, rows grouped by length in windows of 128): no
+// internally (cloth_particle_order(): Cuthill–McKee order, rows grouped by length in windows of 128): no
 // slice column of consecutive neighbours (the gathers are scattered, a few kB apart), little
 // padding. In the catalogue's own numbering its neighbours lie anywhere and its slices pad by
 // 20 %.
@@ -340,7 +340,7 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   const vfit::ClothSprings springs = vfit::build_cloth_springs(d.tee.position_view(), d.tee.triangle_view());
   const vfit::SpringAdjacency adjacency = vfit::build_spring_adjacency(
       vfit::renumber_cloth_springs(
-          springs, vfit::inverse_permutation(vfit::cloth_particle_order(d.tee.position_view(), springs))),
+          springs, vfit::inverse_permutation(vfit::cloth_particle_order(d.tee.vertex_count(), springs))),
       d.tee.vertex_count());
   state.counters["null_slots"] =
       double(adjacency.slice_neighbor_offsets.size()) / double(adjacency.neighbors.size()) - 1.0;

@@ -256,6 +256,15 @@ TEST(ClothSprings, SlicedRowsHoldEachCsrRowInItsLane) {
       }
     }
     EXPECT_EQ(std::size_t(longest), (end - first) / W) << "slice " << s << " is as wide as its longest row";
+    // The slices holding this slice's neighbours (null slots' particles included) span
+    // [slice_neighbor_first, slice_neighbor_last], the slice itself inside.
+    std::int32_t lowest = std::int32_t(s), highest = std::int32_t(s);
+    for (std::size_t slot = first; slot < end; ++slot) {
+      lowest = std::min(lowest, adj.slice_neighbor_offsets[slot] / 3 / std::int32_t(W));
+      highest = std::max(highest, adj.slice_neighbor_offsets[slot] / 3 / std::int32_t(W));
+    }
+    EXPECT_EQ(adj.slice_neighbor_first[s], lowest) << "slice " << s;
+    EXPECT_EQ(adj.slice_neighbor_last[s], highest) << "slice " << s;
     for (std::size_t k = 0; first + W * k < end; ++k) {
       bool consecutive = k < 32;
       for (std::size_t l = 1; l < W; ++l)
@@ -366,14 +375,14 @@ TEST(ClothOrdering, ScatteredColumnsGatherTheScatterBits) {
 // more).
 TEST(ClothOrdering, OrderKeepsARowByRowGridAndRegroupsAScatteredOne) {
   const Fixture grid = jittered_cloth(120, 2u, false); // over half its columns consecutive
-  const std::vector<std::int32_t> kept = cloth_particle_order(grid.x, grid.springs);
+  const std::vector<std::int32_t> kept = cloth_particle_order(grid.x.size() / 3, grid.springs);
   for (std::size_t i = 0; i < kept.size(); ++i)
     ASSERT_EQ(kept[i], std::int32_t(i));
 
   const Fixture f = jittered_cloth(40, 2u, false);
 
   const Renumbered r = shuffled(f, 8u);
-  const std::vector<std::int32_t> order = cloth_particle_order(r.x, r.springs);
+  const std::vector<std::int32_t> order = cloth_particle_order(r.order.size(), r.springs);
   std::vector<std::int32_t> sorted = order;
   std::sort(sorted.begin(), sorted.end());
   for (std::size_t i = 0; i < sorted.size(); ++i)
@@ -382,7 +391,7 @@ TEST(ClothOrdering, OrderKeepsARowByRowGridAndRegroupsAScatteredOne) {
   const SpringAdjacency before = build_spring_adjacency(r.springs, order.size());
   const SpringAdjacency after = build_spring_adjacency(renamed, order.size());
   EXPECT_LE(null_slots(after), null_slots(before)); // a grid's rows are nearly all of one length
-  // Neighbours close on the curve: the median |i − j| over the spring ends shrinks from about
+  // Neighbours close in the order: the median |i − j| over the spring ends shrinks from about
   // #V/3 (random) to a few rows of the 40-wide grid.
   std::vector<std::int32_t> gaps;
   for (std::size_t s = 0; s < renamed.size(); ++s)
@@ -398,7 +407,7 @@ TEST(ClothOrdering, RenumberedRk4StepGivesEachParticleTheSameBits) {
   const Renumbered scattered = shuffled(f, 6u);
   const Renumbered local = renumbered(f, [&] {
     // The locality order of the scattered numbering, expressed over f's particles.
-    std::vector<std::int32_t> o = cloth_particle_order(scattered.x, scattered.springs);
+    std::vector<std::int32_t> o = cloth_particle_order(scattered.order.size(), scattered.springs);
     for (std::int32_t& k : o)
       k = scattered.order[std::size_t(k)];
     return o;
@@ -433,12 +442,120 @@ TEST(ClothOrdering, TeeRowsPadLessRenumbered) {
   go.target_vertices = 4000;
   const Mesh m = make_garment(go).mesh;
   const ClothSprings springs = build_cloth_springs(m.position_view(), m.triangle_view());
-  const std::vector<std::int32_t> order = cloth_particle_order(m.position_view(), springs);
+  const std::vector<std::int32_t> order = cloth_particle_order(m.vertex_count(), springs);
   const SpringAdjacency before = build_spring_adjacency(springs, m.vertex_count());
   const SpringAdjacency after =
       build_spring_adjacency(renumber_cloth_springs(springs, inverse_permutation(order)), m.vertex_count());
   EXPECT_GT(null_slots(before), 0.1);
   EXPECT_LT(null_slots(after), 0.1);
+}
+
+// The numbering keeps each particle's neighbours within a band: a 64 × 64 grid numbered at
+// random has neighbours in every slice of its 256; in the order, a slice's neighbours lie
+// within a few breadth-first levels (a level of the grid holds at most 2·64 particles, one
+// spring spans at most two levels) plus the regrouping window on either side:
+// 2·(2·2·64 + CLOTH_ORDER_WINDOW) / 16 = 48 slices.
+TEST(ClothOrdering, OrderKeepsEachSlicesNeighboursWithinABand) {
+  const Fixture f = jittered_cloth(64, 31u, false);
+  const Renumbered r = shuffled(f, 12u);
+  const SpringAdjacency before = build_spring_adjacency(r.springs, r.order.size());
+  const SpringAdjacency after = build_spring_adjacency(
+      renumber_cloth_springs(r.springs, inverse_permutation(cloth_particle_order(r.order.size(), r.springs))), r.order.size());
+  const auto widest = [](const SpringAdjacency& adj) {
+    std::int32_t w = 0;
+    for (std::size_t s = 0; s < adj.slice_count(); ++s)
+      w = std::max(w, adj.slice_neighbor_last[s] - adj.slice_neighbor_first[s]);
+    return w;
+  };
+  EXPECT_GT(widest(before), 200);
+  EXPECT_LE(widest(after), std::int32_t(2 * (2 * 2 * 64 + CLOTH_ORDER_WINDOW) / CLOTH_SLICE_WIDTH));
+}
+
+// One RK4 step in four whole-array stages from cloth_accelerations_serial(), in cloth_math.h's
+// arithmetic (vfit_rk4_stage_update, pinned particles' position slope zero): the oracle of
+// the drivers' fused stage passes and their schedule.
+void rk4_reference_step(std::vector<float>& x, std::vector<float>& v, const SpringAdjacency& adj,
+                        const ClothParticles& p, float h) {
+  const std::size_t n = x.size();
+  std::vector<float> xs = x, vs = v, a, acc_x(n), acc_v(n);
+  for (int stage = 0; stage < 4; ++stage) {
+    cloth_accelerations_serial(xs, vs, adj, p, a);
+    const float w = stage == 0 || stage == 3 ? 1.0f : 2.0f;
+    const float t = stage == 3 ? h / 6.0f : (stage == 2 ? 1.0f : 0.5f) * h;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float slope_x = p.inverse_masses[k / 3] == 0.0f ? 0.0f : vs[k];
+      acc_x[k] = stage == 0 ? slope_x : acc_x[k] + w * slope_x;
+      acc_v[k] = stage == 0 ? a[k] : acc_v[k] + w * a[k];
+      xs[k] = x[k] + t * (stage == 3 ? acc_x[k] : slope_x);
+      vs[k] = v[k] + t * (stage == 3 ? acc_v[k] : a[k]);
+    }
+  }
+  x = xs;
+  v = vs;
+}
+
+// The drivers run the four stages as a wavefront over contiguous chunks (cloth_rk4.h): each
+// slice's stage arithmetic is the reference's, whatever the schedule, so every driver and
+// chunk count must give the reference's bits, on a strip numbered across (neighbours a slice or
+// two apart: the chunks run nearly all of it alone), the same strip numbered at random (every
+// slice's neighbours in every chunk: the chunks run stage 0 alone and leave the rest to the
+// pass after) and renumbered by cloth_particle_order().
+TEST(ClothRk4, StepsGiveTheStageByStageReferenceBitsForEveryChunkCount) {
+  Fixture f;
+  f.mesh = make_grid(6, 1500, 0.05f, 12.5f); // 9,000 particles, 563 slices, rows of 6
+  f.springs = build_cloth_springs(f.mesh.position_view(), f.mesh.triangle_view());
+  std::mt19937 rng(17u);
+  std::uniform_real_distribution<float> jitter(-2e-3f, 2e-3f), kd(50.0f, 500.0f), cd(0.0f, 0.5f), vel(-1.0f, 1.0f);
+  for (std::size_t s = 0; s < f.springs.size(); ++s) {
+    f.springs.stiffness[s] = kd(rng);
+    f.springs.damping[s] = cd(rng);
+  }
+  f.x = f.mesh.positions;
+  for (float& p : f.x)
+    p += jitter(rng);
+  f.v.resize(f.x.size());
+  for (float& q : f.v)
+    q = vel(rng);
+  const Renumbered across = renumbered(f, [&] {
+    std::vector<std::int32_t> o(f.mesh.vertex_count());
+    for (std::size_t i = 0; i < o.size(); ++i)
+      o[i] = std::int32_t(i);
+    return o;
+  }());
+  const Renumbered random = shuffled(f, 3u);
+  const Renumbered ordered = renumbered(f, [&] {
+    std::vector<std::int32_t> o = cloth_particle_order(random.order.size(), random.springs);
+    for (std::int32_t& k : o)
+      k = random.order[std::size_t(k)];
+    return o;
+  }());
+  const Renumbered* numberings[] = {&across, &random, &ordered};
+  for (int numbering = 0; numbering < 3; ++numbering) {
+    const Renumbered* r = numberings[numbering];
+    const SpringAdjacency adj = build_spring_adjacency(r->springs, r->order.size());
+    std::vector<float> x_ref = r->x, v_ref = r->v;
+    for (int step = 0; step < 3; ++step)
+      rk4_reference_step(x_ref, v_ref, adj, r->particles, 1e-4f);
+    const auto check = [&](const char* what, const auto& step_once) {
+      std::vector<float> x = r->x, v = r->v;
+      Rk4Workspace w;
+      for (int step = 0; step < 3; ++step)
+        step_once(x, v, w);
+      EXPECT_TRUE(same_bits(x, x_ref)) << what << ", numbering " << numbering;
+      EXPECT_TRUE(same_bits(v, v_ref)) << what << ", numbering " << numbering;
+    };
+    check("serial", [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
+      rk4_step_serial(x, v, adj, r->particles, 1e-4f, w);
+    });
+    check("tbb", [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
+      rk4_step_tbb(x, v, adj, r->particles, 1e-4f, w);
+    });
+    for (std::size_t chunks : {1, 2, 3, 7, 40, 1000})
+      check(("chunks " + std::to_string(chunks)).c_str(),
+            [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
+              rk4_step_chunked(x, v, adj, r->particles, 1e-4f, w, chunks);
+            });
+  }
 }
 
 // One particle of mass m on a spring k to a pinned anchor, no gravity or damping: x(t) =
