@@ -121,6 +121,51 @@ VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* p, const std::in
   _mm512_store_ps(out[2], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t2, t3)));
 }
 
+// The permutation indices of load_rows16 / store_rows16: _mm512_permutex2var_ps picks element
+// i & 15 of its first (i < 16) or second (i ≥ 16) operand.
+struct TransposeIndices {
+  alignas(64) std::int32_t load_first[3][16], load_second[3][16], store_first[3][16], store_second[3][16];
+};
+
+constexpr TransposeIndices make_transpose_indices() {
+  TransposeIndices t{};
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 16; ++l) {
+      // Loading component k of lane l, s[3l + k]: from the first two vectors, then the third.
+      const int e = 3 * l + k;
+      t.load_first[k][l] = e < 32 ? e : 0;
+      t.load_second[k][l] = e < 32 ? l : 16 + e - 32;
+      // Storing vector k (floats 16k … 16k + 15), element e = 16k + l = 3·lane + component:
+      // components 0 and 1 from the x and y rows, then component 2 from the z row.
+      const int f = 16 * k + l, lane = f / 3, component = f % 3;
+      t.store_first[k][l] = component == 0 ? lane : component == 1 ? 16 + lane : 0;
+      t.store_second[k][l] = component == 2 ? 16 + lane : l;
+    }
+  return t;
+}
+
+inline constexpr TransposeIndices TRANSPOSE = make_transpose_indices();
+
+// out[c][l] = s[3l + c] for the 16 lanes: 16 particles' rows (48 consecutive floats) into
+// structure of arrays, three loads and six two-source permutes (GCC compiles the scalar loop
+// over 16 lanes into one float move per element for half the lanes or more).
+VFIT_CLOTH_AVX512_TARGET inline void load_rows16(const float* s, float out[3][16]) {
+  const __m512 a = _mm512_loadu_ps(s), b = _mm512_loadu_ps(s + 16), c = _mm512_loadu_ps(s + 32);
+  for (int k = 0; k < 3; ++k) {
+    const __m512 ab = _mm512_permutex2var_ps(a, _mm512_load_si512(TRANSPOSE.load_first[k]), b);
+    _mm512_store_ps(out[k], _mm512_permutex2var_ps(ab, _mm512_load_si512(TRANSPOSE.load_second[k]), c));
+  }
+}
+
+// d[3l + c] = in[c][l] for the 16 lanes: load_rows16 backwards.
+VFIT_CLOTH_AVX512_TARGET inline void store_rows16(float* d, const float in[3][16]) {
+  const __m512 x = _mm512_load_ps(in[0]), y = _mm512_load_ps(in[1]), z = _mm512_load_ps(in[2]);
+  for (int k = 0; k < 3; ++k) {
+    const __m512 xy = _mm512_permutex2var_ps(x, _mm512_load_si512(TRANSPOSE.store_first[k]), y);
+    _mm512_storeu_ps(d + 16 * k, _mm512_permutex2var_ps(xy, _mm512_load_si512(TRANSPOSE.store_second[k]), z));
+  }
+}
+
 #endif
 
 // Lane l of `out` = gather_spring_force(x, v, adj, W·slice + l), bit for bit (lanes past #V:
@@ -148,11 +193,17 @@ VFIT_CLOTH_INLINE void slice_spring_forces(const float* x, const float* v, const
   if (W * slice + W <= n) { // a full slice: its own states are contiguous too
     const float* xs = x + 3 * W * slice;
     const float* vs = v + 3 * W * slice;
-    for (std::size_t l = 0; l < W; ++l)
-      for (std::size_t c = 0; c < 3; ++c) {
-        xi[c][l] = xs[3 * l + c];
-        vi[c][l] = vs[3 * l + c];
-      }
+#if VFIT_CLOTH_AVX512
+    if constexpr (ROW_LOADS) {
+      load_rows16(xs, xi);
+      load_rows16(vs, vi);
+    } else
+#endif
+      for (std::size_t l = 0; l < W; ++l)
+        for (std::size_t c = 0; c < 3; ++c) {
+          xi[c][l] = xs[3 * l + c];
+          vi[c][l] = vs[3 * l + c];
+        }
   } else {
     for (std::size_t l = 0; l < W; ++l) {
       const std::size_t i = std::min(W * slice + l, n - 1);

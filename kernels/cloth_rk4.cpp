@@ -31,17 +31,35 @@ struct SliceVectors {
   alignas(64) float c[3][CLOTH_SLICE_WIDTH];
 };
 
-// out[c][l] = p[3·(first + l) + c] for the lanes l < count.
+// out[c][l] = p[3·(first + l) + c] for the lanes l < count; ROW_LOADS (VFIT_CLOTH_AVX512_TARGET
+// kernels only): a full slice by load_rows16.
+template <bool ROW_LOADS>
 VFIT_CLOTH_INLINE void load_slice(const float* p, std::size_t first, std::size_t count, SliceVectors& out) {
   const float* s = p + 3 * first;
+#if VFIT_CLOTH_AVX512
+  if constexpr (ROW_LOADS)
+    if (count == CLOTH_SLICE_WIDTH) {
+      load_rows16(s, out.c);
+      return;
+    }
+#endif
   for (std::size_t l = 0; l < count; ++l)
     for (std::size_t c = 0; c < 3; ++c)
       out.c[c][l] = s[3 * l + c];
 }
 
-// p[3·(first + l) + c] = in[c][l] for the lanes l < count.
+// p[3·(first + l) + c] = in[c][l] for the lanes l < count; ROW_LOADS: a full slice by
+// store_rows16.
+template <bool ROW_LOADS>
 VFIT_CLOTH_INLINE void store_slice(float* p, std::size_t first, std::size_t count, const SliceVectors& in) {
   float* d = p + 3 * first;
+#if VFIT_CLOTH_AVX512
+  if constexpr (ROW_LOADS)
+    if (count == CLOTH_SLICE_WIDTH) {
+      store_rows16(d, in.c);
+      return;
+    }
+#endif
   for (std::size_t l = 0; l < count; ++l)
     for (std::size_t c = 0; c < 3; ++c)
       d[3 * l + c] = in.c[c][l];
@@ -69,12 +87,12 @@ VFIT_CLOTH_INLINE void stage_slices(const StagePass& p, const SpringAdjacency& a
     slice_spring_forces<ROW_LOADS>(p.xs, p.vs, adj, slice, forces);
     const std::size_t first = W * slice, count = std::min(W, n - first);
     std::copy_n(particles.inverse_masses.data() + first, count, inv_mass);
-    load_slice(p.vs, first, count, vs);
-    load_slice(p.x0, first, count, x0);
-    load_slice(p.v0, first, count, v0);
+    load_slice<ROW_LOADS>(p.vs, first, count, vs);
+    load_slice<ROW_LOADS>(p.x0, first, count, x0);
+    load_slice<ROW_LOADS>(p.v0, first, count, v0);
     if (STAGE != 0) {
-      load_slice(p.acc_x, first, count, acc_x);
-      load_slice(p.acc_v, first, count, acc_v);
+      load_slice<ROW_LOADS>(p.acc_x, first, count, acc_x);
+      load_slice<ROW_LOADS>(p.acc_v, first, count, acc_v);
     }
     for (std::size_t l = 0; l < count; ++l) {
       const vfit_vec3 vsl{vs.c[0][l], vs.c[1][l], vs.c[2][l]};
@@ -106,11 +124,11 @@ VFIT_CLOTH_INLINE void stage_slices(const StagePass& p, const SpringAdjacency& a
       next_v.c[2][l] = nv.z;
     }
     if (STAGE != 3) {
-      store_slice(p.acc_x, first, count, acc_x);
-      store_slice(p.acc_v, first, count, acc_v);
+      store_slice<ROW_LOADS>(p.acc_x, first, count, acc_x);
+      store_slice<ROW_LOADS>(p.acc_v, first, count, acc_v);
     }
-    store_slice(p.next_x, first, count, next_x);
-    store_slice(p.next_v, first, count, next_v);
+    store_slice<ROW_LOADS>(p.next_x, first, count, next_x);
+    store_slice<ROW_LOADS>(p.next_v, first, count, next_v);
   }
 }
 
