@@ -85,40 +85,50 @@ inline bool avx512_available() {
   return available;
 }
 
-// out[c][l] = p[offsets[l] + c] for the 16 lanes l and c < 3: the rows x_j of 16 scattered
-// particles (offsets[l] = 3·j) transposed into structure of arrays. Each row is one masked
-// 16-byte load (x, y, z; the fourth float is masked off, so the last particle's row reads
-// nothing past the array: a masked-off element is never accessed) straight into its 128-bit
-// lane of a register: row 4q + r goes to lane q of register r. A 4 × 4 transpose inside the
-// lanes (six unpacks) then gives x, y and z of the 16 lanes in order. 16 loads and 6 shuffles
-// instead of 48 scalar loads and the inserts that assemble them: the same values.
-VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* p, const std::int32_t* offsets, float out[3][16]) {
-  // Lane q of a register takes its row from element 4q on, so the load starts 4q floats before
-  // the row; the masked-off elements before it are never read (integer arithmetic: the address
-  // may lie before the array). No lambdas: they would not inherit the target.
-  const auto base = reinterpret_cast<std::uintptr_t>(p);
-  const std::uintptr_t lane_base[4] = {base, base - 4 * sizeof(float), base - 8 * sizeof(float),
-                                       base - 12 * sizeof(float)};
-  __m512 r[4];
+// xo[c][l] = x[offsets[l] + c] and vo[c][l] = v[offsets[l] + c] for the 16 lanes l and c < 3:
+// the rows x_j and v_j of 16 scattered particles (offsets[l] = 3·j) transposed into structure
+// of arrays. Each row is one masked 16-byte load (x, y, z; the fourth float is masked off, so
+// the last particle's row reads nothing past the array: a masked-off element is never
+// accessed) straight into its 128-bit lane of a register: row 4q + r goes to lane q of
+// register r. A 4 × 4 transpose inside the lanes (six unpacks per array) then gives x, y and z
+// of the 16 lanes in order. 32 loads and 12 shuffles instead of 96 scalar loads and the inserts
+// that assemble them: the same values. Both arrays in one loop, so each offset is loaded once
+// and the address is one base register per array, the offset scaled by 4 and a constant
+// displacement (a lane's load starts 4q floats before its row: integer arithmetic, as that
+// address may lie before the array).
+VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* x, const float* v, const std::int32_t* offsets,
+                                                   float xo[3][16], float vo[3][16]) {
+  const auto xb = reinterpret_cast<std::uintptr_t>(x), vb = reinterpret_cast<std::uintptr_t>(v);
+  __m512 rx[4], rv[4];
   for (int k = 0; k < 4; ++k) {
-    r[k] = _mm512_setzero_ps();
-    for (int q = 0; q < 4; ++q) {
-      const auto offset = static_cast<std::uintptr_t>(static_cast<std::intptr_t>(offsets[4 * q + k]));
-      r[k] = _mm512_mask_loadu_ps(r[k], static_cast<__mmask16>(0x7u << (4 * q)),
-                                  reinterpret_cast<const void*>(lane_base[q] + offset * sizeof(float)));
-    }
+    rx[k] = _mm512_setzero_ps();
+    rv[k] = _mm512_setzero_ps();
   }
+  // No lambdas: they would not inherit the target.
+  for (int q = 0; q < 4; ++q)
+    for (int k = 0; k < 4; ++k) {
+      const auto bytes = static_cast<std::uintptr_t>(static_cast<std::intptr_t>(offsets[4 * q + k])) * sizeof(float) -
+                         std::uintptr_t(16 * q);
+      const auto mask = static_cast<__mmask16>(0x7u << (4 * q));
+      rx[k] = _mm512_mask_loadu_ps(rx[k], mask, reinterpret_cast<const void*>(xb + bytes));
+      rv[k] = _mm512_mask_loadu_ps(rv[k], mask, reinterpret_cast<const void*>(vb + bytes));
+    }
   // The zero-masking forms with a full mask are the plain instructions; the unmasked
   // intrinsics start from _mm512_undefined_ps(), which GCC 12 warns of (-Wmaybe-uninitialized).
   constexpr __mmask16 ALL = 0xffff;
   constexpr __mmask8 ALL8 = 0xff;
-  const __m512d t0 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[0], r[1])); // x0 x1 y0 y1 a lane
-  const __m512d t1 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[2], r[3])); // x2 x3 y2 y3
-  const __m512d t2 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(ALL, r[0], r[1])); // z0 z1 · ·
-  const __m512d t3 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(ALL, r[2], r[3])); // z2 z3 · ·
-  _mm512_store_ps(out[0], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t0, t1)));
-  _mm512_store_ps(out[1], _mm512_castpd_ps(_mm512_maskz_unpackhi_pd(ALL8, t0, t1)));
-  _mm512_store_ps(out[2], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t2, t3)));
+  const __m512* rows[2] = {rx, rv};
+  float(*outs[2])[16] = {xo, vo};
+  for (int a = 0; a < 2; ++a) {
+    const __m512* r = rows[a];
+    const __m512d t0 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[0], r[1])); // x0 x1 y0 y1 a lane
+    const __m512d t1 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[2], r[3])); // x2 x3 y2 y3
+    const __m512d t2 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(ALL, r[0], r[1])); // z0 z1 · ·
+    const __m512d t3 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(ALL, r[2], r[3])); // z2 z3 · ·
+    _mm512_store_ps(outs[a][0], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t0, t1)));
+    _mm512_store_ps(outs[a][1], _mm512_castpd_ps(_mm512_maskz_unpackhi_pd(ALL8, t0, t1)));
+    _mm512_store_ps(outs[a][2], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t2, t3)));
+  }
 }
 
 // The permutation indices of load_rows16 / store_rows16: _mm512_permutex2var_ps picks element
@@ -242,8 +252,7 @@ VFIT_CLOTH_INLINE void slice_spring_forces(const float* x, const float* v, const
     if constexpr (ROW_LOADS) {
       static_assert(W == 16, "gather_rows16 fills 16 lanes");
       alignas(64) float xj[3][W], vj[3][W];
-      gather_rows16(x, neighbors, xj);
-      gather_rows16(v, neighbors, vj);
+      gather_rows16(x, v, neighbors, xj, vj);
       for (std::size_t l = 0; l < W; ++l)
         add(l, vfit_vec3{xj[0][l] - xi[0][l], xj[1][l] - xi[1][l], xj[2][l] - xi[2][l]},
             vfit_vec3{vj[0][l] - vi[0][l], vj[1][l] - vi[1][l], vj[2][l] - vi[2][l]});
