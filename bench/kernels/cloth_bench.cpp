@@ -19,6 +19,12 @@
 // of the slopes (24 B written at stage 0, read and written at stages 1 and 2, read at stage 3).
 // (Until the sliced rows, a particle's row was a CSR row with a 4 B offset of its own. The
 // OpenCL kernels read the same sliced rows; the per-particle kernel of a GPU reads no masks.)
+// The model is that of four passes, each streaming every row from memory, and is kept as it
+// was: the CPU drivers now run the stages as a wavefront (kernels/cloth_rk4.h), so stages 1–3
+// find most of a slice's spring rows and states in the L2 or L3 cache, and the DRAM traffic of
+// a step is below the model (about one pass of spring rows plus the states). On the CPU,
+// bw_fraction is therefore the step's rate against the triad, expressed in the four-pass
+// model's bytes, not a measured share of the bandwidth used.
 //
 // Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
 // time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
