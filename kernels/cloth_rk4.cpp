@@ -179,61 +179,105 @@ VFIT_CLOTH_INLINE void run_stage(int stage, const StagePass& pass, const SpringA
   }
 }
 
-// The slices [first[s], last[s]) on which a chunk [a, b) of the slices runs stage s by itself
-// (E_s in rk4_step's comment): E_0 = [a, b), and E_s the widest interval of E_(s−1) whose
-// slices' neighbour ranges (SpringAdjacency::slice_neighbor_first/_last) lie inside E_(s−1).
-// Empty intervals have first == last.
-struct ChunkStages {
-  std::size_t first[4], last[4];
+// How far stage s may run, by itself, from either end of a region [a, b) of the slices: an end
+// sweeping up from a runs it on slices at or above low[s], whose neighbour ranges
+// (SpringAdjacency::slice_neighbor_first/_last) start at or above low[s − 1]; an end sweeping
+// down from b on slices below high[s], whose ranges end below high[s − 1]. low[0] = a,
+// high[0] = b; a region starting at slice 0 (ending at the last) has nothing below (above) it,
+// so low[s] = 0 (high[s] = #slices) without a scan.
+struct EndBounds {
+  std::size_t low[4], high[4];
 };
 
-ChunkStages chunk_stages(const SpringAdjacency& adj, std::size_t a, std::size_t b) {
-  ChunkStages c{};
-  c.first[0] = a;
-  c.last[0] = b;
+EndBounds end_bounds(const SpringAdjacency& adj, std::size_t a, std::size_t b) {
+  EndBounds e{};
+  e.low[0] = a;
+  e.high[0] = b;
   for (int s = 1; s < 4; ++s) {
-    const std::size_t lo = c.first[s - 1], hi = c.last[s - 1];
-    std::size_t first = lo, last = hi;
-    for (std::size_t k = lo; k < hi; ++k) {
-      if (static_cast<std::size_t>(adj.slice_neighbor_first[k]) < lo) first = k + 1;
-      if (static_cast<std::size_t>(adj.slice_neighbor_last[k]) >= hi) last = std::min(last, k);
-    }
-    if (first >= last) first = last = lo;
-    c.first[s] = first;
-    c.last[s] = last;
+    std::size_t low = e.low[s - 1], high = e.high[s - 1];
+    if (a > 0)
+      for (std::size_t k = e.low[s - 1]; k < b; ++k)
+        if (static_cast<std::size_t>(adj.slice_neighbor_first[k]) < e.low[s - 1]) low = k + 1;
+    if (b < adj.slice_count())
+      for (std::size_t k = e.high[s - 1]; k-- > a;)
+        if (static_cast<std::size_t>(adj.slice_neighbor_last[k]) >= e.high[s - 1]) high = k;
+    e.low[s] = std::min(low, b);
+    e.high[s] = std::max(high, a);
   }
-  return c;
+  return e;
 }
 
-// Phase 1 of rk4_step on one chunk: stage s on E_s, all four stages in one sweep, stage s
-// following stage s − 1 as closely as the neighbours allow (a slice runs stage s once stage
-// s − 1 has covered its neighbour range), so a slice's spring rows and states are read by its
-// four stages while they are still in the cache, instead of once per full pass.
-void run_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adj, const ClothParticles& particles, float h,
-                   const ChunkStages& c) {
+// Takes the next WAVE_SLICES slices (fewer at the meeting point) of a region's unclaimed range,
+// packed in `word` as lo << 32 | hi, from its bottom (up) or its top: [first, last). False once
+// the range is empty. The two ends of a region meet wherever they get to, so a busy or late
+// thread leaves more of the region to the other instead of holding up the step.
+bool claim(std::atomic<std::uint64_t>& word, bool up, std::size_t& first, std::size_t& last) {
+  std::uint64_t cur = word.load(std::memory_order_relaxed);
+  for (;;) {
+    const std::size_t lo = cur >> 32, hi = cur & 0xffffffffu;
+    if (lo >= hi) return false;
+    std::size_t next_lo = lo, next_hi = hi;
+    if (up) {
+      first = lo;
+      last = next_lo = std::min(hi, lo + WAVE_SLICES);
+    } else {
+      last = hi;
+      first = next_hi = hi - std::min(hi - lo, WAVE_SLICES);
+    }
+    if (word.compare_exchange_weak(cur, (std::uint64_t(next_lo) << 32) | next_hi, std::memory_order_relaxed))
+      return true;
+  }
+}
+
+// Phase 1 of rk4_step for one end of a region: stage 0 on the slices it claims, each later stage
+// s following stage s − 1 as closely as the neighbours allow (a slice runs stage s once this end
+// has run stage s − 1 on its whole neighbour range), so a slice's spring rows and states are
+// read by its four stages while they are still in the cache, instead of once per full pass. The
+// end stops when it can claim nothing and no stage advances. done[s] = [from, to): the slices on
+// which it ran stage s (empty: from ≥ to).
+void run_end(const StagePass (&pass)[4], const SpringAdjacency& adj, const ClothParticles& particles, float h,
+             const EndBounds& bounds, bool up, std::atomic<std::uint64_t>& word, std::size_t (&done)[4][2]) {
+  // Up: stage s done on [bounds.low[s], front[s]); down: on [front[s], bounds.high[s]).
   std::size_t front[4];
   for (int s = 0; s < 4; ++s)
-    front[s] = c.first[s];
-  const auto pending = [&] {
-    for (int s = 0; s < 4; ++s)
-      if (front[s] < c.last[s]) return true;
-    return false;
-  };
-  while (pending()) {
-    const std::size_t e0 = std::min(c.last[0], front[0] + WAVE_SLICES);
-    run_stage(0, pass[0], adj, particles, h, front[0], e0);
-    front[0] = e0;
+    front[s] = up ? bounds.low[s] : bounds.high[s];
+  for (bool claims = true;;) {
+    bool progress = false;
+    std::size_t first = 0, last = 0;
+    if (claims && claim(word, up, first, last)) {
+      run_stage(0, pass[0], adj, particles, h, first, last);
+      front[0] = up ? last : first;
+      progress = true;
+    } else {
+      claims = false;
+    }
     for (int s = 1; s < 4; ++s) {
       std::size_t e = front[s];
-      while (e < c.last[s] && static_cast<std::size_t>(adj.slice_neighbor_last[e]) < front[s - 1])
-        ++e;
-      run_stage(s, pass[s], adj, particles, h, front[s], e);
+      if (up) {
+        while (e < front[s - 1] && static_cast<std::size_t>(adj.slice_neighbor_last[e]) < front[s - 1])
+          ++e;
+        run_stage(s, pass[s], adj, particles, h, front[s], e);
+      } else {
+        while (e > front[s - 1] && static_cast<std::size_t>(adj.slice_neighbor_first[e - 1]) >= front[s - 1])
+          --e;
+        run_stage(s, pass[s], adj, particles, h, e, front[s]);
+      }
+      progress |= e != front[s];
       front[s] = e;
     }
+    if (!claims && !progress) break;
+  }
+  for (int s = 0; s < 4; ++s) {
+    done[s][0] = up ? bounds.low[s] : front[s];
+    done[s][1] = up ? front[s] : bounds.high[s];
   }
 }
 
-// One RK4 step over the slices split into `chunks` contiguous chunks.
+// Most regions a step keeps its claims for on the stack (rk4_step_chunked() may ask for more:
+// those take a heap array).
+constexpr std::size_t STACK_REGIONS = 32;
+
+// One RK4 step, the stages as a wavefront swept by `ends` ends (one per thread).
 //
 // Stage s reads the states stage s − 1 wrote (x, v at stage 0) at a slice's neighbours, and
 // writes the slice's own rows: the next state (a buffer that stage s − 1 or s + 1 also uses:
@@ -242,17 +286,94 @@ void run_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adj, const
 // once stage s − 1 has run on every slice whose range holds it (stage s + 1 − 2 = s − 1 has
 // read the buffer stage s overwrites; by symmetry of the springs, the same slices). Each slice's
 // arithmetic is that of the plain stage-by-stage passes whatever the order, so the bits do not
-// depend on the schedule or the number of chunks.
+// depend on the schedule, the number of ends or where they meet.
 //
-// Phase 1, chunks in parallel: chunk [a, b) runs stage s on E_s (ChunkStages) by run_wavefront;
-// E_s's neighbour ranges lie in E_(s−1) of the same chunk, so a chunk reads no other chunk's
-// stage states (stage 0 reads x, v, which no chunk writes before its neighbours' E_1 ... E_3 are
-// done: a slice of E_3 has every neighbour in its own chunk). Phase 2: the slices of each stage
-// s ≥ 1 that phase 1 left (within a few neighbour ranges of a chunk boundary), stage by stage,
-// each stage in parallel: by then every slice has run stage s − 1.
+// The slices are split into ⌈ends / 2⌉ contiguous regions, sized by their ends; ends 2r and
+// 2r + 1 sweep region r, one up from its bottom and one down from its top, claiming stage 0
+// slices as they go (claim()) until they meet (the last region has one end when `ends` is odd).
+// Phase 1, all ends in parallel (run_end): each runs stage s only where its own stage s − 1 covers
+// the neighbour range, so no end reads another's stage states or overwrites what another still
+// reads (stage 0 reads x, v, which an end writes at stage 3 only on slices all of whose
+// neighbours are its own). Phase 2: the slices of each stage s ≥ 1 that phase 1 left (within a
+// few neighbour ranges of the meeting points and region boundaries), stage by stage, each stage
+// in parallel: by then every slice has run stage s − 1.
+template <typename ForEach>
+void rk4_step_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adjacency, const ClothParticles& particles,
+                        float h, Rk4Workspace& w, std::size_t ends, const ForEach& for_each) {
+  const std::size_t slices = adjacency.slice_count();
+  assert(slices < (std::size_t(1) << 32) && "claims pack slice indices in 32 bits");
+  ends = std::max<std::size_t>(1, std::min(ends, slices));
+  const std::size_t regions = (ends + 1) / 2;
+  const auto region = [&](std::size_t r, std::size_t& a, std::size_t& b) {
+    a = slices * std::min(2 * r, ends) / ends;
+    b = slices * std::min(2 * r + 2, ends) / ends;
+  };
+  std::atomic<std::uint64_t> stack_words[STACK_REGIONS];
+  std::unique_ptr<std::atomic<std::uint64_t>[]> heap_words;
+  if (regions > STACK_REGIONS) heap_words.reset(new std::atomic<std::uint64_t>[regions]);
+  std::atomic<std::uint64_t>* words = heap_words ? heap_words.get() : stack_words;
+  for (std::size_t r = 0; r < regions; ++r) {
+    std::size_t a = 0, b = 0;
+    region(r, a, b);
+    words[r].store((std::uint64_t(a) << 32) | b, std::memory_order_relaxed);
+  }
+  w.chunk_stages.assign(8 * 2 * regions, 0); // per end and stage, the slices phase 1 covered
+  for_each(ends, [&](std::size_t k) {
+    std::size_t a = 0, b = 0;
+    region(k / 2, a, b);
+    std::size_t done[4][2];
+    run_end(pass, adjacency, particles, h, end_bounds(adjacency, a, b), k % 2 == 0, words[k / 2], done);
+    for (int s = 0; s < 4; ++s) {
+      w.chunk_stages[8 * k + 2 * s] = done[s][0];
+      w.chunk_stages[8 * k + 2 * s + 1] = done[s][1];
+    }
+  });
+  if (ends == 1) return; // the one end covered every slice: its neighbours are all its own
+  // A region's leftovers of stage s: [a, b) less the up end's [u0, u1) and the down end's
+  // [d0, d1) (u1 ≤ d0: they lie either side of the meeting point), three intervals.
+  for (int stage = 1; stage < 4; ++stage)
+    for_each(3 * regions, [&](std::size_t t) {
+      const std::size_t r = t / 3;
+      std::size_t a = 0, b = 0;
+      region(r, a, b);
+      const std::size_t* up = &w.chunk_stages[8 * (2 * r) + 2 * stage];
+      const std::size_t* down = &w.chunk_stages[8 * (2 * r + 1) + 2 * stage]; // zeros: no down end
+      const bool up_ran = up[0] < up[1], down_ran = down[0] < down[1];
+      const std::size_t u0 = up_ran ? up[0] : a, u1 = up_ran ? up[1] : a;
+      const std::size_t d0 = down_ran ? down[0] : b, d1 = down_ran ? down[1] : b;
+      switch (t % 3) {
+      case 0: run_stage(stage, pass[stage], adjacency, particles, h, a, u0); break;
+      case 1: run_stage(stage, pass[stage], adjacency, particles, h, u1, d0); break;
+      default: run_stage(stage, pass[stage], adjacency, particles, h, d1, b); break;
+      }
+    });
+}
+
+// Runs kernel(k) for k in [0, count): in order, or as TBB tasks of one k each.
+struct SerialForEach {
+  template <typename Kernel>
+  void operator()(std::size_t count, const Kernel& kernel) const {
+    for (std::size_t k = 0; k < count; ++k)
+      kernel(k);
+  }
+};
+struct TbbForEach {
+  template <typename Kernel>
+  void operator()(std::size_t count, const Kernel& kernel) const {
+    parallel_for_range(count, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t k = b; k < e; ++k)
+        kernel(k);
+    });
+  }
+};
+
+// One RK4 step of all particles: the four stage passes over every slice each (PASSES, on the TBB
+// threads), or the wavefront of `ends` ends run by for_each (WAVEFRONT; AUTO is resolved by the
+// caller).
 template <typename ForEach>
 void rk4_step(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
-              const ClothParticles& particles, float h, Rk4Workspace& w, std::size_t chunks, const ForEach& for_each) {
+              const ClothParticles& particles, float h, Rk4Workspace& w, Rk4Schedule schedule, std::size_t ends,
+              const ForEach& for_each) {
   const std::size_t n = positions.size();
   assert(n == 3 * adjacency.particle_count() && velocities.size() == n && "state and adjacency sizes differ");
   assert(particles.inverse_masses.size() == adjacency.particle_count() && "one inverse mass per particle");
@@ -272,30 +393,13 @@ void rk4_step(std::span<float> positions, std::span<float> velocities, const Spr
     read_x = write_x;
     read_v = write_v;
   }
-  const std::size_t slices = adjacency.slice_count();
-  chunks = std::max<std::size_t>(1, std::min(chunks, slices));
-  w.chunk_stages.resize(4 * 2 * chunks);
-  for_each(chunks, [&](std::size_t c) {
-    const ChunkStages cs = chunk_stages(adjacency, slices * c / chunks, slices * (c + 1) / chunks);
-    run_wavefront(pass, adjacency, particles, h, cs);
-    for (int s = 0; s < 4; ++s) {
-      w.chunk_stages[8 * c + 2 * s] = cs.first[s];
-      w.chunk_stages[8 * c + 2 * s + 1] = cs.last[s];
-    }
-  });
-  if (chunks == 1) return; // E_s is every slice: a slice's neighbours are all in the one chunk
-  for (int stage = 1; stage < 4; ++stage)
-    for_each(2 * chunks, [&](std::size_t k) {
-      const std::size_t c = k / 2, a = slices * c / chunks, b = slices * (c + 1) / chunks;
-      const std::size_t first = w.chunk_stages[8 * c + 2 * stage], last = w.chunk_stages[8 * c + 2 * stage + 1];
-      if (first == last) { // E_s empty: the whole chunk, run by its first half of k
-        if (k % 2 == 0) run_stage(stage, pass[stage], adjacency, particles, h, a, b);
-      } else if (k % 2 == 0) {
-        run_stage(stage, pass[stage], adjacency, particles, h, a, first);
-      } else {
-        run_stage(stage, pass[stage], adjacency, particles, h, last, b);
-      }
-    });
+  if (schedule == Rk4Schedule::PASSES) {
+    for (int stage = 0; stage < 4; ++stage)
+      parallel_for_range(adjacency.slice_count(), CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH,
+                         [&](std::size_t b, std::size_t e) { run_stage(stage, pass[stage], adjacency, particles, h, b, e); });
+    return;
+  }
+  rk4_step_wavefront(pass, adjacency, particles, h, w, ends, for_each);
 }
 } // namespace
 
@@ -315,34 +419,25 @@ void cloth_accelerations_serial(std::span<const float> positions, std::span<cons
 
 void rk4_step_serial(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                      const ClothParticles& particles, float h, Rk4Workspace& workspace) {
-  rk4_step(positions, velocities, adjacency, particles, h, workspace, 1,
-           [](std::size_t count, const auto& kernel) {
-             for (std::size_t k = 0; k < count; ++k)
-               kernel(k);
-           });
+  rk4_step(positions, velocities, adjacency, particles, h, workspace, Rk4Schedule::WAVEFRONT, 1, SerialForEach{});
 }
 
 void rk4_step_chunked(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                       const ClothParticles& particles, float h, Rk4Workspace& workspace, std::size_t chunks) {
-  rk4_step(positions, velocities, adjacency, particles, h, workspace, chunks,
-           [](std::size_t count, const auto& kernel) {
-             parallel_for_range(count, 1, [&](std::size_t b, std::size_t e) {
-               for (std::size_t k = b; k < e; ++k)
-                 kernel(k);
-             });
-           });
+  rk4_step(positions, velocities, adjacency, particles, h, workspace, Rk4Schedule::WAVEFRONT, chunks, TbbForEach{});
 }
 
 void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
-                  const ClothParticles& particles, float h, Rk4Workspace& workspace) {
-  // One chunk per thread that may run (the arena's, capped by a tbb::global_control), each of
-  // at least CLOTH_PARTICLE_GRAIN particles.
+                  const ClothParticles& particles, float h, Rk4Workspace& workspace, Rk4Schedule schedule) {
+  // One wavefront end per thread that may run (the arena's, capped by a tbb::global_control),
+  // each of at least CLOTH_PARTICLE_GRAIN particles.
   const auto threads = std::max<std::size_t>(
       1, std::min(static_cast<std::size_t>(std::max(1, parallel_thread_count())),
                   tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
-  const std::size_t chunks = std::min(threads, std::max<std::size_t>(1, adjacency.slice_count() /
-                                                                             (CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH)));
-  rk4_step_chunked(positions, velocities, adjacency, particles, h, workspace, chunks);
+  const std::size_t ends = std::min(threads, std::max<std::size_t>(1, adjacency.slice_count() /
+                                                                           (CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH)));
+  if (schedule == Rk4Schedule::AUTO) schedule = threads == 1 ? Rk4Schedule::WAVEFRONT : RK4_AUTO_SCHEDULE_THREADED;
+  rk4_step(positions, velocities, adjacency, particles, h, workspace, schedule, ends, TbbForEach{});
 }
 
 Rk4StepBound rk4_stable_step(const SpringAdjacency& adjacency, const ClothParticles& particles) {

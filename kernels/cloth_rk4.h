@@ -39,16 +39,23 @@
 /// wavefront, stage 0 advancing 16 slices at a time and each later stage following its
 /// predecessor as closely as the neighbours allow, and a slice's rows are read by its four
 /// stages while still in cache. In the banded numbering of kernels/cloth_ordering.h the lag
-/// between stages is a few hundred slices at 10^6 particles (a few MB: mostly L2 and L3 hits)
-/// against the whole mesh for a Morton curve. TBB splits the slices into one contiguous chunk
-/// per thread, each running the wavefront on the slices whose neighbours (to the depth of the
-/// stage) lie in the chunk, then finishes the slices near the chunk boundaries stage by stage.
+/// between stages is a few hundred slices at 10^6 particles (the catalogue tee: 450 slices from
+/// stage 0's front to stage 3's on average, 2.1 MB of rows and states, about one core's L2 on
+/// the benchmark host) against the whole mesh for a Morton curve. With more threads the slices
+/// are split into contiguous regions, each swept by two ends, one from either side, that claim
+/// stage 0's slices as they go and meet wherever they get to: a thread held up by other work
+/// (or started late) leaves more of its region to the other instead of holding up the step, as
+/// one fixed chunk per thread did (same work, but the step waited for the slower chunk). The
+/// slices near the meeting points and region boundaries are finished stage by stage after.
 /// Every slice's arithmetic is that of the stage-by-stage passes in any schedule, so the bits
-/// do not depend on it, on the thread count or on the chunk count. On one core of the 2-core
-/// benchmark host (Intel Xeon, AVX-512; both versions in one process, per-step minimum of
-/// alternating rounds, host loaded by other work), against the four full passes over the Morton
-/// numbering before: catalogue tee at 10^6 particles 137 → 106 ms, the bench's grid at 10^6
-/// 96 → 74 ms, tee at 10^5 9.5 → 9.0 ms (its rows fit the L3 cache either way).
+/// do not depend on it, on the thread count or on where the ends meet. The four plain passes
+/// stay selectable (Rk4Schedule::PASSES). Measured on the 2-core benchmark host (Intel Xeon,
+/// AVX-512; bench/kernels/cloth_bench.cpp BM_rk4_schedule_*, both schedules in one process,
+/// host loaded by other work, process CPU time per step, all threads): the wavefront needs
+/// less CPU than the passes at 10^6 particles (tee 109–110 against 120–128 ms, grid 79–84
+/// against 98–101 ms, on 1 and 2 threads alike) and about the same at 10^5 (tee 9.7–10.6
+/// against 9.4 ms, grid 7.7–7.9 against 7.4–8.6). Against the four passes over the Morton
+/// numbering before, on one quiet core: tee at 10^6 151 → 112 ms, grid at 10^6 94 → 75 ms.
 ///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled
@@ -83,7 +90,7 @@ struct ClothParticles {
 struct Rk4Workspace {
   std::vector<float> acc_x, acc_v;           ///< running weighted sums of the slopes
   std::vector<float> stage_x[2], stage_v[2]; ///< stage states, double-buffered
-  std::vector<std::size_t> chunk_stages;     ///< the driver's schedule: per chunk and stage, a slice range
+  std::vector<std::size_t> chunk_stages;     ///< the wavefront's bookkeeping: per end and stage, the slices it ran
 };
 
 /// Accelerations a(x, v) (m/s², #V × 3, out resized) of every particle: spring gather plus
@@ -98,15 +105,31 @@ void cloth_accelerations_serial(std::span<const float> positions, std::span<cons
 void rk4_step_serial(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                      const ClothParticles& particles, float h, Rk4Workspace& workspace);
 
-/// TBB driver of rk4_step_serial(): one chunk of slices per thread (rk4_step_chunked()), each of
-/// at least CLOTH_PARTICLE_GRAIN particles; the same bits for any thread count.
-void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
-                  const ClothParticles& particles, float h, Rk4Workspace& workspace);
+/// How a TBB step orders the four stage passes over the slices (see the file comment).
+enum class Rk4Schedule {
+  AUTO,      ///< WAVEFRONT on one thread, RK4_AUTO_SCHEDULE_THREADED on more
+  WAVEFRONT, ///< the stages as a wavefront, swept by one end per thread (rk4_step_chunked())
+  PASSES,    ///< four passes over every slice, each split among the threads in CLOTH_PARTICLE_GRAIN tasks
+};
 
-/// rk4_step_tbb() with the slices (SpringAdjacency::slice_offsets) split into `chunks`
-/// contiguous chunks run in parallel (clamped to [1, #slices]); rk4_step_tbb() takes one per
-/// thread. The same bits for every count (see the schedule in the file comment): the tests of
-/// the schedule call it with counts this machine's thread count would not choose.
+/// The schedule Rk4Schedule::AUTO takes on more than one thread: the wavefront, which needs
+/// less CPU time per step than the passes at 10^6 particles on 2 threads as on 1 (file
+/// comment); bench/kernels/cloth_bench.cpp BM_rk4_schedule_* compares the two on a host.
+inline constexpr Rk4Schedule RK4_AUTO_SCHEDULE_THREADED = Rk4Schedule::WAVEFRONT;
+
+/// TBB driver of rk4_step_serial(): `schedule` (AUTO: see RK4_AUTO_SCHEDULE_THREADED), with
+/// one wavefront end per thread (rk4_step_chunked()), each of at least CLOTH_PARTICLE_GRAIN
+/// particles. The same bits for every schedule and thread count.
+void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
+                  const ClothParticles& particles, float h, Rk4Workspace& workspace,
+                  Rk4Schedule schedule = Rk4Schedule::AUTO);
+
+/// rk4_step_tbb()'s wavefront with `chunks` ends run in parallel (clamped to [1, #slices]):
+/// the slices (SpringAdjacency::slice_offsets) are split into ⌈chunks / 2⌉ contiguous regions,
+/// each swept by two ends, one from either side, that meet wherever they get to (the last
+/// region by one end when `chunks` is odd). The same bits for every count and meeting point
+/// (see the schedule in the file comment): the tests of the schedule call it with counts this
+/// machine's thread count would not choose.
 void rk4_step_chunked(std::span<float> positions, std::span<float> velocities, const SpringAdjacency& adjacency,
                       const ClothParticles& particles, float h, Rk4Workspace& workspace, std::size_t chunks);
 

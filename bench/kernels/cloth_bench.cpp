@@ -24,7 +24,9 @@
 // find most of a slice's spring rows and states in the L2 or L3 cache, and the DRAM traffic of
 // a step is below the model (about one pass of spring rows plus the states). On the CPU,
 // bw_fraction is therefore the step's rate against the triad, expressed in the four-pass
-// model's bytes, not a measured share of the bandwidth used.
+// model's bytes, not a measured share of the bandwidth used. cpu_ms_per_step: the process CPU
+// time of a step (all threads), the robust number when other work shares the cores.
+// BM_rk4_schedule_* runs each of rk4_step_tbb()'s schedules (Rk4Schedule) on 1 and 2 threads.
 //
 // Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
 // time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
@@ -202,15 +204,18 @@ void BM_rk4_serial(benchmark::State& state) {
 }
 BENCHMARK(BM_rk4_serial)->Apply(sizes);
 
-// RK4 steps of cloth c on state.range(1) TBB threads.
-void time_rk4_tbb(benchmark::State& state, const Cloth& c) {
+// RK4 steps of cloth c on state.range(1) TBB threads with `schedule`.
+void time_rk4_tbb(benchmark::State& state, const Cloth& c, vfit::Rk4Schedule schedule = vfit::Rk4Schedule::AUTO) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
   std::vector<float> x = c.x, v = c.v;
   vfit::Rk4Workspace w;
+  const std::clock_t c0 = std::clock();
   for (auto _ : state)
-    vfit::rk4_step_tbb(x, v, c.adjacency, c.particles, c.h, w);
+    vfit::rk4_step_tbb(x, v, c.adjacency, c.particles, c.h, w, schedule);
+  const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
   report(state, c);
   state.counters["threads"] = double(state.range(1));
+  state.counters["cpu_ms_per_step"] = 1e3 * cpu / double(state.iterations());
 }
 
 void BM_rk4_tbb(benchmark::State& state) { time_rk4_tbb(state, cloth(state.range(0))); }
@@ -220,6 +225,24 @@ BENCHMARK(BM_rk4_tbb)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(ben
 // fit's simulation meets. 1 thread too: its CPU time is the robust number on a loaded machine.
 void BM_rk4_tbb_tee(benchmark::State& state) { time_rk4_tbb(state, tee_cloth(state.range(0))); }
 BENCHMARK(BM_rk4_tbb_tee)->ArgsProduct({{100000, 1000000}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The two schedules of rk4_step_tbb() side by side (state.range(2): 1 = WAVEFRONT, 2 = PASSES;
+// the step itself picks one by RK4_AUTO_SCHEDULE_THREADED), on the tee and the grid, so one run
+// compares them on the same host load: the rule AUTO follows is read off these.
+void BM_rk4_schedule_tee(benchmark::State& state) {
+  time_rk4_tbb(state, tee_cloth(state.range(0)), vfit::Rk4Schedule(state.range(2)));
+}
+BENCHMARK(BM_rk4_schedule_tee)
+    ->ArgsProduct({{100000, 1000000}, {1, 2}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+void BM_rk4_schedule_grid(benchmark::State& state) {
+  time_rk4_tbb(state, cloth(state.range(0)), vfit::Rk4Schedule(state.range(2)));
+}
+BENCHMARK(BM_rk4_schedule_grid)
+    ->ArgsProduct({{100000, 1000000}, {1, 2}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // One implicit Euler step at h = 1/120 s from the flat grid moving with random velocities
 // (uniform in ±0.1 m/s per component, fixed seed): a mid-simulation state whose right-hand side

@@ -7,6 +7,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "geometry/mesh/primitives.h"
 #include "test_support.h"
@@ -494,12 +495,13 @@ void rk4_reference_step(std::vector<float>& x, std::vector<float>& v, const Spri
   v = vs;
 }
 
-// The drivers run the four stages as a wavefront over contiguous chunks (cloth_rk4.h): each
-// slice's stage arithmetic is the reference's, whatever the schedule, so every driver and
-// chunk count must give the reference's bits, on a strip numbered across (neighbours a slice or
-// two apart: the chunks run nearly all of it alone), the same strip numbered at random (every
-// slice's neighbours in every chunk: the chunks run stage 0 alone and leave the rest to the
-// pass after) and renumbered by cloth_particle_order().
+// The drivers run the four stages as a wavefront swept from both ends of contiguous regions, or
+// as four passes (cloth_rk4.h): each slice's stage arithmetic is the reference's, whatever the
+// schedule, so every driver, schedule, chunk count and meeting point must give the reference's
+// bits, on a strip numbered across (neighbours a slice or two apart: the ends run nearly all of
+// it alone), the same strip numbered at random (every slice's neighbours in every region: the
+// ends run stage 0 alone and leave the rest to the pass after) and renumbered by
+// cloth_particle_order().
 TEST(ClothRk4, StepsGiveTheStageByStageReferenceBitsForEveryChunkCount) {
   Fixture f;
   f.mesh = make_grid(6, 1500, 0.05f, 12.5f); // 9,000 particles, 563 slices, rows of 6
@@ -547,14 +549,26 @@ TEST(ClothRk4, StepsGiveTheStageByStageReferenceBitsForEveryChunkCount) {
     check("serial", [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
       rk4_step_serial(x, v, adj, r->particles, 1e-4f, w);
     });
-    check("tbb", [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
-      rk4_step_tbb(x, v, adj, r->particles, 1e-4f, w);
-    });
+    for (Rk4Schedule schedule : {Rk4Schedule::AUTO, Rk4Schedule::WAVEFRONT, Rk4Schedule::PASSES})
+      check(("tbb, schedule " + std::to_string(int(schedule))).c_str(),
+            [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
+              rk4_step_tbb(x, v, adj, r->particles, 1e-4f, w, schedule);
+            });
     for (std::size_t chunks : {1, 2, 3, 7, 40, 1000})
       check(("chunks " + std::to_string(chunks)).c_str(),
             [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
               rk4_step_chunked(x, v, adj, r->particles, 1e-4f, w, chunks);
             });
+    // On one thread the ends run one after the other (TBB runs the lower index first): each
+    // region's up end claims all of it and its down end nothing, the extreme meeting point.
+    {
+      tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+      for (std::size_t chunks : {2, 7})
+        check(("one thread, chunks " + std::to_string(chunks)).c_str(),
+              [&](std::vector<float>& x, std::vector<float>& v, Rk4Workspace& w) {
+                rk4_step_chunked(x, v, adj, r->particles, 1e-4f, w, chunks);
+              });
+    }
   }
 }
 
