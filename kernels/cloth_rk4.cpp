@@ -330,10 +330,12 @@ void rk4_step_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adjac
   });
   if (ends == 1) return; // the one end covered every slice: its neighbours are all its own
   // A region's leftovers of stage s: [a, b) less the up end's [u0, u1) and the down end's
-  // [d0, d1) (u1 ≤ d0: they lie either side of the meeting point), three intervals.
+  // [d0, d1) (u1 ≤ d0: they lie either side of the meeting point): [a, u0), [d1, b) and the gap
+  // [u1, d0) at the meeting point, a few neighbour ranges wide on each side of it, run as two
+  // halves so the region's two threads share it.
   for (int stage = 1; stage < 4; ++stage)
-    for_each(3 * regions, [&](std::size_t t) {
-      const std::size_t r = t / 3;
+    for_each(4 * regions, [&](std::size_t t) {
+      const std::size_t r = t / 4;
       std::size_t a = 0, b = 0;
       region(r, a, b);
       const std::size_t* up = &w.chunk_stages[8 * (2 * r) + 2 * stage];
@@ -341,9 +343,11 @@ void rk4_step_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adjac
       const bool up_ran = up[0] < up[1], down_ran = down[0] < down[1];
       const std::size_t u0 = up_ran ? up[0] : a, u1 = up_ran ? up[1] : a;
       const std::size_t d0 = down_ran ? down[0] : b, d1 = down_ran ? down[1] : b;
-      switch (t % 3) {
+      const std::size_t mid = u1 + (d0 - u1) / 2;
+      switch (t % 4) {
       case 0: run_stage(stage, pass[stage], adjacency, particles, h, a, u0); break;
-      case 1: run_stage(stage, pass[stage], adjacency, particles, h, u1, d0); break;
+      case 1: run_stage(stage, pass[stage], adjacency, particles, h, u1, mid); break;
+      case 2: run_stage(stage, pass[stage], adjacency, particles, h, mid, d0); break;
       default: run_stage(stage, pass[stage], adjacency, particles, h, d1, b); break;
       }
     });
