@@ -51,11 +51,12 @@
 /// do not depend on it, on the thread count or on where the ends meet. The four plain passes
 /// stay selectable (Rk4Schedule::PASSES). Measured on the 2-core benchmark host (Intel Xeon,
 /// AVX-512; bench/kernels/cloth_bench.cpp BM_rk4_schedule_*, both schedules in one process,
-/// host loaded by other work, process CPU time per step, all threads): the wavefront needs
-/// less CPU than the passes at 10^6 particles (tee 109–110 against 120–128 ms, grid 79–84
-/// against 98–101 ms, on 1 and 2 threads alike) and about the same at 10^5 (tee 9.7–10.6
-/// against 9.4 ms, grid 7.7–7.9 against 7.4–8.6). Against the four passes over the Morton
-/// numbering before, on one quiet core: tee at 10^6 151 → 112 ms, grid at 10^6 94 → 75 ms.
+/// host loaded by other work, so process CPU time per step over all threads, the lowest of
+/// five interleaved rounds): the wavefront needs less CPU than the passes at 10^6 particles,
+/// on 1 and 2 threads alike (tee 105 and 116 ms against 118 and 121; grid 74 and 78 against 99
+/// and 98; the passes over the Morton numbering before: tee 139 and 135, grid 100 and 103),
+/// and about the same at 10^5 (tee 9.0–9.8 against 9.0–9.5 ms). Against the four passes over
+/// the Morton numbering, on one quiet core: tee at 10^6 151 → 112 ms, grid at 10^6 94 → 75 ms.
 ///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled
