@@ -355,15 +355,13 @@ void rk4_step_wavefront(const StagePass (&pass)[4], const SpringAdjacency& adjac
 
 // Runs kernel(k) for k in [0, count): in order, or as TBB tasks of one k each.
 struct SerialForEach {
-  template <typename Kernel>
-  void operator()(std::size_t count, const Kernel& kernel) const {
+  template <typename Kernel> void operator()(std::size_t count, const Kernel& kernel) const {
     for (std::size_t k = 0; k < count; ++k)
       kernel(k);
   }
 };
 struct TbbForEach {
-  template <typename Kernel>
-  void operator()(std::size_t count, const Kernel& kernel) const {
+  template <typename Kernel> void operator()(std::size_t count, const Kernel& kernel) const {
     parallel_for_range(count, 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t k = b; k < e; ++k)
         kernel(k);
@@ -399,8 +397,9 @@ void rk4_step(std::span<float> positions, std::span<float> velocities, const Spr
   }
   if (schedule == Rk4Schedule::PASSES) {
     for (int stage = 0; stage < 4; ++stage)
-      parallel_for_range(adjacency.slice_count(), CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH,
-                         [&](std::size_t b, std::size_t e) { run_stage(stage, pass[stage], adjacency, particles, h, b, e); });
+      parallel_for_range(
+          adjacency.slice_count(), CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH,
+          [&](std::size_t b, std::size_t e) { run_stage(stage, pass[stage], adjacency, particles, h, b, e); });
     return;
   }
   rk4_step_wavefront(pass, adjacency, particles, h, w, ends, for_each);
