@@ -21,6 +21,8 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "engine/fit_pipeline.h"
 #include "engine/layer_order.h"
@@ -132,17 +134,21 @@ void BM_RemoveScaled(benchmark::State& state) {
 }
 BENCHMARK(BM_RemoveScaled)->ArgsProduct({{10'000, 100'000, 1'000'000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
+vfit::GarmentOptions catalogue_options(vfit::GarmentType type, const std::string& size, std::size_t vertices) {
+  vfit::GarmentOptions o;
+  o.type = type;
+  o.size = size;
+  o.target_vertices = vertices;
+  return o;
+}
+
 void BM_InferLayerOrder(benchmark::State& state) {
   static std::map<std::int64_t, std::vector<vfit::Mesh>> cache;
   auto& pair = cache[state.range(0)];
   if (pair.empty())
-    for (const vfit::GarmentType t : {vfit::GarmentType::TEE, vfit::GarmentType::TROUSERS}) {
-      vfit::GarmentOptions go;
-      go.type = t;
-      if (t == vfit::GarmentType::TROUSERS) go.size.assign("P2");
-      go.target_vertices = std::size_t(state.range(0));
-      pair.push_back(vfit::make_garment(go).mesh);
-    }
+    for (const auto& [type, size] : {std::pair<vfit::GarmentType, std::string>{vfit::GarmentType::TEE, "M"},
+                                      std::pair<vfit::GarmentType, std::string>{vfit::GarmentType::TROUSERS, "P2"}})
+      pair.push_back(vfit::make_garment(catalogue_options(type, size, std::size_t(state.range(0)))).mesh);
   const vfit::Mesh* garments[] = {&pair[0], &pair[1]};
   const std::size_t given[] = {1, 0}; // bottoms first
   vfit::LayerOrder found;
