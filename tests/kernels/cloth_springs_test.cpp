@@ -26,13 +26,10 @@ struct Fixture {
   std::vector<float> x, v;
 };
 
-Fixture jittered_cloth(int n, unsigned seed, bool damping) {
-  Fixture f;
-  f.mesh = make_grid(n, n, 1.0f, 1.0f);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> jitter(-0.02f, 0.02f), kd(50.0f, 500.0f), cd(0.0f, 0.5f), vel(-1.0f, 1.0f);
-  for (float& p : f.mesh.positions)
-    p += 0.5f * jitter(rng);
+// Springs of f.mesh with random constants, and a state off their rest: positions jittered by up
+// to ±`amplitude` (m), velocities up to ±1 m/s.
+void randomise_springs_and_state(Fixture& f, std::mt19937& rng, float amplitude, bool damping) {
+  std::uniform_real_distribution<float> jitter(-amplitude, amplitude), kd(50.0f, 500.0f), cd(0.0f, 0.5f), vel(-1.0f, 1.0f);
   f.springs = build_cloth_springs(f.mesh.position_view(), f.mesh.triangle_view());
   for (std::size_t s = 0; s < f.springs.size(); ++s) {
     f.springs.stiffness[s] = kd(rng);
@@ -44,6 +41,16 @@ Fixture jittered_cloth(int n, unsigned seed, bool damping) {
   f.v.resize(f.x.size());
   for (float& q : f.v)
     q = vel(rng);
+}
+
+Fixture jittered_cloth(int n, unsigned seed, bool damping) {
+  Fixture f;
+  f.mesh = make_grid(n, n, 1.0f, 1.0f);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.02f, 0.02f);
+  for (float& p : f.mesh.positions)
+    p += 0.5f * jitter(rng);
+  randomise_springs_and_state(f, rng, 0.02f, damping);
   return f;
 }
 
@@ -505,19 +512,8 @@ void rk4_reference_step(std::vector<float>& x, std::vector<float>& v, const Spri
 TEST(ClothRk4, StepsGiveTheStageByStageReferenceBitsForEveryChunkCount) {
   Fixture f;
   f.mesh = make_grid(6, 1500, 0.05f, 12.5f); // 9,000 particles, 563 slices, rows of 6
-  f.springs = build_cloth_springs(f.mesh.position_view(), f.mesh.triangle_view());
   std::mt19937 rng(17u);
-  std::uniform_real_distribution<float> jitter(-2e-3f, 2e-3f), kd(50.0f, 500.0f), cd(0.0f, 0.5f), vel(-1.0f, 1.0f);
-  for (std::size_t s = 0; s < f.springs.size(); ++s) {
-    f.springs.stiffness[s] = kd(rng);
-    f.springs.damping[s] = cd(rng);
-  }
-  f.x = f.mesh.positions;
-  for (float& p : f.x)
-    p += jitter(rng);
-  f.v.resize(f.x.size());
-  for (float& q : f.v)
-    q = vel(rng);
+  randomise_springs_and_state(f, rng, 2e-3f, true);
   const Renumbered across = renumbered(f, [&] {
     std::vector<std::int32_t> o(f.mesh.vertex_count());
     for (std::size_t i = 0; i < o.size(); ++i)
