@@ -114,13 +114,11 @@ TEST(OpenClCloth, Rk4StepsAgreeWithTheSerialReferenceAfterNSteps) {
     EXPECT_EQ(dx[k], x0[k]) << "pinned particle moved on the device";
 }
 
-// The implicit Euler system's product on the device against implicit_system_multiply(). The
-// device still applies each row as A_ii·p_i − Σ_e S_e·p_j with full 3×3 blocks; the reference
-// now works on differences, D_i·p_i + Σ_e S_e·(p_i − p_j), with each spring's block in
-// rank-one form (cloth_implicit.h), which keeps a sliver particle's mass term above the
-// rounding of its springs' h²·k. Mathematically the same product: on this cloth (no slivers,
-// masses far above that rounding) the two differ by float rounding of the h²·k terms only, so
-// agreement to 1e-6 of the largest entry holds. Pinned rows are zero on both.
+// The implicit Euler system's product on the device against implicit_system_multiply(): the
+// same blocks, the same order of operations and no FMA contraction, so only the device's
+// float arithmetic could differ (it is IEEE for + and ×, which is all the product uses):
+// agreement to 1e-6 of the largest entry covers a device that reassociates nothing but rounds
+// differently in the last bit. Pinned rows are zero on both.
 TEST(OpenClCloth, ImplicitSystemProductAgreesWithTheSerialReference) {
   REQUIRE_OPENCL_DEVICE();
   Cloth c = make_cloth();
