@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "geometry/mesh/orient.h"
 #include "kernels/error.h"
 #include "kernels/hole_caps.h"
 #include "kernels/proximity.h"
@@ -16,26 +17,15 @@
 namespace vfit {
 namespace {
 
-// Six times the volume of the mesh closed by fan caps over its openings (positive: outward).
-double capped_six_volume(std::span<const float> positions, std::span<const std::int32_t> triangles) {
-  const std::size_t nv = positions.size() / 3;
-  const HoleCaps caps = build_hole_caps(triangles, nv);
-  std::vector<float> capped;
-  capped_positions(positions, caps, capped);
-  double six_v = 0;
-  auto add = [&](std::span<const std::int32_t> tris) {
-    for (std::size_t f = 0; f + 2 < tris.size(); f += 3) {
-      const float* a = &capped[3 * static_cast<std::size_t>(tris[f])];
-      const float* b = &capped[3 * static_cast<std::size_t>(tris[f + 1])];
-      const float* c = &capped[3 * static_cast<std::size_t>(tris[f + 2])];
-      six_v += double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
-               double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
-               double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0]);
-    }
-  };
-  add(triangles);
-  add(caps.triangles);
-  return six_v;
+// The volume of the mesh closed by fan caps over its openings (signed_volume(): positive when
+// wound outward).
+double capped_volume(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  const HoleCaps caps = build_hole_caps(triangles, positions.size() / 3);
+  Mesh closed;
+  capped_positions(positions, caps, closed.positions);
+  closed.triangles.assign(triangles.begin(), triangles.end());
+  closed.triangles.insert(closed.triangles.end(), caps.triangles.begin(), caps.triangles.end());
+  return signed_volume(closed);
 }
 
 // A garment wound outward (by its capped volume), and its bounding box.
@@ -47,7 +37,7 @@ struct Outward {
 Outward outward(const Mesh& mesh) {
   Outward out;
   out.triangles = mesh.triangles;
-  if (capped_six_volume(mesh.positions, out.triangles) < 0)
+  if (capped_volume(mesh.positions, out.triangles) < 0)
     for (std::size_t f = 0; f < mesh.face_count(); ++f) std::swap(out.triangles[3 * f + 1], out.triangles[3 * f + 2]);
   out.box = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   for (std::int32_t v : mesh.triangles)

@@ -408,18 +408,21 @@ TEST(ClothOrdering, OrderKeepsARowByRowGridAndRegroupsAScatteredOne) {
   EXPECT_LT(gaps[gaps.size() / 2], 200);
 }
 
+// The locality order (cloth_particle_order()) of a shuffled numbering, expressed over the
+// fixture's own particles.
+std::vector<std::int32_t> locality_order_of(const Renumbered& shuffled_numbering) {
+  std::vector<std::int32_t> o = cloth_particle_order(shuffled_numbering.order.size(), shuffled_numbering.springs);
+  for (std::int32_t& k : o)
+    k = shuffled_numbering.order[std::size_t(k)];
+  return o;
+}
+
 // The numbering renames particles only (springs keep their order): an RK4 step in it gives
 // every particle the bits it gets in the input numbering, serial and TBB.
 TEST(ClothOrdering, RenumberedRk4StepGivesEachParticleTheSameBits) {
   const Fixture f = jittered_cloth(90, 13u, true);
   const Renumbered scattered = shuffled(f, 6u);
-  const Renumbered local = renumbered(f, [&] {
-    // The locality order of the scattered numbering, expressed over f's particles.
-    std::vector<std::int32_t> o = cloth_particle_order(scattered.order.size(), scattered.springs);
-    for (std::int32_t& k : o)
-      k = scattered.order[std::size_t(k)];
-    return o;
-  }());
+  const Renumbered local = renumbered(f, locality_order_of(scattered));
   const SpringAdjacency adj_scattered = build_spring_adjacency(scattered.springs, scattered.order.size());
   const SpringAdjacency adj_local = build_spring_adjacency(local.springs, local.order.size());
   std::vector<float> xs = scattered.x, vs = scattered.v, xl = local.x, vl = local.v, xl_serial = local.x,
@@ -521,12 +524,7 @@ TEST(ClothRk4, StepsGiveTheStageByStageReferenceBitsForEveryChunkCount) {
     return o;
   }());
   const Renumbered random = shuffled(f, 3u);
-  const Renumbered ordered = renumbered(f, [&] {
-    std::vector<std::int32_t> o = cloth_particle_order(random.order.size(), random.springs);
-    for (std::int32_t& k : o)
-      k = random.order[std::size_t(k)];
-    return o;
-  }());
+  const Renumbered ordered = renumbered(f, locality_order_of(random));
   const Renumbered* numberings[] = {&across, &random, &ordered};
   for (int numbering = 0; numbering < 3; ++numbering) {
     const Renumbered* r = numberings[numbering];
