@@ -165,6 +165,14 @@ private:
 // Pose prior (T-pose-relative axis-angle; a knee bends about +X, the left elbow about −Y): a
 // weak L2 toward the T-pose, stronger on the twists a surface barely shows, and one-sided
 // limits that keep knees and elbows hinging the anatomical way.
+// The neck's sideways lean (about Z) is held as firmly as a twist: the spine's lean and the
+// neck's both put the head to one side, and the head joint tilts the head alone, so with the
+// weak pull the neck took a lean the spine should have (the corpus body's contrapposto: the
+// rig's 4° lean of spine2 fitted as 1° of spine and 8° of neck) or leaned against a lean of the
+// spine the scan did not have (a random pose: spine −5°, neck +10°), each trading the
+// template's shoulder-shape mismatch for an untilted or tilted chest. The surface barely tells
+// them apart (the two fits of contrapposto score within 3 % of each other); which one is right
+// shows in the joints estimated on the scan unposed with it (scan_fit.cpp, stage 5).
 struct Limit {
   int joint, axis;
   double lo, hi;
@@ -199,7 +207,8 @@ struct PosePrior {
       const bool arm_twist = axis == 0 && (joint == idx(Joint::LEFT_SHOULDER) || joint == idx(Joint::RIGHT_SHOULDER) ||
                                            joint == idx(Joint::LEFT_ELBOW) || joint == idx(Joint::RIGHT_ELBOW));
       const bool leg_twist = axis == 1 && (joint == idx(Joint::LEFT_HIP) || joint == idx(Joint::RIGHT_HIP));
-      r[k++] = T((arm_twist || leg_twist) ? TWIST_L2 : POSE_L2) * body[i];
+      const bool neck_lean = axis == 2 && joint == idx(Joint::NECK);
+      r[k++] = T((arm_twist || leg_twist || neck_lean) ? TWIST_L2 : POSE_L2) * body[i];
     }
     for (const Limit& l : pose_limits()) {
       const T& x = body[3 * (l.joint - 1) + l.axis];

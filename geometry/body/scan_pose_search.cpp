@@ -461,7 +461,28 @@ ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, c
   const std::array<Joint, 8> refined = {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER, Joint::LEFT_ELBOW,
                                         Joint::RIGHT_ELBOW,   Joint::LEFT_HIP,       Joint::RIGHT_HIP,
                                         Joint::LEFT_KNEE,     Joint::RIGHT_KNEE};
-  for (double step : options.refine_steps_deg)
+  // Before the limbs at each step, the spine bent sideways by the step (a third at each of its
+  // three joints, as the torso candidates spread theirs): the torso candidates try forward bends
+  // and twists only, and a sideways lean left to ICP ended in the neck (see the pose prior,
+  // scan_fit_solve.cpp).
+  auto keep_if_better = [&](const Pose& p) {
+    const double s = scorer.score_part(p);
+    if (s < out.score) {
+      out.score = s;
+      out.pose = p;
+    }
+  };
+  for (double step : options.refine_steps_deg) {
+    {
+      Pose base = out.pose;
+      scorer.begin_part(base, out.log_scale, {idx(Joint::SPINE1)});
+      for (double sign : {-1.0, 1.0}) {
+        Pose p = out.pose;
+        for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3})
+          set_joint(p, idx(j), compose(Vec3(0, 0, sign * step / 3 * DEG), p.axis_angle.row(idx(j)).transpose()));
+        keep_if_better(p);
+      }
+    }
     for (Joint joint : refined) {
       const int j = idx(joint);
       Pose base = out.pose;
@@ -470,13 +491,10 @@ ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, c
         for (double sign : {-1.0, 1.0}) {
           Pose p = out.pose;
           set_joint(p, j, compose(sign * step * DEG * Vec3::Unit(axis), p.axis_angle.row(j).transpose()));
-          const double s = scorer.score_part(p);
-          if (s < out.score) {
-            out.score = s;
-            out.pose = p;
-          }
+          keep_if_better(p);
         }
     }
+  }
   out.evaluations = scorer.evaluations();
   return out;
 }

@@ -24,8 +24,9 @@ struct ScanPoseSearchOptions {
   /// wherever it is, so a wrong limb cannot outweigh the rest of the body.
   double cap = 0.08;
   int passes = 2; ///< sweeps over all parts (each keeps only improvements)
-  /// Then each limb joint (shoulders, elbows, hips, knees) is turned about its parent's three
-  /// axes by each of these steps (degrees) in turn, keeping improvements.
+  /// Then, by each of these steps (degrees) in turn, the spine is leaned sideways (a third of
+  /// the step at each spine joint) and each limb joint (shoulders, elbows, hips, knees) turned
+  /// about its parent's three axes, keeping improvements.
   std::vector<double> refine_steps_deg = {16, 8, 4};
   /// After each arm's candidate sweep, this many of its best-scoring candidates that place the
   /// arm differently (elbow or wrist more than `alternative_separation` apart) are each refined
@@ -61,8 +62,8 @@ std::vector<std::size_t> spread_indices(std::size_t n, std::size_t count);
 /// thighs over 24 directions, knees 0–100°, torso bend and twist, global yaw ±30°, x/z shifts,
 /// scale ±15 %), every candidate placed on the scan's floor (lowest points level); after each
 /// arm's sweep its options.limb_alternatives best distinct placements are refined and the best
-/// refined one kept; then each limb joint is turned about its parent's axes by
-/// options.refine_steps_deg in turn. A
+/// refined one kept; then, by options.refine_steps_deg in turn, the spine is leaned sideways
+/// (which the torso candidates do not try) and each limb joint turned about its parent's axes. A
 /// candidate replaces the current value only when it scores better, so the result never
 /// scores worse than `start`. Deterministic. Needs at least one scan point; never throws for finite input.
 ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,
