@@ -30,26 +30,29 @@ vfit_sym3 load_off_diagonal(const float* p, std::size_t entries, std::size_t e) 
 
 double dot3(vfit_vec3 a, vfit_vec3 b) { return double(a.x) * b.x + double(a.y) * b.y + double(a.z) * b.z; }
 
-// (A·p)_i for a free particle i: A_ii·p_i − Σ_e S_e·p_j (pinned p_j are zero by the filter).
+// (A·p)_i for a free particle i: D_i·p_i + Σ_e S_e·(p_i − p_j) (pinned p_j are zero by the
+// filter), A_ii·p_i − Σ_e S_e·p_j without the cancellation (ImplicitSystem::particle_blocks).
 vfit_vec3 row_times(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p, std::size_t i) {
-  vfit_vec3 r = vfit_sym3_apply(load_sym(s.diagonal.data(), i), load3(p, i));
+  const vfit_vec3 pi = load3(p, i);
+  vfit_vec3 r = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), pi);
   for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
     const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(s.off_diagonal.data(), adj.neighbors.size(), std::size_t(e)),
-                                        load3(p, static_cast<std::size_t>(adj.neighbors[e])));
-    r.x -= t.x;
-    r.y -= t.y;
-    r.z -= t.z;
+                                        vfit_v3_sub(pi, load3(p, static_cast<std::size_t>(adj.neighbors[e]))));
+    r.x += t.x;
+    r.y += t.y;
+    r.z += t.z;
   }
   return r;
 }
 
 // Row i of (A·p) for the particles of one slice, lane l for particle W·slice + l (lanes past
-// #V: garbage): A_ii·p_i − Σ_e S_e·p_j in adjacency order, as row_times, from the sliced
-// off-diagonal blocks, one particle per SIMD lane (as cloth_gather.h's slice_spring_forces).
-// The null slots' blocks are zero; their S·p_j (p_j the particle's own) is ±0, which changes
-// no nonzero sum: the values of row_times, a zero's sign aside.
+// #V: garbage): D_i·p_i + Σ_e S_e·(p_i − p_j) in adjacency order, as row_times, from the
+// sliced off-diagonal blocks, one particle per SIMD lane (as cloth_gather.h's
+// slice_spring_forces). The null slots' blocks are zero and name the particle itself, so
+// their S·(p_i − p_i) is +0, which changes no sum: the values of row_times, a zero's sign aside.
 struct SliceProduct {
   alignas(64) float r[3][CLOTH_SLICE_WIDTH];
+  alignas(64) float p[3][CLOTH_SLICE_WIDTH]; // p_i of each lane
 };
 
 VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p,
@@ -58,10 +61,14 @@ VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjace
   const std::size_t last = adj.particle_count() - 1;
   for (std::size_t l = 0; l < W; ++l) {
     const std::size_t i = std::min(W * slice + l, last);
-    const vfit_vec3 r = vfit_sym3_apply(load_sym(s.diagonal.data(), i), load3(p, i));
+    const vfit_vec3 pi = load3(p, i);
+    const vfit_vec3 r = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), pi);
     out.r[0][l] = r.x;
     out.r[1][l] = r.y;
     out.r[2][l] = r.z;
+    out.p[0][l] = pi.x;
+    out.p[1][l] = pi.y;
+    out.p[2][l] = pi.z;
   }
   const std::size_t slots = adj.slice_neighbor_offsets.size();
   const auto first = static_cast<std::size_t>(adj.slice_offsets[slice]);
@@ -71,10 +78,11 @@ VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjace
     const float* blocks = s.sliced_off_diagonal.data() + column;
     for (std::size_t l = 0; l < W; ++l) {
       const std::int32_t j3 = neighbors[l];
-      const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(blocks, slots, l), vfit_vec3{p[j3], p[j3 + 1], p[j3 + 2]});
-      out.r[0][l] -= t.x;
-      out.r[1][l] -= t.y;
-      out.r[2][l] -= t.z;
+      const vfit_vec3 d{out.p[0][l] - p[j3], out.p[1][l] - p[j3 + 1], out.p[2][l] - p[j3 + 2]};
+      const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(blocks, slots, l), d);
+      out.r[0][l] += t.x;
+      out.r[1][l] += t.y;
+      out.r[2][l] += t.z;
     }
   }
 }
@@ -205,7 +213,7 @@ bool contact_row(const ImplicitContactSprings& c, std::size_t i) {
 }
 
 // Adds (sign = 1) or removes (sign = −1) particle i's contact spring: h²·k·n·nᵀ on its diagonal
-// block (and its preconditioner block) and (−h·k·g₀ − h²·k·n·v₀)·n on its right-hand side.
+// block and its own block D_i (and its preconditioner block) and (−h·k·g₀ − h²·k·n·v₀)·n on its right-hand side.
 void add_contact_spring(ImplicitSystem& s, const ImplicitContactSprings& c, const float* v, float h, std::size_t i,
                         float sign) {
   const vfit_vec3 n = load3(c.normals.data(), i);
@@ -220,6 +228,19 @@ void add_contact_spring(ImplicitSystem& s, const ImplicitContactSprings& c, cons
   d.zz += a * n.z * n.z;
   store_sym(s.diagonal.data(), i, d);
   store_sliced_sym(s.preconditioner.data(), i, vfit_sym3_inverse(d));
+  // D_i: the inertia plus the spring, or (removed) the inertia again exactly, as the rounding
+  // of a subtraction would leave ≈ 2⁻²⁴·h²·k (κ·m_i: 20 times the mass term's own rounding).
+  const float in = s.inertia[i];
+  vfit_sym3 own{in, 0.0f, 0.0f, in, 0.0f, in};
+  if (sign > 0.0f) {
+    own.xx += a * n.x * n.x;
+    own.xy = a * n.x * n.y;
+    own.xz = a * n.x * n.z;
+    own.yy += a * n.y * n.y;
+    own.yz = a * n.y * n.z;
+    own.zz += a * n.z * n.z;
+  }
+  store_sym(s.particle_blocks.data(), i, own);
   const float along = sign * (-h * k * c.gaps[i]) - a * vfit_v3_dot(n, load3(v, i));
   const vfit_vec3 b = load3(s.rhs.data(), i);
   store3(s.rhs.data(), i, vfit_vec3{b.x + along * n.x, b.y + along * n.y, b.z + along * n.z});

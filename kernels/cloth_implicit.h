@@ -62,7 +62,21 @@ struct ImplicitSystem {
   /// #slots, component-major as off_diagonal, zero in the null slots. The CG's product reads
   /// these, one particle per SIMD lane.
   std::vector<float> sliced_off_diagonal;
-  std::vector<float> diagonal; ///< #V × 6: A_ii = m_i·(1 + h·μ)·I + Σ_e S_e (kg)
+  std::vector<float> diagonal; ///< #V × 6: A_ii = D_i + Σ_e S_e (kg), D_i below
+  /// #V × 6: D_i = A_ii − Σ_e S_e, the particle's own part of its diagonal block: m_i·(1 +
+  /// h·μ)·I plus a contact spring's h²·k·n·nᵀ (kg), zero when pinned. The CG's product forms
+  /// row i as D_i·p_i + Σ_e S_e·(p_i − p_j), the springs acting on relative values only: the
+  /// same value as A_ii·p_i − Σ_e S_e·p_j, but without summing h²·k terms that cancel to
+  /// leave m_i·p_i, whose float rounding (≈ 2⁻²⁴·h²·Σk per row) outweighs the mass term of a
+  /// fine mesh (a 1 mm edge carries ≈ 10⁻⁷ kg against h²·Σk ≈ 0.06 kg at h = 5 ms) and made the
+  /// rounded A indefinite there (CG then diverged; cloth_sim.h, ClothOptions::max_stretch).
+  /// The spring blocks' own rounding (2⁻²⁴ of h²·k per entry) still outweighs the mass of a
+  /// sliver's particle (10⁻¹⁰–10⁻⁹ kg on springs of 10–30 µm): a free row's mass term is raised
+  /// to at least 8·2⁻²⁴·tr(Σ_e S_e), here and on the diagonal (the inertia the solve sees;
+  /// the right-hand side keeps the true weight m_i·g and drag).
+  std::vector<float> particle_blocks;
+  /// #V: D_i without a contact spring, max(m_i·(1 + h·μ), the floor above) (kg), 0 when pinned.
+  std::vector<float> inertia;
   /// A_ii⁻¹ (1/kg), zero for pinned particles, by slices of CLOTH_SLICE_WIDTH particles (so a
   /// slice's lanes read each component contiguously): 6 × W floats per slice, component c of
   /// particle i at 6·W·⌊i / W⌋ + W·c + (i mod W), components ordered as `diagonal`'s.

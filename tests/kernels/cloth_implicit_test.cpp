@@ -521,7 +521,8 @@ TEST(ClothContactSprings, HoldARestingClothAndLetALiftingOneGo) {
   implicit_euler_step_serial(xf, vf, adj, particles, h, o, wf);
   for (std::size_t i = 0; i < nv; ++i) {
     EXPECT_EQ(ws.normal_impulses[i], 0.0f) << i;
-    EXPECT_NEAR(vs[3 * i + 1], vf[3 * i + 1], 1e-6f) << i;
+    // Two solves, each stopped at 1e-6 of its scale (v ≈ 0.95 m/s): up to ≈ 2e-6 apart.
+    EXPECT_NEAR(vs[3 * i + 1], vf[3 * i + 1], 2e-6f) << i;
   }
   EXPECT_TRUE(same_bits(xs, xt));
   EXPECT_TRUE(same_bits(vs, vt));
