@@ -22,22 +22,29 @@ double chunk_sum(const std::vector<double>& partials, std::size_t chunks, std::s
   return s;
 }
 
-// Block e of ImplicitSystem::off_diagonal, stored component-major over its `entries` blocks.
-vfit_sym3 load_off_diagonal(const float* p, std::size_t entries, std::size_t e) {
-  return vfit_sym3{
-      p[e], p[entries + e], p[2 * entries + e], p[3 * entries + e], p[4 * entries + e], p[5 * entries + e]};
-}
-
 double dot3(vfit_vec3 a, vfit_vec3 b) { return double(a.x) * b.x + double(a.y) * b.y + double(a.z) * b.z; }
 
+// S_e·d = a·u·(u·d) + t·d for the spring in slot k of the sliced springs (ImplicitSystem::
+// sliced_springs, `slots` per component).
+inline vfit_vec3 spring_times(const float* springs, std::size_t slots, std::size_t k, vfit_vec3 d) {
+  const vfit_vec3 u{springs[k], springs[slots + k], springs[2 * slots + k]};
+  const float a = springs[3 * slots + k], t = springs[4 * slots + k];
+  const float along = a * vfit_v3_dot(u, d);
+  return vfit_vec3{along * u.x + t * d.x, along * u.y + t * d.y, along * u.z + t * d.z};
+}
+
 // (A·p)_i for a free particle i: D_i·p_i + Σ_e S_e·(p_i − p_j) (pinned p_j are zero by the
-// filter), A_ii·p_i − Σ_e S_e·p_j without the cancellation (ImplicitSystem::particle_blocks).
+// filter), A_ii·p_i − Σ_e S_e·p_j without the cancellation (ImplicitSystem::particle_blocks),
+// each S_e applied in its rank-one form (ImplicitSystem::sliced_springs), as the CG's product.
 vfit_vec3 row_times(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p, std::size_t i) {
+  constexpr std::size_t W = CLOTH_SLICE_WIDTH;
+  const std::size_t slots = adj.slice_neighbor_offsets.size();
   const vfit_vec3 pi = load3(p, i);
   vfit_vec3 r = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), pi);
-  for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
-    const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(s.off_diagonal.data(), adj.neighbors.size(), std::size_t(e)),
-                                        vfit_v3_sub(pi, load3(p, static_cast<std::size_t>(adj.neighbors[e]))));
+  std::size_t slot = static_cast<std::size_t>(adj.slice_offsets[i / W]) + i % W;
+  for (std::int32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e, slot += W) {
+    const vfit_vec3 t = spring_times(s.sliced_springs.data(), slots, slot,
+                                     vfit_v3_sub(pi, load3(p, static_cast<std::size_t>(adj.neighbors[e]))));
     r.x += t.x;
     r.y += t.y;
     r.z += t.z;
@@ -47,7 +54,7 @@ vfit_vec3 row_times(const ImplicitSystem& s, const SpringAdjacency& adj, const f
 
 // Row i of (A·p) for the particles of one slice, lane l for particle W·slice + l (lanes past
 // #V: garbage): D_i·p_i + Σ_e S_e·(p_i − p_j) in adjacency order, as row_times, from the
-// sliced off-diagonal blocks, one particle per SIMD lane (as cloth_gather.h's
+// sliced springs (rank-one form), one particle per SIMD lane (as cloth_gather.h's
 // slice_spring_forces). The null slots' blocks are zero and name the particle itself, so
 // their S·(p_i − p_i) is +0, which changes no sum: the values of row_times, a zero's sign aside.
 struct SliceProduct {
@@ -75,11 +82,11 @@ VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjace
   const auto end = static_cast<std::size_t>(adj.slice_offsets[slice + 1]);
   for (std::size_t column = first; column < end; column += W) {
     const std::int32_t* neighbors = adj.slice_neighbor_offsets.data() + column;
-    const float* blocks = s.sliced_off_diagonal.data() + column;
+    const float* springs = s.sliced_springs.data() + column;
     for (std::size_t l = 0; l < W; ++l) {
       const std::int32_t j3 = neighbors[l];
       const vfit_vec3 d{out.p[0][l] - p[j3], out.p[1][l] - p[j3 + 1], out.p[2][l] - p[j3 + 2]};
-      const vfit_vec3 t = vfit_sym3_apply(load_off_diagonal(blocks, slots, l), d);
+      const vfit_vec3 t = spring_times(springs, slots, l, d);
       out.r[0][l] += t.x;
       out.r[1][l] += t.y;
       out.r[2][l] += t.z;
@@ -227,7 +234,7 @@ void add_contact_spring(ImplicitSystem& s, const ImplicitContactSprings& c, cons
   d.yz += a * n.y * n.z;
   d.zz += a * n.z * n.z;
   store_sym(s.diagonal.data(), i, d);
-  store_sliced_sym(s.preconditioner.data(), i, vfit_sym3_inverse(d));
+  store_sliced_sym(s.preconditioner.data(), i, preconditioner_block(d, s.inertia[i]));
   // D_i: the inertia plus the spring, or (removed) the inertia again exactly, as the rounding
   // of a subtraction would leave ≈ 2⁻²⁴·h²·k (κ·m_i: 20 times the mass term's own rounding).
   const float in = s.inertia[i];

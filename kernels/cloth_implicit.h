@@ -58,28 +58,30 @@ struct ImplicitSystem {
   /// 6 × #adjacency entries: S_e (kg), component-major (xx of every entry, then xy, xz, yy,
   /// yz, zz), so a loop over entries reads each component contiguously and vectorises.
   std::vector<float> off_diagonal;
-  /// The same blocks in the adjacency's sliced rows (SpringAdjacency::slice_offsets): 6 ×
-  /// #slots, component-major as off_diagonal, zero in the null slots. The CG's product reads
-  /// these, one particle per SIMD lane.
-  std::vector<float> sliced_off_diagonal;
+  /// The same springs in the adjacency's sliced rows (SpringAdjacency::slice_offsets) in
+  /// rank-one form, which the CG's product reads (one particle per SIMD lane): 5 × #slots,
+  /// component-major (u_x, u_y, u_z, a, t), S_e = a·u·uᵀ + t·I with u the spring's unit
+  /// direction, a = h·c + h²·(k − t') and t = h²·t' (t' = k·(1 − L/l) clamped at 0); zero in
+  /// the null slots. Applied as a·u·(u·d) + t·d: the float rounding of S_e's six entries (2⁻²⁴
+  /// of a each) would act on every direction, the rank-one form's only on d's component
+  /// along u, so a light particle's weak (out-of-plane) direction keeps its mass term.
+  std::vector<float> sliced_springs;
   std::vector<float> diagonal; ///< #V × 6: A_ii = D_i + Σ_e S_e (kg), D_i below
   /// #V × 6: D_i = A_ii − Σ_e S_e, the particle's own part of its diagonal block: m_i·(1 +
   /// h·μ)·I plus a contact spring's h²·k·n·nᵀ (kg), zero when pinned. The CG's product forms
   /// row i as D_i·p_i + Σ_e S_e·(p_i − p_j), the springs acting on relative values only: the
   /// same value as A_ii·p_i − Σ_e S_e·p_j, but without summing h²·k terms that cancel to
   /// leave m_i·p_i, whose float rounding (≈ 2⁻²⁴·h²·Σk per row) outweighs the mass term of a
-  /// fine mesh (a 1 mm edge carries ≈ 10⁻⁷ kg against h²·Σk ≈ 0.06 kg at h = 5 ms) and made the
-  /// rounded A indefinite there (CG then diverged; cloth_sim.h, ClothOptions::max_stretch).
-  /// The spring blocks' own rounding (2⁻²⁴ of h²·k per entry) still outweighs the mass of a
-  /// sliver's particle (10⁻¹⁰–10⁻⁹ kg on springs of 10–30 µm): a free row's mass term is raised
-  /// to at least 8·2⁻²⁴·tr(Σ_e S_e), here and on the diagonal (the inertia the solve sees;
-  /// the right-hand side keeps the true weight m_i·g and drag).
+  /// fine mesh's light particles (a sliver's 10⁻¹⁰–10⁻⁹ kg against h²·Σk ≈ 0.03–0.06 kg at
+  /// h = 5 ms) and made the rounded A indefinite there (CG then diverged).
   std::vector<float> particle_blocks;
-  /// #V: D_i without a contact spring, max(m_i·(1 + h·μ), the floor above) (kg), 0 when pinned.
+  /// #V: D_i without a contact spring, m_i·(1 + h·μ) (kg), 0 when pinned.
   std::vector<float> inertia;
-  /// A_ii⁻¹ (1/kg), zero for pinned particles, by slices of CLOTH_SLICE_WIDTH particles (so a
-  /// slice's lanes read each component contiguously): 6 × W floats per slice, component c of
-  /// particle i at 6·W·⌊i / W⌋ + W·c + (i mod W), components ordered as `diagonal`'s.
+  /// A_ii⁻¹ (1/kg; A_ii shifted by 2⁻¹⁸ of its springs' trace first, which keeps the float
+  /// inverse positive definite for a light particle and changes CG's convergence only), zero
+  /// for pinned particles, by slices of CLOTH_SLICE_WIDTH particles (so a slice's lanes read
+  /// each component contiguously): 6 × W floats per slice, component c of particle i at
+  /// 6·W·⌊i / W⌋ + W·c + (i mod W), components ordered as `diagonal`'s.
   std::vector<float> preconditioner;
   std::vector<float> rhs;          ///< #V × 3: b = h·(f₀ + h·∂f/∂x·v₀) (N·s), zero when pinned
   std::vector<unsigned char> free; ///< #V: 1 = free particle, 0 = pinned (filtered)

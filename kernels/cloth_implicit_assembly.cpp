@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 
 #include "cloth_gather.h"
 #include "cloth_implicit_blocks.h"
@@ -14,13 +15,6 @@ namespace vfit {
 namespace {
 using namespace cloth_detail;
 
-// Multiple of 2⁻²⁴·tr(Σ_e S_e) below which a free row's mass term m_i·(1 + h·μ) is raised to it
-// (see ImplicitSystem::particle_blocks). 8: on the tilted 1 mm cloth with a 10 µm sliver of
-// tests/engine/cloth_sim_test.cpp (FineClothWithASliverFallsFreelyWithoutBlowingUp) 0 diverges
-// and 8 falls freely; on a 10⁶-vertex catalogue tee fitted to the mannequin, 4 raises 0.66 % of
-// the particles (0.05 % of the mass) and still left a spring at 19× its rest length after the
-// first 10 ms, 8 left 9.2×, while 32 already raises 87 % of the particles (37 % of the mass).
-constexpr float IMPLICIT_INERTIA_FLOOR = 8.0f;
 
 void add_sym(vfit_sym3& a, vfit_sym3 b) {
   a.xx += b.xx;
@@ -36,6 +30,7 @@ struct AssemblyBlock {
   GatherBlock states;                               // d, dv of each entry; f: its spring force
   alignas(64) float kv[3][GATHER_BLOCK_ENTRIES];    // K·dv of each entry
   alignas(64) float block[6][GATHER_BLOCK_ENTRIES]; // S_e of each entry, as off_diagonal
+  alignas(64) float rank[5][GATHER_BLOCK_ENTRIES];  // u, a, t of each entry, as sliced_springs
 };
 
 // Evaluates entry e (block slot k) from its relative state: force, K·dv and S_e into the slot.
@@ -56,6 +51,17 @@ inline void assemble_entry(const float* rest, const float* stiffness, const floa
   b.block[3][k] = block.yy;
   b.block[4][k] = block.yz;
   b.block[5][k] = block.zz;
+  // S_e = a·u·uᵀ + t·I: vfit_spring_implicit_terms_relative's u, a and t, the same formulas.
+  const float l = std::sqrt(vfit_v3_dot(d, d));
+  const float live = (float)(l > VFIT_SPRING_MIN_LENGTH);
+  const float w = 1.0f / (live * l + (1.0f - live));
+  float transverse = live * (stiffness[e] * (1.0f - rest[e] * w));
+  transverse = transverse < 0.0f ? 0.0f : transverse;
+  b.rank[0][k] = live * (d.x * w);
+  b.rank[1][k] = live * (d.y * w);
+  b.rank[2][k] = live * (d.z * w);
+  b.rank[3][k] = h * damping[e] + h * h * (stiffness[e] - transverse);
+  b.rank[4][k] = h * h * transverse;
 }
 
 // Copies the S_e of `count` slots from slot 0 into off_diagonal from entry e0.
@@ -67,7 +73,7 @@ inline void store_blocks(const AssemblyBlock& b, float* off_diagonal, std::size_
 
 // Row i of the system from its entries' results: the diagonal block, its inverse and the
 // right-hand side, summed in adjacency order, and the row's S_e copied into its lane of the
-// sliced off-diagonal blocks (zero past its end). entry(e) returns the slot of b holding entry
+// sliced springs (zero past its end). entry(e) returns the slot of b holding entry
 // e's force, K·dv and S_e.
 template <typename EntrySlot>
 inline void assemble_row(const float* v, const SpringAdjacency& adj, const ClothParticles& particles, float h,
@@ -93,32 +99,21 @@ inline void assemble_row(const float* v, const SpringAdjacency& adj, const Cloth
     kv.y += b.kv[1][k];
     kv.z += b.kv[2][k];
     add_sym(diag, vfit_sym3{b.block[0][k], b.block[1][k], b.block[2][k], b.block[3][k], b.block[4][k], b.block[5][k]});
-    for (std::size_t c = 0; c < 6; ++c)
-      s.sliced_off_diagonal[c * slots + slot] = b.block[c][k];
+    for (std::size_t c = 0; c < 5; ++c)
+      s.sliced_springs[c * slots + slot] = b.rank[c][k];
   }
   for (; slot < slice_end; slot += W)
-    for (std::size_t c = 0; c < 6; ++c)
-      s.sliced_off_diagonal[c * slots + slot] = 0.0f;
-  // The inertia the solve sees is at least IMPLICIT_INERTIA_FLOOR × the float rounding of the
-  // row's spring blocks (cloth_implicit.h, ImplicitSystem::particle_blocks).
-  const float springs_trace = diag.xx + diag.yy + diag.zz - 3.0f * md;
-  const float floor_m = IMPLICIT_INERTIA_FLOOR * 0x1p-24f * springs_trace;
-  float mde = md;
-  if (is_free && md < floor_m) {
-    mde = floor_m;
-    diag.xx += mde - md;
-    diag.yy += mde - md;
-    diag.zz += mde - md;
-  }
+    for (std::size_t c = 0; c < 5; ++c)
+      s.sliced_springs[c * slots + slot] = 0.0f;
   store_sym(s.diagonal.data(), i, diag);
-  store_sym(s.particle_blocks.data(), i, vfit_sym3{mde, 0.0f, 0.0f, mde, 0.0f, mde});
-  s.inertia[i] = mde;
+  store_sym(s.particle_blocks.data(), i, vfit_sym3{md, 0.0f, 0.0f, md, 0.0f, md});
+  s.inertia[i] = md;
   if (!is_free) {
     store_sliced_sym(s.preconditioner.data(), i, vfit_sym3{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f});
     store3(s.rhs.data(), i, vfit_vec3{0.0f, 0.0f, 0.0f});
     return;
   }
-  store_sliced_sym(s.preconditioner.data(), i, vfit_sym3_inverse(diag));
+  store_sliced_sym(s.preconditioner.data(), i, preconditioner_block(diag, md));
   // b = h·(f + m·g − μ·m·v + h·∂f/∂x·v)
   const vfit_vec3 vi = load3(v, i);
   const float g[3] = {particles.gravity[0], particles.gravity[1], particles.gravity[2]};
@@ -166,7 +161,7 @@ VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, cons
 
 void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries, std::size_t slots) {
   s.off_diagonal.resize(6 * entries);
-  s.sliced_off_diagonal.resize(6 * slots);
+  s.sliced_springs.resize(5 * slots);
   s.diagonal.resize(6 * nv);
   s.particle_blocks.resize(6 * nv);
   s.inertia.resize(nv);

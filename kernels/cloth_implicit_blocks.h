@@ -56,6 +56,20 @@ inline void store_sliced_sym(float* p, std::size_t i, vfit_sym3 s) {
   d[5 * W] = s.zz;
 }
 
+// The preconditioner block of a row: the inverse of its diagonal block A_ii (mass part md, kg)
+// with 2⁻¹⁸·tr(A_ii − md·I) added along the diagonal. A_ii summed in float carries ≈ 2⁻²⁴ of
+// its springs' h²·k per entry and addition, which may exceed the mass term of a light particle
+// (a sliver's): its rounded inverse may then be indefinite and CG breaks. The shift (16× the
+// rounding of a dozen additions) keeps the inverse's condition below 2¹⁸, so its float entries
+// stay positive definite; it changes CG's convergence only, never the answer.
+inline vfit_sym3 preconditioner_block(vfit_sym3 diag, float md) {
+  const float shift = 0x1p-18f * (diag.xx + diag.yy + diag.zz - 3.0f * md);
+  diag.xx += shift;
+  diag.yy += shift;
+  diag.zz += shift;
+  return vfit_sym3_inverse(diag);
+}
+
 // Fixed chunks of the implicit passes: the count covering n particles.
 inline std::size_t chunk_count(std::size_t n) { return (n + CLOTH_IMPLICIT_CHUNK - 1) / CLOTH_IMPLICIT_CHUNK; }
 

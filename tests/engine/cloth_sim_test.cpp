@@ -203,14 +203,14 @@ TEST(ClothSim, AbsurdStepIsReportedAsDivergenceAndNotWrittenOut) {
   EXPECT_TRUE(same_bits(before, sim.positions()));
 }
 
-// A fine cloth (1 mm cells, 1.5·10⁻⁷ kg particles) with slivers at its edge: a boundary edge
-// split 10 and 20 µm from one end, as a remeshed catalogue garment of 10⁶ vertices has (its lightest
-// particles weigh 2·10⁻¹⁰ kg, on springs of 30 µm). The light particle's mass term in its row
-// of the implicit system is below the float rounding of its springs' h²·k blocks (4·10⁻¹⁰ kg
-// against h²·Σk ≈ 0.03 kg at h = 5 ms, 2⁻²⁴ of which is 2·10⁻⁹ kg). In free fall every
-// particle must move as gravity says (|v| ≈ g·t after t = 0.01 s, 0.098 m/s); before the
-// solve kept the mass term resolvable, the sliver's particle left at metres per second and
-// the step was reported as runaway stretch.
+// A fine cloth (1 mm cells, 1.5·10⁻⁷ kg particles), tilted, with slivers at its edge: a
+// boundary edge split 10 and 20 µm from one end, as a remeshed catalogue garment of 10⁶
+// vertices has (its lightest particles weigh 2·10⁻¹⁰ kg, on springs of 30 µm). The light
+// particle's mass term (5·10⁻¹⁰ kg) is below the float rounding of its springs' system blocks
+// (2⁻²⁴ of h²·Σk ≈ 0.03 kg at h = 5 ms: 2·10⁻⁹ kg). In free fall every particle must move as
+// gravity says (|v| ≈ g·t after t = 0.01 s, 0.098 m/s); before the implicit solve applied the
+// springs in rank-one form on relative values (kernels/cloth_implicit.h, ImplicitSystem), the
+// step was reported as runaway stretch.
 TEST(ClothSim, FineClothWithASliverFallsFreelyWithoutBlowingUp) {
   Mesh grid = make_grid(30, 30, 0.029f, 0.029f);
   std::vector<float> p(grid.positions.begin(), grid.positions.end());
