@@ -469,7 +469,9 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
   m.adjacency = build_spring_adjacency(m.springs, nv);
   // Runaway stretch is judged against at least half the median structural rest length, so a
   // sliver edge of a generated mesh (microns long) stretched by a fraction of a millimetre is
-  // not read as divergence.
+  // not read as divergence, and against at least the contact thickness τ: a contact pass moves
+  // a particle by up to τ at once (out to the gap), which on a fine mesh's sub-millimetre edges
+  // is a tenfold stretch that the next steps relax (see ClothOptions::max_stretch).
   std::vector<float> structural;
   for (std::size_t s = 0; s < m.springs.size(); ++s)
     if (m.springs.kinds[s] == SpringKind::STRUCTURAL) structural.push_back(m.springs.rest_lengths[s]);
@@ -477,6 +479,8 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     std::nth_element(structural.begin(), structural.begin() + std::ptrdiff_t(structural.size() / 2), structural.end());
     m.stretch_floor = 0.5f * structural[structural.size() / 2];
   }
+  if (std::isfinite(options.contact_thickness))
+    m.stretch_floor = std::max(m.stretch_floor, options.contact_thickness);
   m.update_substep();
   m.state_changed();
   if (options.backend == ClothBackend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);

@@ -184,7 +184,12 @@ struct ClothOptions {
 
   double max_speed = 50; ///< m/s: the energy blow-up threshold (as an RMS speed)
   /// Runaway stretch: any spring longer than this × its rest length, a rest length being taken
-  /// as at least half the median edge length (so slivers of a generated mesh do not trip it).
+  /// as at least half the median edge length (so slivers of a generated mesh do not trip it)
+  /// and at least contact_thickness: the contact pass moves a particle by up to τ at once, and
+  /// on a 10⁶-vertex tee fitted to the mannequin (0.8 mm median edge, 16,000 particles left
+  /// within τ of the body) the first 10 ms stretched a spring to 15× half the median edge
+  /// (5.6 mm) near the armpit, then 9.1×, 4.6×, 4.1× over the next steps: not a runaway. A
+  /// real blow-up grows step by step and is caught once a spring passes 10·τ (3 cm by default).
   double max_stretch = 10;
 };
 

@@ -256,6 +256,34 @@ TEST(ClothSim, FineClothWithASliverFallsFreelyWithoutBlowingUp) {
   EXPECT_LT(worst, 0.2);
 }
 
+// Runaway stretch on a fine cloth (1 mm cells): a particle displaced by a few millimetres at
+// once, as the contact pass does to a particle it pushes out to the gap τ = 3 mm, stretches its
+// 1 mm springs several times over, which the next steps relax; a displacement of 5 cm is a
+// runaway. Here the centre particle is attached to a sphere 0.5 m away and the sphere moved by
+// 11 mm (then 5 cm) in one call: 11 mm read as runaway (11× the 1 mm rest length) before the
+// rest length was taken as at least τ (11/3 ≈ 3.7 now); 5 cm still is (17×).
+TEST(ClothSim, AFewMillimetresAtOnceOnAFineClothAreNotARunaway) {
+  const Mesh grid = make_grid(21, 21, 0.02f, 0.02f);
+  Mesh ball = make_uv_sphere(8, 16, 0.05f);
+  for (std::size_t i = 0; i < ball.positions.size(); i += 3)
+    ball.positions[i + 1] -= 0.5f;
+  for (const float jump : {0.011f, 0.05f}) {
+    ClothOptions o;
+    o.gravity[1] = 0.0f;
+    ClothSim sim(grid.position_view(), grid.triangle_view(), o);
+    sim.set_body(ball.position_view(), ball.triangle_view());
+    const std::int32_t centre = 10 * 21 + 10;
+    sim.attach_to_body(std::span<const std::int32_t>(&centre, 1));
+    std::vector<float> moved(ball.positions.begin(), ball.positions.end());
+    for (std::size_t i = 0; i < moved.size(); i += 3)
+      moved[i + 1] += jump;
+    sim.move_body(moved, 0.01);
+    const ClothStepReport r = sim.step(0.01);
+    EXPECT_EQ(r.status, jump < 0.02f ? ClothStatus::OK : ClothStatus::DIVERGED_STRETCH)
+        << "jump " << jump << ": " << to_string(r.status);
+  }
+}
+
 // A square of cloth dropped from 5 cm above a sphere drapes over it: after 1.5 s no particle
 // is inside the sphere's mesh (signed distance ≥ 0; the contact keeps 3 mm, so a particle may
 // only sink by what it travels in one contact interval) and nothing is NaN.
