@@ -15,7 +15,6 @@ namespace vfit {
 namespace {
 using namespace cloth_detail;
 
-
 void add_sym(vfit_sym3& a, vfit_sym3 b) {
   a.xx += b.xx;
   a.xy += b.xy;
@@ -72,9 +71,9 @@ inline void store_blocks(const AssemblyBlock& b, float* off_diagonal, std::size_
 }
 
 // Row i of the system from its entries' results: the diagonal block, its inverse and the
-// right-hand side, summed in adjacency order, and the row's S_e copied into its lane of the
-// sliced springs (zero past its end). entry(e) returns the slot of b holding entry
-// e's force, K·dv and S_e.
+// right-hand side, summed in adjacency order, its own block D_i, and the row's springs (u, a,
+// t) copied into its lane of the sliced springs (zero past its end). entry(e) returns the slot
+// of b holding entry e's force, K·dv, S_e and (u, a, t).
 template <typename EntrySlot>
 inline void assemble_row(const float* v, const SpringAdjacency& adj, const ClothParticles& particles, float h,
                          ImplicitSystem& s, std::size_t i, const AssemblyBlock& b, const EntrySlot& entry) {
