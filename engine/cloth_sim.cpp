@@ -98,6 +98,10 @@ struct ClothSim::Impl {
   std::unique_ptr<OpenClClothRk4> cl_rk4;
 #endif
   std::vector<float> body_positions, body_velocities;
+  // Simulated time (s) for which the last move_body()'s velocities still hold: its dt, run down
+  // by step(); at zero the body is at rest again (body_velocities cleared, the attached
+  // vertices' velocities zeroed), as its positions stay where that move left them.
+  double body_motion_left = 0;
   std::vector<std::int32_t> body_triangles;
   ClosestHits hits;
   // Implicit Euler's contact constraints, built from `hits` when they describe the current
@@ -320,7 +324,7 @@ struct ClothSim::Impl {
   }
 
   // Divergence check and displacement of the step just taken (restores the state on divergence).
-  ClothStepReport finish_step(ClothStepReport r);
+  ClothStepReport finish_step(ClothStepReport r, double dt);
 
   // Marks the published state (out_x, out_v) stale: called by every operation that changes x
   // or v; the next read of positions() or velocities() gathers it into the caller's numbering.
@@ -625,6 +629,7 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
   for (std::size_t i = 0; i < positions.size(); ++i)
     m.body_velocities[i] = dt > 0 ? static_cast<float>((positions[i] - m.body_positions[i]) / dt) : 0.0f;
   m.body_positions.assign(positions.begin(), positions.end());
+  m.body_motion_left = dt > 0 ? dt : 0.0;
   if (m.hash)
     m.hash->update(positions);
   else
@@ -655,7 +660,7 @@ ClothStepReport ClothSim::step(double dt) {
     for (int s = 0; s < steps; ++s)
       r.solver_iterations += m.implicit_step(dt / steps, r.contacts);
     r.substeps = steps;
-    return m.finish_step(r);
+    return m.finish_step(r, dt);
   }
   // Contact windows of at most contact_interval, each integrated in equal stable substeps.
   const int windows =
@@ -667,10 +672,10 @@ ClothStepReport ClothSim::step(double dt) {
     r.contacts += m.resolve_contacts();
   }
   r.substeps = windows * substeps;
-  return m.finish_step(r);
+  return m.finish_step(r, dt);
 }
 
-ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
+ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r, double dt) {
   Impl& m = *this;
   m.status = m.check();
   r.status = m.status;
@@ -681,6 +686,17 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r) {
     m.candidates_valid = false;
     m.state_changed();
     return r;
+  }
+  if (m.body_motion_left > 0) {
+    // The move's interval is spent: the body stands where move_body() left it.
+    m.body_motion_left -= dt;
+    if (m.body_motion_left <= 1e-9 * dt) {
+      m.body_motion_left = 0;
+      m.body_velocities.clear();
+      for (const BodyAttachment& a : m.attachments)
+        for (std::size_t k = 0; k < 3; ++k)
+          m.v[3 * static_cast<std::size_t>(a.vertex) + k] = 0.0f;
+    }
   }
   m.state_changed();
   double total = 0;

@@ -258,8 +258,11 @@ public:
   /// Moves the body (same topology) over the last `dt` seconds: refits the BVH (no rebuild) or
   /// refills the spatial hash, takes the body's velocity as (new − old)/dt for friction, and
   /// moves the attached vertices with their body triangles (their velocity becomes (new −
-  /// old)/dt too, which the springs' damping sees). Throws vfit::Error when no body is set or
-  /// the vertex count differs.
+  /// old)/dt too, which the springs' damping sees). Those velocities hold for the next `dt`
+  /// seconds of step(); after them, without another move_body(), the body and the attached
+  /// vertices are at rest where this move left them (a kept velocity would drag the cloth on
+  /// through friction and damping while the body stands still). Throws vfit::Error when no body
+  /// is set or the vertex count differs.
   void move_body(std::span<const float> positions, double dt);
 
   /// Pins `vertices` (indices in [0, #V)) to the body. Throws vfit::Error ("cloth: attach_to_body

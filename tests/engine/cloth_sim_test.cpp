@@ -743,14 +743,25 @@ TEST(Waistband, AutoPinsKeepLooseTrousersUpAndFollowTheBody) {
     for (std::int32_t v : pins)
       for (int k = 0; k < 3; ++k)
         ASSERT_NEAR(sim.positions()[3 * std::size_t(v) + k], before[3 * std::size_t(v) + k] + shift[k], 1e-5f);
-    double mean_shift[3] = {0, 0, 0};
-    for (std::size_t i = 0; i < all.size(); ++i)
+    const auto expect_mean_shift = [&](const char* when) {
+      double mean_shift[3] = {0, 0, 0};
+      for (std::size_t i = 0; i < all.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+          mean_shift[k] += (sim.positions()[3 * i + k] - before[3 * i + k]) / double(all.size());
       for (int k = 0; k < 3; ++k)
-        mean_shift[k] += (sim.positions()[3 * i + k] - before[3 * i + k]) / double(all.size());
-    // The garment comes along: its mean moves by the shift to within 1 cm (measured 4 mm; the
-    // free legs lag and swing a little behind the band).
-    for (int k = 0; k < 3; ++k)
-      EXPECT_NEAR(mean_shift[k], shift[k], 0.01) << "axis " << k;
+        EXPECT_NEAR(mean_shift[k], shift[k], 0.01) << "axis " << k << ", " << when;
+    };
+    // The garment comes along: its mean moves by the shift to within 1 cm (measured within
+    // 3.6 mm on every axis over 12 runs, the start perturbed by 0.2 µm: the free legs lag and
+    // swing a little behind the band).
+    expect_mean_shift("0.5 s after the move");
+    // The body stands still after its last move: the garment stays with it (within 3.6 mm in
+    // the same runs). While the last move's velocity (0.3 m/s) was kept for the body's friction
+    // and the pinned band's springs, the garment crept on along it: 72 mm past the shift on x
+    // 1.5 s after the move, up to 0.24 m after 3 s.
+    for (int f = 0; f < 60; ++f)
+      ASSERT_EQ(sim.step(1.0 / 60.0).status, ClothStatus::OK);
+    expect_mean_shift("1.5 s after the move");
   }
   EXPECT_GT(drop[0], 0.10);
   EXPECT_LT(drop[1], 0.02);
