@@ -48,6 +48,9 @@ bool is_bottom(GarmentType type) {
 // contact keeps particles off them, not the edges between particles).
 constexpr double POST_SIMULATION_TOLERANCE = 0.0005;
 
+// remove_penetration() calls at most in that removal (see its loop in dress_garment).
+constexpr int POST_SIMULATION_CLEANUPS = 3;
+
 // Layer points farther than this (m) from a vertex are not its inner layer (LayerObstacle::reach).
 constexpr double LAYER_REACH = 0.05;
 
@@ -656,14 +659,28 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
       report.after_simulation = s;
       if (s.max_depth > POST_SIMULATION_TOLERANCE || s.crossing_edges > 0 || s.layer_inside_count > 0 ||
           s.layer_crossing_edges > 0) {
-        remove_penetration(mesh, body_index, crossings, layers, po);
+        PenetrationStats cleaned = remove_penetration(mesh, body_index, crossings, layers, po).after;
         report.post_simulation_cleanup = true;
+        // A call ends after stall_rounds without progress; another, from its best state, starts
+        // afresh (a new region around what is left): repeated while it leaves the body
+        // offended and the last call reduced that. The knee-bent worksuit overalls end their
+        // simulation with 39–43 edges through the body (0 inside); one call left 1 of them in
+        // 2 of 14 runs (the simulation's start perturbed by 0.1 µm, either implicit product),
+        // a second call 0 in 7 rounds.
+        for (int call = 1; call < POST_SIMULATION_CLEANUPS; ++call) {
+          const auto body_offences = [](const PenetrationStats& st) { return st.inside_count + st.crossing_edges; };
+          if (body_offences(cleaned) == 0 && cleaned.max_depth <= POST_SIMULATION_TOLERANCE) break;
+          const PenetrationStats again = remove_penetration(mesh, body_index, crossings, layers, po).after;
+          const bool better = body_offences(again) < body_offences(cleaned) || again.max_depth < cleaned.max_depth;
+          cleaned = again;
+          if (!better) break;
+        }
         // A settled garment that removal cannot bring back outside the body (cloth drawn into
         // a fold between limb and torso), or that ends with more offences against the inner
         // layers (its vertices inside them and their edges through it, counted together: a
         // few more vertices inside but far fewer edges through is the better fit), is worse
         // than no simulation: keep the garment as removal left it, and say so.
-        const PenetrationStats cleaned = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+        cleaned = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
         const auto layer_offences = [](const PenetrationStats& st) { return st.layer_inside_count + st.layer_crossing_edges; };
         if (cleaned.max_depth > std::max(POST_SIMULATION_TOLERANCE, report.after_removal.max_depth) ||
             layer_offences(cleaned) > layer_offences(report.after_removal)) {
