@@ -226,10 +226,13 @@ __kernel void cloth_rk4_stage_slices(__global const float* xs, __global const fl
 }
 
 // One work-item per particle: row i of the filtered implicit Euler matrix times p
-// (cloth_implicit.h's implicit_system_multiply): A_ii·p_i − Σ_e S_e·p_j over the CSR row, with
-// pinned entries of p read as zero and pinned rows written as zero. Diagonal blocks are
-// vfit_sym3 (6 floats: xx, xy, xz, yy, yz, zz); off-diagonal ones component-major (all xx,
-// then all xy, …); the same order of operations as the C++ reference.
+// (cloth_implicit.h's implicit_system_multiply): D_i·p_i + Σ_e S_e·(p_i − p_j) over the row,
+// with pinned entries of p read as zero and pinned rows written as zero. D_i (particle_blocks)
+// is a vfit_sym3 (6 floats: xx, xy, xz, yy, yz, zz); each spring's S_e in rank-one form (u, a,
+// t: vfit_spring_rank_one_apply) from the sliced springs, component-major over `slots` (all
+// u_x, then u_y, u_z, a, t), entry k of particle i at slice_offsets[i / width] + width·k +
+// i mod width (ImplicitSystem::sliced_springs); the same order of operations as the C++
+// reference.
 static vfit_sym3 vfit_cloth_load_sym(__global const float* s, int i) {
   vfit_sym3 r;
   r.xx = s[6 * i];
@@ -241,10 +244,10 @@ static vfit_sym3 vfit_cloth_load_sym(__global const float* s, int i) {
   return r;
 }
 
-__kernel void cloth_implicit_multiply(__global const float* diagonal, __global const float* off_diagonal,
-                                      __global const int* offsets, __global const int* neighbors,
-                                      __global const uchar* free_rows, __global const float* p, __global float* out,
-                                      int count) {
+__kernel void cloth_implicit_multiply(__global const float* particle_blocks, __global const float* springs,
+                                      __global const int* slice_offsets, __global const int* offsets,
+                                      __global const int* neighbors, __global const uchar* free_rows,
+                                      __global const float* p, __global float* out, int count, int slots, int width) {
   int i = get_global_id(0);
   if (i >= count) return;
   vfit_vec3 r;
@@ -252,22 +255,21 @@ __kernel void cloth_implicit_multiply(__global const float* diagonal, __global c
   r.y = 0.0f;
   r.z = 0.0f;
   if (free_rows[i]) {
-    int entries = offsets[count]; /* off_diagonal is component-major over all entries */
-    r = vfit_sym3_apply(vfit_cloth_load_sym(diagonal, i), vfit_cloth_load3(p, i));
-    for (int e = offsets[i]; e < offsets[i + 1]; ++e) {
+    vfit_vec3 pi = vfit_cloth_load3(p, i);
+    r = vfit_sym3_apply(vfit_cloth_load_sym(particle_blocks, i), pi);
+    int slot = slice_offsets[i / width] + i % width;
+    for (int e = offsets[i]; e < offsets[i + 1]; ++e, slot += width) {
       int j = neighbors[e];
-      if (!free_rows[j]) continue; // the filter: a pinned p_j reads as zero
-      vfit_sym3 s;
-      s.xx = off_diagonal[e];
-      s.xy = off_diagonal[entries + e];
-      s.xz = off_diagonal[2 * entries + e];
-      s.yy = off_diagonal[3 * entries + e];
-      s.yz = off_diagonal[4 * entries + e];
-      s.zz = off_diagonal[5 * entries + e];
-      vfit_vec3 t = vfit_sym3_apply(s, vfit_cloth_load3(p, j));
-      r.x -= t.x;
-      r.y -= t.y;
-      r.z -= t.z;
+      vfit_vec3 d = pi;
+      if (free_rows[j]) d = vfit_v3_sub(pi, vfit_cloth_load3(p, j)); // the filter: a pinned p_j reads as zero
+      vfit_vec3 u;
+      u.x = springs[slot];
+      u.y = springs[slots + slot];
+      u.z = springs[2 * slots + slot];
+      vfit_vec3 t = vfit_spring_rank_one_apply(u, springs[3 * slots + slot], springs[4 * slots + slot], d);
+      r.x += t.x;
+      r.y += t.y;
+      r.z += t.z;
     }
   }
   vfit_cloth_store3(out, i, r);

@@ -28,9 +28,7 @@ double dot3(vfit_vec3 a, vfit_vec3 b) { return double(a.x) * b.x + double(a.y) *
 // sliced_springs, `slots` per component).
 inline vfit_vec3 spring_times(const float* springs, std::size_t slots, std::size_t k, vfit_vec3 d) {
   const vfit_vec3 u{springs[k], springs[slots + k], springs[2 * slots + k]};
-  const float a = springs[3 * slots + k], t = springs[4 * slots + k];
-  const float along = a * vfit_v3_dot(u, d);
-  return vfit_vec3{along * u.x + t * d.x, along * u.y + t * d.y, along * u.z + t * d.z};
+  return vfit_spring_rank_one_apply(u, springs[3 * slots + k], springs[4 * slots + k], d);
 }
 
 // (A·p)_i for a free particle i: D_i·p_i + Σ_e S_e·(p_i − p_j) (pinned p_j are zero by the

@@ -244,6 +244,19 @@ VFIT_INLINE void vfit_spring_implicit_terms_relative(vfit_vec3 d, vfit_vec3 dv, 
   block->zz = a * u.z * u.z + t;
 }
 
+/* S·d for a spring's block in its rank-one form S = a·u·uᵀ + t·I (u: the spring's unit
+ * direction; a = h·c + h²·(k − t'), t = h²·t' as vfit_spring_system_block's, kg): a·u·(u·d) + t·d.
+ * The implicit product applies each spring to a difference d = p_i − p_j this way, where the
+ * block's six rounded entries (2⁻²⁴·a each) would act on every direction of d. */
+VFIT_INLINE vfit_vec3 vfit_spring_rank_one_apply(vfit_vec3 u, float a, float t, vfit_vec3 d) {
+  float along = a * vfit_v3_dot(u, d);
+  vfit_vec3 r;
+  r.x = along * u.x + t * d.x;
+  r.y = along * u.y + t * d.y;
+  r.z = along * u.z + t * d.z;
+  return r;
+}
+
 /* S·p for a symmetric block S. */
 VFIT_INLINE vfit_vec3 vfit_sym3_apply(vfit_sym3 s, vfit_vec3 p) {
   vfit_vec3 r;

@@ -53,10 +53,11 @@ private:
 
 /// The implicit Euler system's matrix–vector product on an OpenCL device: out = filtered A·p of
 /// kernels/cloth_implicit.h (implicit_system_multiply(), same order of operations, the
-/// kernel cloth_implicit_multiply of cloth.cl), the product a conjugate-gradient iteration
-/// spends most of its time in. Precompute/solve object: the constructor uploads the CSR
-/// adjacency once; set_system() uploads one step's blocks (#V × 6 diagonal, #entries × 6
-/// off-diagonal floats and #V filter flags: 24 bytes per adjacency entry plus 25 per particle);
+/// kernel cloth_implicit_multiply of cloth.cl: D_i·p_i + Σ_e S_e·(p_i − p_j), each S_e in its
+/// rank-one form), the product a conjugate-gradient iteration spends most of its time in.
+/// Precompute/solve object: the constructor uploads the CSR adjacency and its slice offsets
+/// once; set_system() uploads one step's blocks (#V × 6 particle blocks, 5 × #slots sliced
+/// spring floats and #V filter flags: 20 bytes per slot plus 25 per particle);
 /// multiply() runs on vectors that stay on the device; the host entry uploads p and reads the
 /// product back (12 bytes per particle each way). Implicit Euler as seed 004 §2 uses it (Baraff &
 /// Witkin 1998); the seed gives no equation for it. Sizes are not checked: every span and
@@ -74,8 +75,9 @@ public:
   OpenClImplicitMultiply& operator=(const OpenClImplicitMultiply&) = delete;
 
   /// Uploads a system assembled by assemble_implicit_system() over the same adjacency: its
-  /// diagonal (#V × 6, kg), off_diagonal (6 × #entries, component-major, kg) and free flags
-  /// (#V); the preconditioner and rhs are not used. Blocks until uploaded.
+  /// particle_blocks (#V × 6, kg), sliced_springs (5 × #slots, component-major: u, a, t) and
+  /// free flags (#V); the other blocks, the preconditioner and rhs are not used. Blocks until
+  /// uploaded.
   void set_system(const ImplicitSystem& system);
   /// out = filtered A·p: p is #V × 3 (e.g. m/s); out is resized to #V × 3 (kg·p's units);
   /// rows of pinned particles (free = 0) are 0 and their entries of p ignored, as in

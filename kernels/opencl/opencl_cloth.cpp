@@ -182,8 +182,8 @@ void OpenClClothRk4::finish() {
 
 struct OpenClImplicitMultiply::Impl {
   OpenClContext::Impl* cl = nullptr;
-  std::size_t count = 0, entries = 0;
-  cl::Buffer offsets, neighbors, diagonal, off_diagonal, free_rows, p, out;
+  std::size_t count = 0, entries = 0, slots = 0;
+  cl::Buffer slice_offsets, offsets, neighbors, particle_blocks, springs, free_rows, p, out;
   cl::Kernel kernel;
 };
 
@@ -193,11 +193,16 @@ OpenClImplicitMultiply::OpenClImplicitMultiply(OpenClContext& context, const Spr
   m.cl = &context.impl();
   m.count = adjacency.particle_count();
   m.entries = adjacency.neighbors.size();
+  m.slots = adjacency.slice_neighbor_offsets.size();
   try {
     cl::Context& ctx = m.cl->context;
     const auto buffer = [&](cl_mem_flags flags, std::size_t bytes) {
       return cl::Buffer(ctx, flags, std::max<std::size_t>(1, bytes));
     };
+    m.slice_offsets = buffer(CL_MEM_READ_ONLY, adjacency.slice_offsets.size() * sizeof(std::int32_t));
+    if (!adjacency.slice_offsets.empty())
+      m.cl->queue.enqueueWriteBuffer(m.slice_offsets, CL_TRUE, 0, adjacency.slice_offsets.size() * sizeof(std::int32_t),
+                                     adjacency.slice_offsets.data());
     m.offsets = buffer(CL_MEM_READ_ONLY, adjacency.offsets.size() * sizeof(std::int32_t));
     m.neighbors = buffer(CL_MEM_READ_ONLY, m.entries * sizeof(std::int32_t));
     if (!adjacency.offsets.empty())
@@ -206,8 +211,8 @@ OpenClImplicitMultiply::OpenClImplicitMultiply(OpenClContext& context, const Spr
     if (m.entries > 0)
       m.cl->queue.enqueueWriteBuffer(m.neighbors, CL_TRUE, 0, m.entries * sizeof(std::int32_t),
                                      adjacency.neighbors.data());
-    m.diagonal = buffer(CL_MEM_READ_ONLY, 6 * m.count * sizeof(float));
-    m.off_diagonal = buffer(CL_MEM_READ_ONLY, 6 * m.entries * sizeof(float));
+    m.particle_blocks = buffer(CL_MEM_READ_ONLY, 6 * m.count * sizeof(float));
+    m.springs = buffer(CL_MEM_READ_ONLY, 5 * m.slots * sizeof(float));
     m.free_rows = buffer(CL_MEM_READ_ONLY, m.count);
     m.p = buffer(CL_MEM_READ_WRITE, 3 * m.count * sizeof(float));
     m.out = buffer(CL_MEM_READ_WRITE, 3 * m.count * sizeof(float));
@@ -225,9 +230,9 @@ void OpenClImplicitMultiply::set_system(const ImplicitSystem& system) {
   if (m.count == 0) return;
   try {
     cl::CommandQueue& q = m.cl->queue;
-    q.enqueueWriteBuffer(m.diagonal, CL_FALSE, 0, 6 * m.count * sizeof(float), system.diagonal.data());
-    if (m.entries > 0)
-      q.enqueueWriteBuffer(m.off_diagonal, CL_FALSE, 0, 6 * m.entries * sizeof(float), system.off_diagonal.data());
+    q.enqueueWriteBuffer(m.particle_blocks, CL_FALSE, 0, 6 * m.count * sizeof(float), system.particle_blocks.data());
+    if (m.slots > 0)
+      q.enqueueWriteBuffer(m.springs, CL_FALSE, 0, 5 * m.slots * sizeof(float), system.sliced_springs.data());
     q.enqueueWriteBuffer(m.free_rows, CL_TRUE, 0, m.count, system.free.data());
   } catch (const cl::Error& e) {
     throw_opencl_error(e, "uploading the implicit cloth system");
@@ -249,14 +254,17 @@ void OpenClImplicitMultiply::multiply_on_device(int count) {
   if (m.count == 0) return;
   try {
     cl::Kernel& k = m.kernel;
-    k.setArg(0, m.diagonal);
-    k.setArg(1, m.off_diagonal);
-    k.setArg(2, m.offsets);
-    k.setArg(3, m.neighbors);
-    k.setArg(4, m.free_rows);
-    k.setArg(5, m.p);
-    k.setArg(6, m.out);
-    k.setArg(7, static_cast<cl_int>(m.count));
+    k.setArg(0, m.particle_blocks);
+    k.setArg(1, m.springs);
+    k.setArg(2, m.slice_offsets);
+    k.setArg(3, m.offsets);
+    k.setArg(4, m.neighbors);
+    k.setArg(5, m.free_rows);
+    k.setArg(6, m.p);
+    k.setArg(7, m.out);
+    k.setArg(8, static_cast<cl_int>(m.count));
+    k.setArg(9, static_cast<cl_int>(m.slots));
+    k.setArg(10, static_cast<cl_int>(CLOTH_SLICE_WIDTH));
     for (int s = 0; s < count; ++s)
       m.cl->queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(round_up(m.count)), cl::NDRange(LOCAL_SIZE));
   } catch (const cl::Error& e) {

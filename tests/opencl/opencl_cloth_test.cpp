@@ -115,7 +115,8 @@ TEST(OpenClCloth, Rk4StepsAgreeWithTheSerialReferenceAfterNSteps) {
 }
 
 // The implicit Euler system's product on the device against implicit_system_multiply(): the
-// same blocks, the same order of operations and no FMA contraction, so only the device's
+// same blocks (each particle's own block D_i and the sliced springs in rank-one form, applied
+// to differences p_i − p_j), the same order of operations and no FMA contraction, so only the device's
 // float arithmetic could differ (it is IEEE for + and ×, which is all the product uses):
 // agreement to 1e-6 of the largest entry covers a device that reassociates nothing but rounds
 // differently in the last bit. Pinned rows are zero on both.
