@@ -11,6 +11,7 @@
 #include <span>
 #include <utility>
 
+#include "engine/cloth_proxy.h"
 #include "engine/fabric.h"
 #include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
@@ -622,9 +623,25 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     co.fabrics = {fabric_preset(options.fabric)};
     co.backend = options.backend;
     co.contact_thickness = static_cast<float>(options.clearance);
-    ClothSim sim(mesh.positions, mesh.triangles, co);
     const TrimPieces trim = trim_pieces(mesh);
-    if (!trim.vertices.empty()) sim.pin(trim.vertices);
+    const bool use_proxy = options.cloth_proxy == ClothProxyMode::ON ||
+                           (options.cloth_proxy == ClothProxyMode::AUTO && mesh.vertex_count() > options.cloth_proxy_above);
+    std::optional<ClothProxy> proxy;
+    if (use_proxy) {
+      // The proxy stands for the largest piece; the trim stays out of it and follows that piece
+      // afterwards (carry_trim), as it does when pinned in the full simulation.
+      const auto tp = Clock::now();
+      proxy.emplace(build_cloth_proxy(mesh.positions, trim.vertices.empty() ? mesh.triangles : trim.main_triangles,
+                                      options.cloth_proxy_vertices));
+      report.cloth_proxy.used = true;
+      report.cloth_proxy.vertices = proxy->vertex_count();
+      report.cloth_proxy.triangles = proxy->triangles.size() / 3;
+      report.cloth_proxy.build_ms = ms_since(tp);
+    }
+    const auto ts = Clock::now();
+    ClothSim sim(proxy ? std::span<const float>(proxy->positions) : std::span<const float>(mesh.positions),
+                 proxy ? std::span<const std::int32_t>(proxy->triangles) : std::span<const std::int32_t>(mesh.triangles), co);
+    if (!proxy && !trim.vertices.empty()) sim.pin(trim.vertices);
     if (layers.empty()) {
       sim.set_body(body.mesh.positions, body.mesh.triangles);
     } else {
@@ -637,6 +654,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     ro.max_simulated_seconds = options.max_simulated_seconds;
     ro.max_wall_seconds = options.max_wall_seconds;
     const ClothRestReport rest = sim.run_to_rest(ro);
+    if (proxy) report.cloth_proxy.simulation_ms = ms_since(ts);
     report.simulation_status = to_string(rest.status);
     report.simulated_seconds = rest.simulated_seconds;
     report.simulation_steps = rest.steps;
@@ -648,8 +666,11 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
       report.simulation = rest.converged ? SimulationOutcome::CONVERGED : SimulationOutcome::TIME_LIMIT;
       before_simulation = mesh.positions;
       const auto p = sim.positions();
-      std::copy(p.begin(), p.end(), mesh.positions.begin());
+      const auto tr = Clock::now();
+      if (proxy) reconstruct_from_proxy(*proxy, p, mesh.positions);
+      else std::copy(p.begin(), p.end(), mesh.positions.begin());
       carry_trim(trim, before_simulation, mesh.positions);
+      if (proxy) report.cloth_proxy.reconstruct_ms = ms_since(tr);
     }
     report.timings.simulation_ms = ms_since(t0);
 
@@ -703,8 +724,11 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   }
   report.after = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
   if (options.simulate) {
-    const std::string note = report.simulation_status + (report.simulation_discarded ? ", discarded" : "") + "; " +
-                             penetration_note(report.after_removal, report.after);
+    const std::string note = report.simulation_status + (report.simulation_discarded ? ", discarded" : "") +
+                             (report.cloth_proxy.used ? ", on a proxy of " + std::to_string(report.cloth_proxy.vertices) +
+                                                            " vertices"
+                                                      : std::string()) +
+                             "; " + penetration_note(report.after_removal, report.after);
     sink.done(out.name, "simulation", report.timings.simulation_ms, note);
     sink.write(6, "simulation", out, note);
   } else {

@@ -59,6 +59,19 @@ enum class LayerOrderRule {
   GIVEN, ///< the input order, innermost first
 };
 
+/// Whether a garment's cloth simulation runs on a coarse proxy of it (engine/cloth_proxy.h;
+/// seed 004 §3: the coarse garment simulated, the fine one reconstructed from it and its
+/// penetration removed).
+enum class ClothProxyMode {
+  /// The proxy for garments of more than FitOptions::cloth_proxy_above vertices: there the
+  /// full simulation's small stable steps and long CG solves cost minutes (a 3·10^5-vertex
+  /// trousers over a 10^6 tee took 348 s for 3 simulated s), and a proxy of
+  /// cloth_proxy_vertices still has every fold of a drape of centimetres.
+  AUTO,
+  OFF, ///< every garment simulated at its own resolution
+  ON,  ///< every garment simulated on its proxy (one of at most cloth_proxy_vertices is its own proxy)
+};
+
 /// Every option of the pipeline.
 struct FitOptions {
   ClothBackend backend = ClothBackend::TBB; ///< runs the cloth simulation
@@ -70,6 +83,14 @@ struct FitOptions {
   /// never rests (one sliding off) costs at most 1.5 times the former limit of 2 s.
   double max_simulated_seconds = 3.0;
   double max_wall_seconds = 0; ///< also stop the simulation after this wall time (s); 0 = none
+  ClothProxyMode cloth_proxy = ClothProxyMode::AUTO; ///< simulate on a coarse proxy (ClothProxyMode)
+  /// ClothProxyMode::AUTO: garments of more vertices than this get the proxy. 50,000: the
+  /// catalogue's garments simulate to rest at full resolution in well under a minute up to
+  /// there, and a proxy of cloth_proxy_vertices is still a third of such a garment or less.
+  std::size_t cloth_proxy_above = 50000;
+  /// The proxy's vertex count (build_cloth_proxy()'s target). 15,000: edges of about 1 cm on a
+  /// tee, the scale of its folds on a body, and a simulation that rests in seconds.
+  std::size_t cloth_proxy_vertices = 15000;
   /// The garments' length unit; detected per garment from its size and position when absent.
   std::optional<Units> garment_units;
   /// The garments' up axis in their files (rotate_to_y_up() brings them into our frame). Absent:
@@ -142,6 +163,16 @@ struct FitStageTimes {
   std::vector<std::pair<std::string, double>> named() const;
 };
 
+/// The coarse proxy a garment's simulation ran on (FitOptions::cloth_proxy).
+struct ClothProxyReport {
+  bool used = false;          ///< false: simulated at full resolution (or not simulated)
+  std::size_t vertices = 0;   ///< the proxy's
+  std::size_t triangles = 0;  ///< the proxy's
+  double build_ms = 0;        ///< build_cloth_proxy(): decimation and the fine garment's embedding
+  double simulation_ms = 0;   ///< the proxy's ClothSim construction and run_to_rest()
+  double reconstruct_ms = 0;  ///< reconstruct_from_proxy() (and the trim carried after it)
+};
+
 /// What happened to one garment.
 struct GarmentFitReport {
   std::string name;
@@ -174,6 +205,9 @@ struct GarmentFitReport {
   std::string simulation_status;   ///< ClothStatus text, or why it was skipped
   double simulated_seconds = 0;    ///< s
   int simulation_steps = 0;
+  /// The proxy of the simulation; its times are part of timings.simulation_ms (the clean-up
+  /// after it, of penetration_ms).
+  ClothProxyReport cloth_proxy;
   bool post_simulation_cleanup = false; ///< remove_penetration() ran again on the simulated mesh
   /// The simulated shape was discarded because clean-up could not bring it as far out of the
   /// body as penetration removal had (the pre-simulation mesh is returned).

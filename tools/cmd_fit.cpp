@@ -132,7 +132,12 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
                   {"fabric", options.fabric},
                   {"clearance_m", options.clearance},
                   {"layer_clearance_m", options.layer_clearance},
-                  {"max_simulated_seconds", options.max_simulated_seconds}};
+                  {"max_simulated_seconds", options.max_simulated_seconds},
+                  {"cloth_proxy", options.cloth_proxy == ClothProxyMode::ON    ? "on"
+                                  : options.cloth_proxy == ClothProxyMode::OFF ? "off"
+                                                                               : "auto"},
+                  {"cloth_proxy_above", options.cloth_proxy_above},
+                  {"cloth_proxy_vertices", options.cloth_proxy_vertices}};
   j["garments"] = nlohmann::ordered_json::array();
   for (const GarmentFitReport& g : report.garments) {
     nlohmann::ordered_json gj;
@@ -155,6 +160,11 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
       gj["penetration"]["after_simulation"] = stats_json(g.after_simulation);
     gj["penetration"]["after"] = stats_json(g.after);
     gj["penetration"]["iterations"] = g.penetration_iterations;
+    const ClothProxyReport& cp = g.cloth_proxy;
+    gj["cloth_proxy"] = {{"used", cp.used},
+                         {"vertices", cp.vertices},
+                         {"triangles", cp.triangles},
+                         {"timings_ms", {{"build", cp.build_ms}, {"simulation", cp.simulation_ms}, {"reconstruct", cp.reconstruct_ms}}}};
     gj["simulation"] = {{"outcome", to_string(g.simulation)},
                         {"status", g.simulation_status},
                         {"simulated_seconds", g.simulated_seconds},
@@ -279,6 +289,14 @@ int run_fit(Args& args) {
   if (auto f = args.value("fabric")) options.fabric = *f;
   if (auto c = args.value("clearance")) options.clearance = to_double("--clearance", *c, 0, 0.05);
   if (auto s = args.value("max-sim-seconds")) options.max_simulated_seconds = to_double("--max-sim-seconds", *s, 0, 600);
+  if (auto m = args.value("cloth-proxy")) {
+    if (*m == "auto") options.cloth_proxy = ClothProxyMode::AUTO;
+    else if (*m == "on") options.cloth_proxy = ClothProxyMode::ON;
+    else if (*m == "off") options.cloth_proxy = ClothProxyMode::OFF;
+    else throw Error("--cloth-proxy", 0, "expected auto, on or off, got '" + *m + "'");
+  }
+  if (auto n = args.value("proxy-vertices"))
+    options.cloth_proxy_vertices = static_cast<std::size_t>(Args::to_int("--proxy-vertices", *n, 100, 2000000));
   if (auto u = args.value("garment-units")) options.garment_units = parse_units(*u);
   if (auto up = args.value("garment-up"); up && *up != "auto") options.garment_up = parse_up_axis(*up);
   if (auto facing = args.value("garment-facing"); facing && *facing != "auto")

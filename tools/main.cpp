@@ -178,8 +178,8 @@ constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FI
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
                 [--garment-up auto|+y|+z|-z|-y|+x|-x] [--garment-facing auto|+z|-z|+x|-x] [--repair]
-                [--layer-order auto|type|given] [--quiet] [--debug DIR] [--progress]
-                [--keypoints FILE.json [--image-size W H] [--focal F]]
+                [--layer-order auto|type|given] [--cloth-proxy auto|on|off] [--proxy-vertices N]
+                [--quiet] [--debug DIR] [--progress] [--keypoints FILE.json [--image-size W H] [--focal F]]
 
 Fits garments onto a body (seed 000 §4-6): per garment, units -> segmentation and type
 detection -> part skeletons -> skeleton driving onto the posed body's bones (eq. 5-15, with
@@ -206,6 +206,11 @@ bottoms turned a quarter, front and back are not told apart (see the report's wa
   --layer-order R   auto (default): read from the garments' geometry as given where they
                     overlap in one frame, bottoms before tops elsewhere; type: bottoms before
                     tops; given: the --garment order (and an outfit file's order), innermost first
+  --cloth-proxy M   auto (default): garments of more than 50,000 vertices are simulated on a
+                    coarse proxy of --proxy-vertices (seed 004: the fine garment is rebuilt
+                    from the simulated proxy, then its penetration removed); on: every garment;
+                    off: every garment at its own resolution
+  --proxy-vertices N  the proxy's vertex count (default 15000)
   --repair          drop degenerate and duplicate faces of the garments and of a body mesh
                     file (with a warning each) instead of failing on them
   --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the

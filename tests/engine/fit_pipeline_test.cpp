@@ -15,6 +15,7 @@
 
 #include "test_support.h"
 
+#include "engine/cloth_proxy.h"
 #include "engine/fit_debug.h"
 #include "engine/fit_pipeline.h"
 #include "engine/layering.h"
@@ -196,6 +197,82 @@ TEST(FitPipeline, TeeAndTrousersWithAShortSimulation) {
     EXPECT_GT(g.simulation_steps, 0);
     EXPECT_GT(g.timings.simulation_ms, 0);
   }
+}
+
+// Mean distance (m) between corresponding vertices of two meshes of one topology.
+double mean_distance(const Mesh& a, const Mesh& b) {
+  double sum = 0;
+  for (std::size_t v = 0; v < a.vertex_count(); ++v)
+    sum += std::sqrt(std::pow(a.positions[3 * v] - b.positions[3 * v], 2) + std::pow(a.positions[3 * v + 1] - b.positions[3 * v + 1], 2) +
+                     std::pow(a.positions[3 * v + 2] - b.positions[3 * v + 2], 2));
+  return sum / double(a.vertex_count());
+}
+
+// Garments above FitOptions::cloth_proxy_above are simulated on a coarse proxy (engine/
+// cloth_proxy.h) and rebuilt from it, then cleaned up as a full simulation is: the pipeline's
+// quality bars hold (nothing inside the body by more than 1 mm, no edge through it, no NaN, a
+// report that agrees with the meshes), the verdicts are those of the full simulation, and the
+// shapes agree with it to within a fraction of the proxy's resolution.
+TEST(FitPipeline, SimulatesGarmentsAboveTheThresholdOnACoarseProxy) {
+  FitOptions o;
+  o.max_simulated_seconds = SETTLE_SECONDS;
+  o.cloth_proxy_above = 2000; // the test's garments have 2,500 vertices
+  o.cloth_proxy_vertices = 800;
+  const FitResult r = fit_garments(mannequin(), tee_and_trousers(), o);
+  expect_consistent(r, o);
+  FitOptions full = o;
+  full.cloth_proxy = ClothProxyMode::OFF;
+  const FitResult f = fit_garments(mannequin(), tee_and_trousers(), full);
+  for (std::size_t i = 0; i < r.garments.size(); ++i) {
+    const GarmentFitReport& g = r.report.garments[i];
+    SCOPED_TRACE(g.name);
+    ASSERT_NE(g.simulation, SimulationOutcome::DIVERGED) << g.simulation_status;
+    EXPECT_FALSE(g.simulation_discarded);
+    EXPECT_TRUE(g.cloth_proxy.used);
+    EXPECT_EQ(g.cloth_proxy.vertices, 800u);
+    EXPECT_GT(g.cloth_proxy.triangles, 0u);
+    EXPECT_GT(g.cloth_proxy.build_ms, 0);
+    EXPECT_GT(g.cloth_proxy.simulation_ms, 0);
+    EXPECT_GT(g.cloth_proxy.reconstruct_ms, 0);
+    EXPECT_LE(g.cloth_proxy.build_ms + g.cloth_proxy.simulation_ms + g.cloth_proxy.reconstruct_ms, g.timings.simulation_ms);
+    for (float x : r.garments[i].mesh.positions) ASSERT_TRUE(std::isfinite(x));
+    EXPECT_FALSE(f.report.garments[i].cloth_proxy.used);
+    EXPECT_EQ(g.verdict, f.report.garments[i].verdict) << g.verdict_reason << " / " << f.report.garments[i].verdict_reason;
+    // The proxy cannot hold folds finer than its edges: the two simulations part by less than
+    // half the proxy's mean edge length.
+    const Mesh& input = tee_and_trousers()[i].mesh;
+    const ClothProxy proxy = build_cloth_proxy(input.positions, input.triangles, 800);
+    double edge = 0;
+    for (std::size_t t = 0; t < proxy.triangles.size(); ++t) {
+      const std::size_t a = 3 * std::size_t(proxy.triangles[t]), b = 3 * std::size_t(proxy.triangles[t - t % 3 + (t + 1) % 3]);
+      edge += std::hypot(proxy.positions[a] - proxy.positions[b], proxy.positions[a + 1] - proxy.positions[b + 1],
+                         proxy.positions[a + 2] - proxy.positions[b + 2]);
+    }
+    edge /= double(proxy.triangles.size());
+    EXPECT_LT(mean_distance(r.garments[i].mesh, f.garments[i].mesh), 0.5 * edge);
+  }
+}
+
+// The proxy is used as FitOptions::cloth_proxy says: OFF never, ON always (a garment of no more
+// than cloth_proxy_vertices being its own proxy), AUTO above cloth_proxy_above only.
+TEST(FitPipeline, UsesTheClothProxyAsTheOptionSays) {
+  FitOptions o;
+  o.max_simulated_seconds = 0.02;
+  const std::vector<FitGarmentInput> tee = {tee_and_trousers()[0]};
+  const std::size_t n = tee[0].mesh.vertex_count();
+  auto used = [&](ClothProxyMode mode, std::size_t above, std::size_t vertices) {
+    o.cloth_proxy = mode;
+    o.cloth_proxy_above = above;
+    o.cloth_proxy_vertices = vertices;
+    const GarmentFitReport g = fit_garments(mannequin(), tee, o).report.garments[0];
+    return g.cloth_proxy.used ? g.cloth_proxy.vertices : 0;
+  };
+  EXPECT_EQ(used(ClothProxyMode::AUTO, 50000, 15000), 0u); // the default threshold: 2,500 is below it
+  EXPECT_EQ(used(ClothProxyMode::AUTO, n - 1, 1000), 1000u);
+  EXPECT_EQ(used(ClothProxyMode::AUTO, n, 1000), 0u);
+  EXPECT_EQ(used(ClothProxyMode::OFF, 0, 1000), 0u);
+  EXPECT_EQ(used(ClothProxyMode::ON, 50000, 1000), 1000u);
+  EXPECT_EQ(used(ClothProxyMode::ON, 50000, 15000), n);
 }
 
 // The top's simulation collides with the trousers under it (their openings closed for the side

@@ -167,6 +167,34 @@ TEST(FitCli, AnUnknownLayerOrderExits2) {
   EXPECT_EQ(file_count(dir.path()), 1u);
 }
 
+TEST(FitCli, AnUnknownClothProxyModeExits2) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--cloth-proxy", "sometimes",
+                                "--out", (dir / "out.obj").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--cloth-proxy"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("sometimes"), std::string::npos) << r.err;
+  EXPECT_EQ(file_count(dir.path()), 1u);
+}
+
+// --cloth-proxy on: the report says the proxy was used, of --proxy-vertices, with its times.
+TEST(FitCli, ReportsTheClothProxy) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--pose-rest", "apose", "--vertices",
+                                "3000", "--cloth-proxy", "on", "--proxy-vertices", "700", "--max-sim-seconds", "0.02",
+                                "--report", (dir / "report.json").string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(test::read_file(dir / "report.json"));
+  EXPECT_EQ(j["options"]["cloth_proxy"], "on");
+  const nlohmann::json& proxy = j["garments"][0]["cloth_proxy"];
+  EXPECT_TRUE(proxy["used"].get<bool>());
+  EXPECT_EQ(proxy["vertices"].get<std::size_t>(), 700u);
+  for (const char* stage : {"build", "simulation", "reconstruct"})
+    EXPECT_GT(proxy["timings_ms"][stage].get<double>(), 0.0) << stage;
+}
+
 // A garment with a degenerate and a duplicated face: refused naming the file, line and --repair;
 // with --repair both are dropped, each with a warning, and the garment is fitted.
 TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
