@@ -5,7 +5,9 @@
 /// → part skeletons (§5.1) → skeleton driving (§5.3–5.4; a slot, reported as skipped until the
 /// stage lands) → coarse move (§6.1, eq. 16–17) → penetration removal against the body, its
 /// vertices and its edges crossing the body (§6.2, eq. 18–21) → cloth simulation to rest with
-/// body collision (§6.3; optional). Several garments are layered (seed 001 §6.3, eq. 7;
+/// body collision (§6.3; optional; a garment of more than FitOptions::cloth_proxy_above vertices
+/// on a coarse proxy of it, rebuilt from the proxy and cleaned up: engine/cloth_proxy.h, seed
+/// 004 §3). Several garments are layered (seed 001 §6.3, eq. 7;
 /// engine/layering.h), inner to outer, each resolved against the body and the garments fitted
 /// before it (a tee's hem ends outside the trousers' waistband). The order is read from the
 /// garments' geometry as given where they overlap in one frame (engine/layer_order.h: a tee
