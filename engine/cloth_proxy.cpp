@@ -19,8 +19,9 @@ ClothProxy build_cloth_proxy(std::span<const float> positions, std::span<const s
   for (std::size_t k = 0; k < simulated_triangles.size(); ++k) {
     const std::int32_t v = simulated_triangles[k];
     if (v < 0 || std::size_t(v) >= nv)
-      throw Error("cloth proxy", 0, "triangle " + std::to_string(k / 3 + 1) + " has vertex index " + std::to_string(v) +
-                                        " outside [0, " + std::to_string(nv) + ")");
+      throw Error("cloth proxy", 0,
+                  "triangle " + std::to_string(k / 3 + 1) + " has vertex index " + std::to_string(v) + " outside [0, " +
+                      std::to_string(nv) + ")");
     simulated[std::size_t(v)] = 1;
   }
   Mesh surface;
@@ -32,7 +33,8 @@ ClothProxy build_cloth_proxy(std::span<const float> positions, std::span<const s
                              positions.begin() + std::ptrdiff_t(3 * v + 3));
   }
   surface.triangles.reserve(simulated_triangles.size());
-  for (const std::int32_t v : simulated_triangles) surface.triangles.push_back(local[std::size_t(v)]);
+  for (const std::int32_t v : simulated_triangles)
+    surface.triangles.push_back(local[std::size_t(v)]);
 
   ClothProxy proxy;
   std::vector<std::int32_t> kept;
@@ -40,12 +42,14 @@ ClothProxy build_cloth_proxy(std::span<const float> positions, std::span<const s
   proxy.positions = std::move(coarse.positions);
   proxy.triangles = std::move(coarse.triangles);
   proxy.source_vertices.resize(kept.size());
-  for (std::size_t p = 0; p < kept.size(); ++p) proxy.source_vertices[p] = fine_of[std::size_t(kept[p])];
+  for (std::size_t p = 0; p < kept.size(); ++p)
+    proxy.source_vertices[p] = fine_of[std::size_t(kept[p])];
   embed_points(positions, proxy.positions, proxy.triangles, simulated, proxy.embedding);
   return proxy;
 }
 
-void reconstruct_from_proxy(const ClothProxy& proxy, std::span<const float> proxy_positions, std::span<float> positions) {
+void reconstruct_from_proxy(const ClothProxy& proxy, std::span<const float> proxy_positions,
+                            std::span<float> positions) {
   carry_embedded_points(proxy.embedding, proxy_positions, proxy.triangles, positions);
   // The proxy's own vertices exactly where the simulation left them (the embedding gives them
   // back to float rounding only).
@@ -58,7 +62,8 @@ std::vector<std::int32_t> proxy_vertex_values(const ClothProxy& proxy, std::span
   std::vector<std::int32_t> out;
   if (fine_values.empty()) return out;
   out.reserve(proxy.source_vertices.size());
-  for (const std::int32_t v : proxy.source_vertices) out.push_back(fine_values[std::size_t(v)]);
+  for (const std::int32_t v : proxy.source_vertices)
+    out.push_back(fine_values[std::size_t(v)]);
   return out;
 }
 

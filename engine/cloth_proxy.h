@@ -3,12 +3,11 @@
 /// A coarse simulation proxy of a high-resolution garment (seed 004 §3: simulate the coarse
 /// garment, reconstruct the fine one from it, then fix its penetration, §3.2.2). The proxy is
 /// the fine garment decimated by half-edge collapses, short edges first (even edge lengths, as
-/// the mass-spring cloth wants: geometry/mesh/even_decimate.h), so its vertices are fine vertices at their fine positions
-/// and its boundary loops (hems, cuffs, the neckline, a waistband's opening) are loops of fine
-/// boundary vertices. Every fine vertex is embedded in it (kernels/surface_embedding.h: closest
-/// proxy triangle, barycentrics and the offset in a frame of blended vertex normals), so the
-/// fine garment follows the simulated proxy by a local rigid-ish transform: rigid motions of
-/// the proxy move it exactly, a rotated sleeve keeps its shape.
+/// the mass-spring cloth wants: geometry/mesh/even_decimate.h), so its vertices are fine vertices at their fine
+/// positions and its boundary loops (hems, cuffs, the neckline, a waistband's opening) are loops of fine boundary
+/// vertices. Every fine vertex is embedded in it (kernels/surface_embedding.h: closest proxy triangle, barycentrics and
+/// the offset in a frame of blended vertex normals), so the fine garment follows the simulated proxy by a local
+/// rigid-ish transform: rigid motions of the proxy move it exactly, a rotated sleeve keeps its shape.
 ///
 /// Per-vertex inputs of the simulation carry over by the proxy vertex's fine vertex
 /// (proxy_vertex_values(): fabrics; proxy_pins(): pins). The waistband auto-pins of
@@ -26,8 +25,8 @@ namespace vfit {
 
 /// The proxy and the fine garment's embedding in it.
 struct ClothProxy {
-  std::vector<float> positions;         ///< #P × 3 (m): the proxy at rest (its fine vertices' positions)
-  std::vector<std::int32_t> triangles;  ///< #Q × 3 indices in [0, #P)
+  std::vector<float> positions;              ///< #P × 3 (m): the proxy at rest (its fine vertices' positions)
+  std::vector<std::int32_t> triangles;       ///< #Q × 3 indices in [0, #P)
   std::vector<std::int32_t> source_vertices; ///< #P: the fine vertex each proxy vertex is, ascending
   /// #V (the fine garment's vertices): each fine vertex in its closest proxy triangle; vertices
   /// in none of the simulated triangles have triangle −1.
@@ -52,7 +51,8 @@ ClothProxy build_cloth_proxy(std::span<const float> positions, std::span<const s
 /// every embedded fine vertex carried by carry_embedded_points(), the proxy's own fine vertices
 /// exactly at their proxy positions; vertices not embedded are left as they are in
 /// `positions` (#V × 3 m, written in place).
-void reconstruct_from_proxy(const ClothProxy& proxy, std::span<const float> proxy_positions, std::span<float> positions);
+void reconstruct_from_proxy(const ClothProxy& proxy, std::span<const float> proxy_positions,
+                            std::span<float> positions);
 
 /// A per-vertex value of the fine garment (#V: ClothOptions::vertex_fabric's fabric indices,
 /// say) for each proxy vertex: its fine vertex's value (#P). An empty input gives an empty output.

@@ -29,8 +29,8 @@ struct Frame {
   Vec3 axes[3];
 };
 
-Frame frame_at(std::span<const float> positions, std::span<const float> normals, std::span<const std::int32_t> triangles,
-               std::int32_t t, float u, float v) {
+Frame frame_at(std::span<const float> positions, std::span<const float> normals,
+               std::span<const std::int32_t> triangles, std::int32_t t, float u, float v) {
   const std::size_t i[3] = {std::size_t(triangles[3 * std::size_t(t)]), std::size_t(triangles[3 * std::size_t(t) + 1]),
                             std::size_t(triangles[3 * std::size_t(t) + 2])};
   const double w[3] = {1.0 - double(u) - double(v), double(u), double(v)};
@@ -83,7 +83,8 @@ void embed_points(std::span<const float> points, std::span<const float> carrier_
       embedding.triangles[p] = hits.triangles[p];
       embedding.barycentrics[2 * p] = u;
       embedding.barycentrics[2 * p + 1] = v;
-      for (int k = 0; k < 3; ++k) embedding.offsets[3 * p + std::size_t(k)] = float(d.dot(f.axes[k]));
+      for (int k = 0; k < 3; ++k)
+        embedding.offsets[3 * p + std::size_t(k)] = float(d.dot(f.axes[k]));
     }
   });
 }
@@ -93,17 +94,20 @@ void carry_embedded_points(const SurfaceEmbedding& embedding, std::span<const fl
   assert(points.size() == 3 * embedding.size() && "carry_embedded_points: #P × 3 points");
   std::vector<float> normals;
   vertex_normals_tbb(carrier_positions, carrier_triangles, normals);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, embedding.size(), SURFACE_EMBEDDING_GRAIN), [&](const auto& range) {
-    for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      const std::int32_t t = embedding.triangles[p];
-      if (t < 0) continue;
-      const Frame f = frame_at(carrier_positions, normals, carrier_triangles, t, embedding.barycentrics[2 * p],
-                               embedding.barycentrics[2 * p + 1]);
-      Vec3 x = f.origin;
-      for (int k = 0; k < 3; ++k) x += double(embedding.offsets[3 * p + std::size_t(k)]) * f.axes[k];
-      for (int c = 0; c < 3; ++c) points[3 * p + std::size_t(c)] = float(x[c]);
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, embedding.size(), SURFACE_EMBEDDING_GRAIN),
+                    [&](const auto& range) {
+                      for (std::size_t p = range.begin(); p != range.end(); ++p) {
+                        const std::int32_t t = embedding.triangles[p];
+                        if (t < 0) continue;
+                        const Frame f = frame_at(carrier_positions, normals, carrier_triangles, t,
+                                                 embedding.barycentrics[2 * p], embedding.barycentrics[2 * p + 1]);
+                        Vec3 x = f.origin;
+                        for (int k = 0; k < 3; ++k)
+                          x += double(embedding.offsets[3 * p + std::size_t(k)]) * f.axes[k];
+                        for (int c = 0; c < 3; ++c)
+                          points[3 * p + std::size_t(c)] = float(x[c]);
+                      }
+                    });
 }
 
 } // namespace vfit

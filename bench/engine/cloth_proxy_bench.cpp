@@ -27,7 +27,8 @@ const vfit::Mesh& subdivided_tee(int times) {
     o.target_vertices = 5000;
     cache.push_back(vfit::make_garment(o).mesh);
   }
-  while (static_cast<int>(cache.size()) <= times) cache.push_back(vfit::subdivide_midpoints(cache.back()));
+  while (static_cast<int>(cache.size()) <= times)
+    cache.push_back(vfit::subdivide_midpoints(cache.back()));
   return cache[static_cast<std::size_t>(times)];
 }
 
@@ -39,7 +40,8 @@ std::pair<double, double> quality(const std::vector<float>& p, const std::vector
   for (std::size_t f = 0; f < t.size() / 3; ++f) {
     double e[3][3], len[3];
     for (int k = 0; k < 3; ++k) {
-      for (int c = 0; c < 3; ++c) e[k][c] = at(t[3 * f + std::size_t((k + 1) % 3)], c) - at(t[3 * f + std::size_t(k)], c);
+      for (int c = 0; c < 3; ++c)
+        e[k][c] = at(t[3 * f + std::size_t((k + 1) % 3)], c) - at(t[3 * f + std::size_t(k)], c);
       len[k] = std::sqrt(e[k][0] * e[k][0] + e[k][1] * e[k][1] + e[k][2] * e[k][2]);
       lengths.push_back(len[k]);
     }

@@ -22,7 +22,7 @@ using Vec3 = Eigen::Vector3d;
 
 struct Decimation {
   const std::vector<float>& positions;
-  std::vector<std::int32_t> tris; // #F × 3; a removed triangle has −1 corners
+  std::vector<std::int32_t> tris;               // #F × 3; a removed triangle has −1 corners
   std::vector<std::int32_t> face_offset, faces; // vertex → its live triangles (CSR), rebuilt per round
 
   Vec3 at(std::int32_t v) const {
@@ -36,13 +36,16 @@ struct Decimation {
     face_offset.assign(nv + 1, 0);
     for (std::size_t f = 0; f < tris.size() / 3; ++f)
       if (tris[3 * f] >= 0)
-        for (int k = 0; k < 3; ++k) ++face_offset[std::size_t(tris[3 * f + std::size_t(k)]) + 1];
-    for (std::size_t v = 0; v < nv; ++v) face_offset[v + 1] += face_offset[v];
+        for (int k = 0; k < 3; ++k)
+          ++face_offset[std::size_t(tris[3 * f + std::size_t(k)]) + 1];
+    for (std::size_t v = 0; v < nv; ++v)
+      face_offset[v + 1] += face_offset[v];
     faces.resize(std::size_t(face_offset[nv]));
     std::vector<std::int32_t> fill(face_offset.begin(), face_offset.end() - 1);
     for (std::size_t f = 0; f < tris.size() / 3; ++f)
       if (tris[3 * f] >= 0)
-        for (int k = 0; k < 3; ++k) faces[std::size_t(fill[std::size_t(tris[3 * f + std::size_t(k)])]++)] = std::int32_t(f);
+        for (int k = 0; k < 3; ++k)
+          faces[std::size_t(fill[std::size_t(tris[3 * f + std::size_t(k)])]++)] = std::int32_t(f);
   }
   // The corner after / before v in triangle f.
   std::int32_t next(std::int32_t f, std::int32_t v) const {
@@ -87,9 +90,12 @@ struct Decimation {
     neighbours(b, nb);
     std::size_t common = 0;
     for (std::size_t i = 0, j = 0; i < na.size() && j < nb.size();) {
-      if (na[i] < nb[j]) ++i;
-      else if (nb[j] < na[i]) ++j;
-      else ++common, ++i, ++j;
+      if (na[i] < nb[j])
+        ++i;
+      else if (nb[j] < na[i])
+        ++j;
+      else
+        ++common, ++i, ++j;
     }
     if (common != (edge_on_boundary ? 1u : 2u)) return false;
     double old_worst = 0;
@@ -133,7 +139,8 @@ Mesh decimate_evenly(const Mesh& mesh, std::size_t target_vertices, std::vector<
   const std::size_t nv = mesh.vertex_count();
   Decimation d{mesh.positions, mesh.triangles, {}, {}};
   std::vector<char> alive(nv, 0);
-  for (std::int32_t v : mesh.triangles) alive[std::size_t(v)] = 1;
+  for (std::int32_t v : mesh.triangles)
+    alive[std::size_t(v)] = 1;
   std::size_t live = std::size_t(std::count(alive.begin(), alive.end(), 1));
 
   std::vector<char> locked(nv);
@@ -178,7 +185,8 @@ Mesh decimate_evenly(const Mesh& mesh, std::size_t target_vertices, std::vector<
       // Lock the removed vertex's ring and the kept one: their triangles change, and later
       // checks in this round read the rings as they were at its start. Other vertices' triangles
       // are the same (a triangle that changes holds a), so their checks stay exact.
-      for (std::int32_t v : na) locked[std::size_t(v)] = 1;
+      for (std::int32_t v : na)
+        locked[std::size_t(v)] = 1;
       locked[std::size_t(a)] = locked[std::size_t(b)] = 1;
       d.collapse(a, b);
       alive[std::size_t(a)] = 0;
@@ -200,7 +208,8 @@ Mesh decimate_evenly(const Mesh& mesh, std::size_t target_vertices, std::vector<
   }
   for (std::size_t f = 0; f < d.tris.size() / 3; ++f)
     if (d.tris[3 * f] >= 0)
-      for (std::size_t k = 0; k < 3; ++k) out.triangles.push_back(index[std::size_t(d.tris[3 * f + k])]);
+      for (std::size_t k = 0; k < 3; ++k)
+        out.triangles.push_back(index[std::size_t(d.tris[3 * f + k])]);
   return out;
 }
 

@@ -29,8 +29,8 @@ namespace vfit {
 /// The result's vertices are a subset of the input's at their input positions: `source_vertices`
 /// (resized to the result's #V) gives each one's input index, ascending; triangles keep their
 /// orientation; vertices in no triangle are dropped (so a mesh whose triangles use at most
-/// `target_vertices` vertices comes back with those vertices and its triangles). Non-manifold input is not detected here (its
-/// collapses may be wrong); validate first. Deterministic (serial).
+/// `target_vertices` vertices comes back with those vertices and its triangles). Non-manifold input is not detected
+/// here (its collapses may be wrong); validate first. Deterministic (serial).
 Mesh decimate_evenly(const Mesh& mesh, std::size_t target_vertices, std::vector<std::int32_t>& source_vertices);
 
 } // namespace vfit

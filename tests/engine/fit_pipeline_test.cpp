@@ -546,12 +546,19 @@ TEST(FitPipeline, TrimPiecesFollowTheGarmentThroughTheSimulation) {
     tee.mesh.positions.push_back(button.positions[3 * v + 2] + tee.mesh.positions[3 * front + 2] + 0.009f);
   }
   for (std::int32_t v : button.triangles) tee.mesh.triangles.push_back(v + offset);
+  // Simulated in full, and on a coarse proxy of the tee (which leaves the button out and carries
+  // it the same way).
+  for (const ClothProxyMode mode : {ClothProxyMode::OFF, ClothProxyMode::ON}) {
+  SCOPED_TRACE(mode == ClothProxyMode::ON ? "proxy" : "full");
   FitOptions o;
   o.max_simulated_seconds = SETTLE_SECONDS;
+  o.cloth_proxy = mode;
+  o.cloth_proxy_vertices = 800;
   const FitResult r = fit_garments(mannequin(), std::vector<FitGarmentInput>{tee}, o);
   ASSERT_EQ(r.garments.size(), 1u);
   const GarmentFitReport& g = r.report.garments[0];
   ASSERT_EQ(g.simulation != SimulationOutcome::DIVERGED && !g.simulation_discarded, true) << g.simulation_status;
+  EXPECT_EQ(g.cloth_proxy.used, mode == ClothProxyMode::ON);
   const Mesh& fitted = r.garments[0].mesh;
   ASSERT_EQ(fitted.vertex_count(), tee.mesh.vertex_count());
   // The button's centre against the fitted tee's nearest vertex: within the 9 mm it was put off
@@ -567,6 +574,7 @@ TEST(FitPipeline, TrimPiecesFollowTheGarmentThroughTheSimulation) {
                                                           fitted.positions[3 * v + 2])).norm());
   EXPECT_LT(nearest, 0.02);
   for (float c : fitted.positions) ASSERT_TRUE(std::isfinite(c));
+  }
 }
 
 // The tee exported as two pattern pieces, each with its own copy of the seam's vertices down

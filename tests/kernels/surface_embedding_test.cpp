@@ -44,12 +44,14 @@ TEST(SurfaceEmbedding, ARigidMotionOfTheCarrierMovesThePointsRigidly) {
   SurfaceEmbedding e;
   embed_points(points, sheet.positions, sheet.triangles, {}, e);
   ASSERT_EQ(e.size(), 2000u);
-  for (std::int32_t t : e.triangles) ASSERT_GE(t, 0);
+  for (std::int32_t t : e.triangles)
+    ASSERT_GE(t, 0);
 
   // At rest the points come back where they were.
   std::vector<float> rest(points.size(), 0.0f);
   carry_embedded_points(e, sheet.positions, sheet.triangles, rest);
-  for (std::size_t i = 0; i < points.size(); ++i) EXPECT_NEAR(rest[i], points[i], 2e-6) << i;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    EXPECT_NEAR(rest[i], points[i], 2e-6) << i;
 
   const Eigen::Matrix3d r = Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.8, 0.5).normalized()).toRotationMatrix();
   const Eigen::Vector3d t(0.4, -1.3, 2.2);
@@ -57,7 +59,8 @@ TEST(SurfaceEmbedding, ARigidMotionOfTheCarrierMovesThePointsRigidly) {
     std::vector<float> out(in.size());
     for (std::size_t v = 0; v < in.size() / 3; ++v) {
       const Eigen::Vector3d x = r * Eigen::Vector3d(in[3 * v], in[3 * v + 1], in[3 * v + 2]) + t;
-      for (int c = 0; c < 3; ++c) out[3 * v + std::size_t(c)] = float(x[c]);
+      for (int c = 0; c < 3; ++c)
+        out[3 * v + std::size_t(c)] = float(x[c]);
     }
     return out;
   };
@@ -66,13 +69,14 @@ TEST(SurfaceEmbedding, ARigidMotionOfTheCarrierMovesThePointsRigidly) {
   carry_embedded_points(e, moved_sheet, sheet.triangles, carried);
   // Float rounding only: positions of ~2 m carry ~1e-7 relative error through the moved carrier
   // (its vertices rounded to float) and the offsets (float, up to 0.6 m beyond the boundary).
-  for (std::size_t i = 0; i < points.size(); ++i) EXPECT_NEAR(carried[i], expected[i], 2e-6) << i;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    EXPECT_NEAR(carried[i], expected[i], 2e-6) << i;
 }
 
 TEST(SurfaceEmbedding, PointsInAFlatCarriersPlaneStayInItWhenItStretchesInThePlane) {
   // A flat sheet tilted into the plane through o spanned by a and b, with points in that plane.
   const Eigen::Vector3d o(0.2, 1.0, -0.3), a = Eigen::Vector3d(1, 0.5, 0).normalized(),
-                        b = a.cross(Eigen::Vector3d(0.2, 0.1, 1)).normalized();
+                                           b = a.cross(Eigen::Vector3d(0.2, 0.1, 1)).normalized();
   const Eigen::Vector3d normal = a.cross(b);
   const Mesh grid = make_grid(9, 9, 1.0f, 1.0f);
   auto place = [&](double s, double u) { return o + s * a + u * b; };
@@ -126,7 +130,8 @@ TEST(SurfaceEmbedding, AFineCylinderFollowsACoarseOneThroughABendWithinTheInterp
   double worst = 0, sum = 0, worst_translated = 0;
   for (std::size_t v = 0; v < fine.vertex_count(); ++v) {
     double d2 = 0;
-    for (int c = 0; c < 3; ++c) d2 += std::pow(carried[3 * v + std::size_t(c)] - expected[3 * v + std::size_t(c)], 2);
+    for (int c = 0; c < 3; ++c)
+      d2 += std::pow(carried[3 * v + std::size_t(c)] - expected[3 * v + std::size_t(c)], 2);
     worst = std::max(worst, std::sqrt(d2));
     sum += std::sqrt(d2);
   }
@@ -169,7 +174,8 @@ TEST(SurfaceEmbedding, MaskedPointsAreLeftWhereTheyAre) {
   EXPECT_EQ(e.triangles[3], -1);
   std::vector<float> carried(points.size(), 42.0f);
   std::vector<float> moved = sheet.positions;
-  for (std::size_t v = 0; v < moved.size(); v += 3) moved[v] += 1.0f;
+  for (std::size_t v = 0; v < moved.size(); v += 3)
+    moved[v] += 1.0f;
   carry_embedded_points(e, moved, sheet.triangles, carried);
   EXPECT_EQ(carried[9], 42.0f);
   EXPECT_NEAR(carried[0], points[0] + 1.0f, 1e-5);

@@ -5,10 +5,10 @@
 #include "geometry/mesh/even_decimate.h"
 
 #include <algorithm>
-#include <string>
 #include <cmath>
 #include <random>
 #include <set>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -24,14 +24,17 @@ double worst_aspect(const Mesh& m) {
   for (std::size_t f = 0; f < m.face_count(); ++f) {
     double p[3][3];
     for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c) p[k][c] = m.positions[3 * std::size_t(m.triangles[3 * f + std::size_t(k)]) + std::size_t(c)];
+      for (int c = 0; c < 3; ++c)
+        p[k][c] = m.positions[3 * std::size_t(m.triangles[3 * f + std::size_t(k)]) + std::size_t(c)];
     double longest = 0, e[2][3];
     for (int k = 0; k < 3; ++k) {
       double l2 = 0;
-      for (int c = 0; c < 3; ++c) l2 += std::pow(p[(k + 1) % 3][c] - p[k][c], 2);
+      for (int c = 0; c < 3; ++c)
+        l2 += std::pow(p[(k + 1) % 3][c] - p[k][c], 2);
       longest = std::max(longest, l2);
     }
-    for (int c = 0; c < 3; ++c) e[0][c] = p[1][c] - p[0][c], e[1][c] = p[2][c] - p[0][c];
+    for (int c = 0; c < 3; ++c)
+      e[0][c] = p[1][c] - p[0][c], e[1][c] = p[2][c] - p[0][c];
     const double cx = e[0][1] * e[1][2] - e[0][2] * e[1][1], cy = e[0][2] * e[1][0] - e[0][0] * e[1][2],
                  cz = e[0][0] * e[1][1] - e[0][1] * e[1][0];
     worst = std::max(worst, longest / std::sqrt(cx * cx + cy * cy + cz * cz));
@@ -42,21 +45,24 @@ double worst_aspect(const Mesh& m) {
 std::set<std::int32_t> boundary_vertices(const Mesh& m) {
   std::multiset<std::pair<std::int32_t, std::int32_t>> directed;
   for (std::size_t f = 0; f < m.face_count(); ++f)
-    for (std::size_t k = 0; k < 3; ++k) directed.insert({m.triangles[3 * f + k], m.triangles[3 * f + (k + 1) % 3]});
+    for (std::size_t k = 0; k < 3; ++k)
+      directed.insert({m.triangles[3 * f + k], m.triangles[3 * f + (k + 1) % 3]});
   std::set<std::int32_t> out;
   for (const auto& [a, b] : directed)
     if (directed.count({b, a}) == 0) out.insert(a), out.insert(b);
   return out;
 }
 
-
 class EvenDecimate : public ::testing::TestWithParam<int> {};
 
 Mesh input(int which) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> jitter(-0.002f, 0.002f);
-  Mesh m = which == 0 ? make_tube(60, 48, 0.1f, 0.6f) : which == 1 ? make_grid(70, 50, 1.0f, 0.7f) : make_uv_sphere(40, 60, 0.3f);
-  for (float& x : m.positions) x += jitter(rng);
+  Mesh m = which == 0   ? make_tube(60, 48, 0.1f, 0.6f)
+           : which == 1 ? make_grid(70, 50, 1.0f, 0.7f)
+                        : make_uv_sphere(40, 60, 0.3f);
+  for (float& x : m.positions)
+    x += jitter(rng);
   return m;
 }
 
@@ -81,7 +87,8 @@ TEST_P(EvenDecimate, KeepsTheTopologyAndTheBoundaryOnAVertexSubset) {
   EXPECT_EQ(after.euler_characteristic, before.euler_characteristic);
   // A boundary vertex of the result was one of the input.
   const std::set<std::int32_t> fine_boundary = boundary_vertices(fine);
-  for (std::int32_t v : boundary_vertices(coarse)) EXPECT_TRUE(fine_boundary.count(sources[std::size_t(v)])) << v;
+  for (std::int32_t v : boundary_vertices(coarse))
+    EXPECT_TRUE(fine_boundary.count(sources[std::size_t(v)])) << v;
   // The guard: 6, or the input's worst where that is worse (the UV sphere's poles are slivers).
   EXPECT_LE(worst_aspect(coarse), std::max(6.0, worst_aspect(fine)) + 1e-9);
 }
@@ -99,7 +106,8 @@ TEST(EvenDecimateSmall, AMeshAtOrBelowTheTargetComesBackWhole) {
   EXPECT_EQ(out.positions, m.positions);
   EXPECT_EQ(out.triangles, m.triangles);
   ASSERT_EQ(sources.size(), 20u);
-  for (std::size_t v = 0; v < 20; ++v) EXPECT_EQ(sources[v], std::int32_t(v));
+  for (std::size_t v = 0; v < 20; ++v)
+    EXPECT_EQ(sources[v], std::int32_t(v));
 }
 
 } // namespace
