@@ -66,10 +66,10 @@ enum class LayerOrderRule {
 /// penetration removed).
 enum class ClothProxyMode {
   /// The proxy for garments of more than FitOptions::cloth_proxy_above vertices: there the
-  /// full simulation's long CG solves cost minutes (catalogue tee and trousers of 10^5
-  /// vertices, to rest or 3 simulated s: 262 and 401 s on a loaded 2-core machine, against 27
-  /// and 35 s on a proxy of 15,000 that ended 6.1 and 3.8 mm from them on average, as clean of
-  /// the body).
+  /// full simulation's long CG solves cost minutes (catalogue tee of 10^5 vertices, 3 simulated
+  /// s: 114–262 s on a loaded 2-core machine, against 22–27 s on a proxy of 15,000 whose
+  /// result ended 6.1 mm from the full one on average, as clean of the body; trousers of 10^5,
+  /// to rest: 123–401 against 16–35 s, 3.8 mm apart).
   AUTO,
   OFF, ///< every garment simulated at its own resolution
   ON,  ///< every garment simulated on its proxy (one of at most cloth_proxy_vertices is its own proxy)
@@ -93,7 +93,7 @@ struct FitOptions {
   std::size_t cloth_proxy_above = 50000;
   /// The proxy's vertex count (build_cloth_proxy()'s target). 15,000: edges of about 7 mm on
   /// the catalogue tee (0.58 m² of cloth), below the scale of a fold on the body, while its
-  /// simulation (to rest or 3 simulated s) took 26–54 s of wall time on a loaded 2-core machine.
+  /// simulation (to rest or 3 simulated s) took 15–54 s of wall time on a loaded 2-core machine.
   std::size_t cloth_proxy_vertices = 15000;
   /// The garments' length unit; detected per garment from its size and position when absent.
   std::optional<Units> garment_units;
