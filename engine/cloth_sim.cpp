@@ -192,7 +192,8 @@ struct ClothSim::Impl {
   // stiff springs, or as B&W constraints when contacts_in_solve) and their friction, then a
   // contact pass; returns the CG iterations.
   int implicit_step(double h, std::size_t& contacts) {
-    const ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
+    ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
+    solve.preconditioner = options.cg_preconditioner;
     const ImplicitConstraints* c = nullptr;
     const ImplicitContactSprings* cs = nullptr;
     const float hf = static_cast<float>(h);

@@ -8,6 +8,7 @@
 
 #include "cloth_gather.h"
 #include "cloth_implicit_blocks.h"
+#include "cloth_implicit_coarse.h"
 #include "parallel.h"
 
 namespace vfit {
@@ -258,6 +259,10 @@ float contact_impulse(const ImplicitContactSprings& c, const float* v, const flo
   return -h * c.stiffness[i] * (c.gaps[i] + h * vfit_v3_dot(n, v1));
 }
 
+ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                 ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints,
+                                 bool reuse_coarse);
+
 ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> velocities,
                                   const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
                                   const ImplicitSolveOptions& options, ImplicitWorkspace& w, bool parallel,
@@ -279,7 +284,7 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
         }
     });
   }
-  ImplicitSolveReport report = solve_implicit_system(adjacency, options, w, parallel, constraints);
+  ImplicitSolveReport report = solve_system(adjacency, options, w, parallel, constraints, false);
   if (springs) {
     // One-sided: remove the springs that pulled and solve again from this answer.
     const std::size_t chunks = chunk_count(nv);
@@ -304,7 +309,9 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
       ImplicitSolveOptions again = options;
       again.warm_start = true;
       again.max_iterations = contact_springs->release_iterations;
-      report.iterations += solve_implicit_system(adjacency, again, w, parallel, constraints).iterations;
+      // The coarse level factored for the first solve still serves (a preconditioner need not
+      // match A, only be SPD): the removed springs changed a few diagonal blocks.
+      report.iterations += solve_system(adjacency, again, w, parallel, constraints, true).iterations;
       // Δv changed: the kept springs' impulses are taken again.
       run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i)
@@ -343,8 +350,23 @@ void implicit_system_multiply(const ImplicitSystem& system, const SpringAdjacenc
     if (system.free[i]) store3(out.data(), i, row_times(system, adjacency, filtered.data(), i));
 }
 
-ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
-                                          ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints) {
+namespace {
+// The coarse level for a solve of w.system with `options`: null for block Jacobi (or when the
+// coarse factorisation failed, which falls back to it); factored anew unless `reuse` and the
+// last factorisation still stands.
+ImplicitCoarseSpace* coarse_level(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                  ImplicitWorkspace& w, const float* normals, bool parallel, bool reuse) {
+  const std::size_t nv = adjacency.particle_count();
+  ImplicitCoarseSpace& c = w.coarse.get();
+  if (!use_two_level(options, nv, c)) return nullptr;
+  prepare_coarse_space(c, adjacency, options);
+  if (reuse && c.factored) return &c;
+  return factor_coarse_space(c, w.system, adjacency, normals, parallel) ? &c : nullptr;
+}
+
+ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                 ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints,
+                                 bool reuse_coarse) {
   const std::size_t nv = adjacency.particle_count();
   const std::size_t chunks = chunk_count(nv);
   const ImplicitSystem& s = w.system;
@@ -365,6 +387,8 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   const float* precond = s.preconditioner.data();
   // B&W's filter S_i: 0 for a pinned particle, I − n·nᵀ for a contact, I otherwise.
   const auto filter = [&](std::size_t i, vfit_vec3 a) { return filter_row(s, normals, i, a); };
+  // TWO_LEVEL: z = S·D⁻¹·r + P·Ac⁻¹·Pᵀ·r, the coarse term added after each pass forming r.
+  ImplicitCoarseSpace* coarse = coarse_level(adjacency, options, w, normals, parallel, reuse_coarse);
 
   // Δv₀ = the constrained components, or the previous answer with a warm start (zero otherwise),
   // so r₀ = S·(b − A·Δv₀).
@@ -396,6 +420,7 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   });
   const double bb = chunk_sum(w.partials, chunks, 2, 0);
   double rz = chunk_sum(w.partials, chunks, 2, 1);
+  if (coarse != nullptr) rz += coarse_correct(*coarse, s, normals, r, z, parallel);
   ImplicitSolveReport report;
   double rr = 0;
   for (std::size_t k = 0; k < 3 * nv; ++k)
@@ -434,9 +459,10 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
         },
         &affinity);
     rr = chunk_sum(w.partials, chunks, 2, 0);
-    const double rz_next = chunk_sum(w.partials, chunks, 2, 1);
+    double rz_next = chunk_sum(w.partials, chunks, 2, 1);
     ++report.iterations;
     if (rr <= stop) break;
+    if (coarse != nullptr) rz_next += coarse_correct(*coarse, s, normals, r, z, parallel);
     beta = static_cast<float>(rz_next / rz);
     rz = rz_next;
   }
@@ -453,7 +479,36 @@ ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, cons
   }
   report.relative_residual = scale > 0 ? std::sqrt(rr / scale) : 0.0;
   report.converged = rr <= stop;
+  if (options.preconditioner == ImplicitPreconditioner::AUTO && coarse == nullptr &&
+      report.iterations > options.two_level_after)
+    w.coarse.get().engaged = true;
   return report;
+}
+} // namespace
+
+ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                          ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints) {
+  return solve_system(adjacency, options, w, parallel, constraints, false);
+}
+
+void apply_implicit_preconditioner(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                   ImplicitWorkspace& w, std::span<const float> r, std::vector<float>& z,
+                                   const ImplicitConstraints* constraints) {
+  const std::size_t nv = adjacency.particle_count();
+  assert(r.size() == 3 * nv && "one 3-vector per particle");
+  const ImplicitSystem& s = w.system;
+  const bool constrained = constraints != nullptr && !constraints->empty();
+  const float* normals = constrained ? constraints->normals.data() : nullptr;
+  std::vector<float> rf(3 * nv);
+  z.assign(3 * nv, 0.0f);
+  for (std::size_t i = 0; i < nv; ++i) {
+    const vfit_vec3 ri = filter_row(s, normals, i, load3(r.data(), i));
+    store3(rf.data(), i, ri);
+    store3(z.data(), i, filter_row(s, normals, i, vfit_sym3_apply(load_sliced_sym(s.preconditioner.data(), i), ri)));
+  }
+  ImplicitCoarseSpace* coarse = coarse_level(adjacency, options, w, normals, false, false);
+  if (coarse == nullptr) return;
+  coarse_correct(*coarse, s, normals, rf.data(), z.data(), false);
 }
 
 ImplicitSolveReport implicit_euler_step_serial(std::span<float> positions, std::span<float> velocities,

@@ -22,6 +22,8 @@
 /// thread count.
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -37,7 +39,28 @@ namespace vfit {
 inline constexpr std::size_t CLOTH_IMPLICIT_CHUNK = 512;
 static_assert(CLOTH_IMPLICIT_CHUNK % CLOTH_SLICE_WIDTH == 0, "a chunk covers whole slices");
 
-/// Stopping rule of the conjugate gradient.
+/// Preconditioner of the implicit step's conjugate gradient.
+enum class ImplicitPreconditioner : std::int8_t {
+  /// The inverse 3×3 diagonal blocks A_ii⁻¹ (the default).
+  BLOCK_JACOBI = 0,
+  /// Block Jacobi plus a coarse-grid correction (additive two-level Schwarz): M⁻¹ = S·D⁻¹·S +
+  /// P·(Pᵀ·A·P)⁻¹·Pᵀ, P the piecewise-constant translations of aggregates of neighbouring
+  /// particles (implicit_coarse_aggregates()), filtered as the solve (S); the 3×3-block coarse
+  /// matrix is assembled in double and factored (CHOLMOD, supernodal) per solve (the re-solve
+  /// after releasing pulling contact springs reuses it). Symmetric positive definite as a sum
+  /// of two such terms, so CG stays CG, to the same tolerance; the smooth error block Jacobi
+  /// leaves (a garment's sag as a whole) is removed in one step.
+  TWO_LEVEL = 1,
+  /// BLOCK_JACOBI until a solve with it takes more than ImplicitSolveOptions::two_level_after
+  /// iterations, TWO_LEVEL from the next solve on (for the workspace's life): a garment lying
+  /// on a body, whose smooth modes block Jacobi resolves slowly, switches; a mass-dominated
+  /// system (a few iterations per step, where the coarse level's factorisation and solve cost
+  /// more than they save) stays. The switch depends on iteration counts only, so the serial and
+  /// TBB drivers switch at the same step.
+  AUTO = 2,
+};
+
+/// Stopping rule and preconditioner of the conjugate gradient.
 struct ImplicitSolveOptions {
   /// Stop when ‖r‖ ≤ tolerance·‖b‖ (filtered residual and right-hand side, Euclidean norms in
   /// N·s). 1e-3 leaves a velocity error far below what one step changes; at rest b → 0 and
@@ -49,6 +72,16 @@ struct ImplicitSolveOptions {
   /// ‖b‖ would be met at once by a good start whose error never shrinks. Ignored with
   /// constraints, which set their own start.
   bool warm_start = false;
+  ImplicitPreconditioner preconditioner = ImplicitPreconditioner::BLOCK_JACOBI;
+  /// TWO_LEVEL: the mean particles per aggregate to reach (see implicit_coarse_aggregates());
+  /// 0 = as few coarsening passes as leave at most 2,048 aggregates.
+  std::size_t aggregate_particles = 0;
+  /// AUTO: block-Jacobi iterations beyond which the workspace switches to TWO_LEVEL. 16: on
+  /// the 6,000-vertex tee drape (33 block-Jacobi iterations per step) the coarse level's
+  /// assembly, factorisation and per-iteration solve cost about as much as 5 iterations of
+  /// the product per step, and it saves more than half the iterations; the grid steps of
+  /// bench/kernels/cloth_bench.cpp's BM_implicit* take 7–8 iterations either way.
+  int two_level_after = 16;
 };
 
 /// The linear system of one implicit step, assembled at the step start (x₀, v₀). Row i of
@@ -116,9 +149,28 @@ struct ImplicitContactSprings {
   bool empty() const { return normals.empty(); }
 };
 
+struct ImplicitCoarseSpace;
+
+/// Owner of the two-level preconditioner's coarse level (kernels/cloth_implicit_coarse.h; built
+/// on first use). A copy starts empty: the copy rebuilds its own on first use.
+class ImplicitCoarseHolder {
+public:
+  ImplicitCoarseHolder();
+  ImplicitCoarseHolder(const ImplicitCoarseHolder&);
+  ImplicitCoarseHolder& operator=(const ImplicitCoarseHolder&);
+  ImplicitCoarseHolder(ImplicitCoarseHolder&&) noexcept;
+  ImplicitCoarseHolder& operator=(ImplicitCoarseHolder&&) noexcept;
+  ~ImplicitCoarseHolder();
+  ImplicitCoarseSpace& get(); ///< the coarse level, created empty on the first call
+
+private:
+  std::unique_ptr<ImplicitCoarseSpace> space_;
+};
+
 /// Scratch of the solver (#V × 3 each, sized by the callee) and the system, reused across steps.
 struct ImplicitWorkspace {
   ImplicitSystem system;
+  ImplicitCoarseHolder coarse; ///< the TWO_LEVEL preconditioner's coarse level
   std::vector<float> dv, r, z, p, q;
   std::vector<double> partials; ///< one entry per reduction chunk and quantity
   /// #V, written by a solve with constraints: the impulse (N·s) the constraint applied along
@@ -158,6 +210,25 @@ void implicit_system_multiply(const ImplicitSystem& system, const SpringAdjacenc
 ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
                                           ImplicitWorkspace& workspace, bool parallel,
                                           const ImplicitConstraints* constraints = nullptr);
+
+/// The aggregates of the TWO_LEVEL coarse space: #V labels in [0, count) (count written).
+/// Greedy aggregation over the spring adjacency in particle order: a particle whose neighbours
+/// are all unassigned starts an aggregate with them, a particle left over joins its first
+/// neighbour's aggregate (or starts its own when it has none), so an aggregate is a patch of
+/// about one spring ring (≈ 10–15 particles on a triangle mesh with bending springs); the same
+/// rule is then applied to the aggregates' graph while the mean size is below half of
+/// options.aggregate_particles (or, when that is 0, while there are more than 2,048). The
+/// same labels for any thread count (serial, depends on the adjacency only).
+std::vector<std::int32_t> implicit_coarse_aggregates(const SpringAdjacency& adjacency,
+                                                     const ImplicitSolveOptions& options, std::size_t& count);
+
+/// z = M⁻¹·r (#V × 3 each, z resized): the preconditioner solve_implicit_system() applies
+/// with `options` (and `constraints`, as there) to workspace.system, r filtered first (S·r), so
+/// z = S·A_ii⁻¹·S·r per particle, plus P·(Pᵀ·S·A·S·P)⁻¹·Pᵀ·S·r with TWO_LEVEL (pinned rows of z
+/// are 0). Serial; for tests (symmetry, positive definiteness) and oracles.
+void apply_implicit_preconditioner(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
+                                   ImplicitWorkspace& workspace, std::span<const float> r, std::vector<float>& z,
+                                   const ImplicitConstraints* constraints = nullptr);
 
 /// One implicit Euler step of h (s) in place: assemble, add the contact springs when given,
 /// solve (with the contact constraints when given), v += Δv, x += h·v for the free particles

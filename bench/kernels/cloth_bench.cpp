@@ -249,7 +249,8 @@ BENCHMARK(BM_rk4_schedule_grid)
 // has every wavelength, unlike a uniform fall, which CG solves in one iteration. Each timed
 // step starts from that same state. cg_ns_per_particle = the step's wall time (assembly and
 // update included) per CG iteration and particle.
-void implicit_step_bench(benchmark::State& state, bool parallel) {
+void implicit_step_bench(benchmark::State& state, bool parallel,
+                         vfit::ImplicitPreconditioner preconditioner = vfit::ImplicitPreconditioner::BLOCK_JACOBI) {
   const Cloth& c = cloth(state.range(0));
   std::vector<float> v0 = c.v;
   std::mt19937 rng(42);
@@ -260,7 +261,8 @@ void implicit_step_bench(benchmark::State& state, bool parallel) {
     if (c.particles.inverse_masses[i] == 0.0f) v0[3 * i] = v0[3 * i + 1] = v0[3 * i + 2] = 0.0f;
   std::vector<float> x, v;
   vfit::ImplicitWorkspace w;
-  const vfit::ImplicitSolveOptions solve{1e-2, 200}; // ClothSim's default tolerance
+  vfit::ImplicitSolveOptions solve{1e-2, 200}; // ClothSim's default tolerance
+  solve.preconditioner = preconditioner;
   std::int64_t iterations = 0, steps = 0;
   double seconds = 0;
   for (auto _ : state) {
@@ -297,6 +299,19 @@ BENCHMARK(BM_implicit_tbb)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// BM_implicit_tbb with the two-level preconditioner (ImplicitPreconditioner::TWO_LEVEL; the
+// coarse level's structure is built on the first step, untimed after it as the workspace is
+// kept), for the same sizes and thread counts.
+void BM_implicit_two_level_tbb(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
+  implicit_step_bench(state, true, vfit::ImplicitPreconditioner::TWO_LEVEL);
+  state.counters["threads"] = double(state.range(1));
+}
+BENCHMARK(BM_implicit_two_level_tbb)
+    ->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
 // The posed mannequin (7,000 vertices, A-pose rest, posed "apose") and a size-M tee of 6,000
 // vertices made for it, pushed out of the body by remove_penetration() as the fit pipeline
 // does before simulating.
@@ -326,7 +341,8 @@ const Drape& drape() {
 
 void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, double max_simulated_seconds,
                  bool contacts_in_solve = false, bool contact_candidates = true, bool resting_contacts = true,
-                 double cg_tolerance = 0) {
+                 double cg_tolerance = 0,
+                 vfit::ImplicitPreconditioner preconditioner = vfit::ImplicitPreconditioner::BLOCK_JACOBI) {
   const Drape& d = drape();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
   vfit::ClothRestReport last;
@@ -337,6 +353,7 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
     o.contact_candidates = contact_candidates;
     o.resting_contacts = resting_contacts;
     if (cg_tolerance > 0) o.cg_tolerance = cg_tolerance;
+    o.cg_preconditioner = preconditioner;
     if (contacts_in_solve) {
       o.contacts_in_solve = true;
       o.implicit_step = 1.0 / 60.0;
@@ -385,6 +402,20 @@ void BM_drape_tee_to_rest(benchmark::State& state) {
 }
 // One drape per thread count (each takes seconds); the garment and body are built once, untimed.
 BENCHMARK(BM_drape_tee_to_rest)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+// The same drape with the CG's preconditioner of the second argument (ClothOptions::
+// cg_preconditioner: 0 block Jacobi, 1 two-level, 2 AUTO), so one run compares them on the same
+// host load.
+void BM_drape_tee_to_rest_preconditioner(benchmark::State& state) {
+  drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0, false, true, true, 0,
+              vfit::ImplicitPreconditioner(state.range(1)));
+  state.counters["preconditioner"] = double(state.range(1));
+}
+BENCHMARK(BM_drape_tee_to_rest_preconditioner)
+    ->ArgsProduct({{1, 2}, {0, 1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
 
 // The same drape at CG tolerances of 1e-3 × the argument (ClothOptions::cg_tolerance; the
 // default is 1e-2): iterations, time and simulated time to rest against the tolerance.
