@@ -357,6 +357,7 @@ namespace {
 ImplicitCoarseSpace* coarse_level(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
                                   ImplicitWorkspace& w, const float* normals, bool parallel, bool reuse) {
   const std::size_t nv = adjacency.particle_count();
+  if (options.preconditioner == ImplicitPreconditioner::BLOCK_JACOBI) return nullptr; // no coarse level made
   ImplicitCoarseSpace& c = w.coarse.get();
   if (!use_two_level(options, nv, c)) return nullptr;
   prepare_coarse_space(c, adjacency, options);

@@ -155,12 +155,12 @@ struct ImplicitCoarseSpace;
 /// on first use). A copy starts empty: the copy rebuilds its own on first use.
 class ImplicitCoarseHolder {
 public:
-  ImplicitCoarseHolder();
-  ImplicitCoarseHolder(const ImplicitCoarseHolder&);
-  ImplicitCoarseHolder& operator=(const ImplicitCoarseHolder&);
-  ImplicitCoarseHolder(ImplicitCoarseHolder&&) noexcept;
-  ImplicitCoarseHolder& operator=(ImplicitCoarseHolder&&) noexcept;
-  ~ImplicitCoarseHolder();
+  ImplicitCoarseHolder();                                           ///< empty
+  ImplicitCoarseHolder(const ImplicitCoarseHolder&);                ///< empty (nothing is copied)
+  ImplicitCoarseHolder& operator=(const ImplicitCoarseHolder&);     ///< empties this one
+  ImplicitCoarseHolder(ImplicitCoarseHolder&&) noexcept;            ///< takes the other's coarse level
+  ImplicitCoarseHolder& operator=(ImplicitCoarseHolder&&) noexcept; ///< takes the other's coarse level
+  ~ImplicitCoarseHolder();                                          ///< frees the coarse level
   ImplicitCoarseSpace& get(); ///< the coarse level, created empty on the first call
 
 private:

@@ -16,9 +16,7 @@ struct Block9 {
   double m[9] = {};
 };
 
-Block9 from_sym(vfit_sym3 s) {
-  return Block9{{s.xx, s.xy, s.xz, s.xy, s.yy, s.yz, s.xz, s.yz, s.zz}};
-}
+Block9 from_sym(vfit_sym3 s) { return Block9{{s.xx, s.xy, s.xz, s.xy, s.yy, s.yz, s.xz, s.yz, s.zz}}; }
 
 // The filter S_i of a free particle as a block: I − n·nᵀ (normals non-null), I otherwise.
 Block9 filter_block(const float* normals, std::size_t i) {
@@ -47,7 +45,8 @@ void add_to(double* dst, const Block9& b, double sign) {
 // S_e of adjacency entry e (ImplicitSystem::off_diagonal, component-major).
 vfit_sym3 entry_block(const ImplicitSystem& s, std::size_t entries, std::size_t e) {
   const float* p = s.off_diagonal.data();
-  return vfit_sym3{p[e], p[entries + e], p[2 * entries + e], p[3 * entries + e], p[4 * entries + e], p[5 * entries + e]};
+  return vfit_sym3{
+      p[e], p[entries + e], p[2 * entries + e], p[3 * entries + e], p[4 * entries + e], p[5 * entries + e]};
 }
 
 // Relative shift of the coarse diagonal blocks (of their trace / 3): keeps the factorisation
@@ -121,8 +120,7 @@ std::vector<std::int32_t> coarse_aggregates(const SpringAdjacency& adj, std::siz
   std::vector<std::int32_t> label = greedy_aggregates(adj.offsets, adj.neighbors, nv, count);
   // Coarsen the aggregates' graph until they reach the size asked for (or the limit's).
   for (;;) {
-    const bool small = target > 0 ? double(nv) < 0.5 * double(target) * double(count)
-                                   : count > COARSE_AGGREGATE_LIMIT;
+    const bool small = target > 0 ? double(nv) < 0.5 * double(target) * double(count) : count > COARSE_AGGREGATE_LIMIT;
     if (!small || count <= 1) break;
     std::vector<std::vector<std::int32_t>> links(count);
     for (std::size_t i = 0; i < nv; ++i)
@@ -159,12 +157,9 @@ namespace cloth_detail {
 bool use_two_level(const ImplicitSolveOptions& options, std::size_t particle_count, const ImplicitCoarseSpace& coarse) {
   if (particle_count == 0) return false;
   switch (options.preconditioner) {
-  case ImplicitPreconditioner::BLOCK_JACOBI:
-    return false;
-  case ImplicitPreconditioner::TWO_LEVEL:
-    return true;
-  case ImplicitPreconditioner::AUTO:
-    break;
+  case ImplicitPreconditioner::BLOCK_JACOBI: return false;
+  case ImplicitPreconditioner::TWO_LEVEL: return true;
+  case ImplicitPreconditioner::AUTO: break;
   }
   return coarse.engaged;
 }
@@ -310,8 +305,8 @@ bool factor_coarse_space(ImplicitCoarseSpace& c, const ImplicitSystem& s, const 
   return c.factored;
 }
 
-double coarse_correct(ImplicitCoarseSpace& c, const ImplicitSystem& s, const float* normals, const float* r,
-                      float* z, bool parallel) {
+double coarse_correct(ImplicitCoarseSpace& c, const ImplicitSystem& s, const float* normals, const float* r, float* z,
+                      bool parallel) {
   run_aggregates(c, parallel, [&](std::size_t a) {
     double sum[3] = {0, 0, 0};
     for (std::int32_t m = c.member_offsets[a]; m < c.member_offsets[a + 1]; ++m) {

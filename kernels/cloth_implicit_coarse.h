@@ -35,9 +35,9 @@ struct ImplicitCoarseSpace {
   std::size_t target = 0; // the aggregate size asked for
 
   std::size_t aggregates = 0;
-  std::vector<std::int32_t> aggregate_of;        // #V: the particle's aggregate
-  std::vector<std::int32_t> member_offsets;      // aggregates + 1
-  std::vector<std::int32_t> members;             // #V: each aggregate's particles, ascending
+  std::vector<std::int32_t> aggregate_of;   // #V: the particle's aggregate
+  std::vector<std::int32_t> member_offsets; // aggregates + 1
+  std::vector<std::int32_t> members;        // #V: each aggregate's particles, ascending
   // Block pattern of Ac over aggregates, CSR: aggregate a's blocks [row_offsets[a],
   // row_offsets[a + 1]) with columns `columns` (ascending, a itself included).
   std::vector<std::int32_t> row_offsets, columns;

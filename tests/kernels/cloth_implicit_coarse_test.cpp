@@ -241,7 +241,8 @@ TEST(ClothImplicitTwoLevel, FewerIterationsThanBlockJacobiOnARefinedGrid) {
     const double ratio = double(rt.iterations) / double(rb.iterations);
     EXPECT_LT(rt.iterations, rb.iterations) << n << " × " << n;
     EXPECT_LT(ratio, previous_ratio) << n << " × " << n << ": " << rt.iterations << " against " << rb.iterations;
-    RecordProperty("iterations_" + std::to_string(n), std::to_string(rt.iterations) + " / " + std::to_string(rb.iterations));
+    RecordProperty("iterations_" + std::to_string(n),
+                   std::to_string(rt.iterations) + " / " + std::to_string(rb.iterations));
     previous_ratio = ratio;
   }
 }
@@ -281,12 +282,14 @@ TEST(ClothImplicitTwoLevel, TbbEqualsSerialBitForBitAndAutoSwitchesOnStiffCloth)
     ImplicitWorkspace wa, wb;
     ImplicitSolveOptions automatic{1e-4, 200};
     automatic.preconditioner = ImplicitPreconditioner::AUTO;
-    const ImplicitSolveReport a0 = implicit_euler_step_serial(xa, va, d.adjacency, d.particles, 1.0f / 60, automatic, wa);
+    const ImplicitSolveReport a0 =
+        implicit_euler_step_serial(xa, va, d.adjacency, d.particles, 1.0f / 60, automatic, wa);
     const ImplicitSolveReport b0 =
         implicit_euler_step_serial(xb, vb, d.adjacency, d.particles, 1.0f / 60, ImplicitSolveOptions{1e-4, 200}, wb);
     EXPECT_EQ(a0.iterations, b0.iterations) << "mass " << mass; // the first step is block Jacobi's
     EXPECT_TRUE(same_bits(xa, xb));
-    const ImplicitSolveReport a1 = implicit_euler_step_serial(xa, va, d.adjacency, d.particles, 1.0f / 60, automatic, wa);
+    const ImplicitSolveReport a1 =
+        implicit_euler_step_serial(xa, va, d.adjacency, d.particles, 1.0f / 60, automatic, wa);
     const ImplicitSolveReport b1 =
         implicit_euler_step_serial(xb, vb, d.adjacency, d.particles, 1.0f / 60, ImplicitSolveOptions{1e-4, 200}, wb);
     // Both branches are taken: the light cloth is the stiff one.
