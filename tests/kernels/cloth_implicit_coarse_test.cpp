@@ -127,6 +127,10 @@ TEST(ClothImplicitTwoLevel, PreconditionerIsItsDefinitionAndSymmetricPositiveDef
       const float* b = w.system.diagonal.data() + 6 * i;
       Eigen::Matrix3d block;
       block << b[0], b[1], b[2], b[1], b[3], b[4], b[2], b[4], b[5];
+      // The block-Jacobi part as ImplicitSystem::preconditioner defines it: A_ii shifted by
+      // 2⁻¹⁸ of its springs' trace (tr A_ii − 3·m_i), which keeps a light particle's float
+      // inverse positive definite.
+      block += Eigen::Matrix3d::Identity() * (0x1p-18 * (block.trace() - 3.0 * w.system.inertia[i]));
       Dinv.block(Eigen::Index(3 * i), Eigen::Index(3 * i), 3, 3) = block.inverse();
     }
     std::size_t aggregates = 0;
