@@ -305,6 +305,15 @@ bool factor_coarse_space(ImplicitCoarseSpace& c, const ImplicitSystem& s, const 
   return c.factored;
 }
 
+namespace {
+// v −= (v·n)·n: B&W's filter I − n·nᵀ of a contact normal n (unit, or zero for none), in double.
+void remove_normal_part(double (&v)[3], const float* n) {
+  const double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+  for (std::size_t k = 0; k < 3; ++k)
+    v[k] -= vn * n[k];
+}
+} // namespace
+
 double coarse_correct(ImplicitCoarseSpace& c, const ImplicitSystem& s, const float* normals, const float* r, float* z,
                       bool parallel) {
   run_aggregates(c, parallel, [&](std::size_t a) {
@@ -312,12 +321,7 @@ double coarse_correct(ImplicitCoarseSpace& c, const ImplicitSystem& s, const flo
     for (std::int32_t m = c.member_offsets[a]; m < c.member_offsets[a + 1]; ++m) {
       const auto i = std::size_t(c.members[std::size_t(m)]);
       double ri[3] = {r[3 * i], r[3 * i + 1], r[3 * i + 2]};
-      if (normals != nullptr) {
-        const double n[3] = {normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]};
-        const double rn = ri[0] * n[0] + ri[1] * n[1] + ri[2] * n[2];
-        for (std::size_t k = 0; k < 3; ++k)
-          ri[k] -= rn * n[k];
-      }
+      if (normals != nullptr) remove_normal_part(ri, normals + 3 * i);
       for (std::size_t k = 0; k < 3; ++k)
         sum[k] += ri[k];
     }
@@ -334,12 +338,7 @@ double coarse_correct(ImplicitCoarseSpace& c, const ImplicitSystem& s, const flo
       if (!s.free[i]) continue;
       const ImplicitCoarseSpace::Scalar* ya = y + 3 * std::size_t(c.aggregate_of[i]);
       double d[3] = {ya[0], ya[1], ya[2]};
-      if (normals != nullptr) {
-        const double n[3] = {normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]};
-        const double dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
-        for (std::size_t k = 0; k < 3; ++k)
-          d[k] -= dn * n[k];
-      }
+      if (normals != nullptr) remove_normal_part(d, normals + 3 * i);
       for (std::size_t k = 0; k < 3; ++k)
         z[3 * i + k] += static_cast<float>(d[k]);
     }

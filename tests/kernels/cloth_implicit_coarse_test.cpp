@@ -9,41 +9,12 @@
 #include "geometry/mesh/primitives.h"
 #include "kernels/cloth_gather.h"
 #include "kernels/cloth_implicit.h"
+#include "jittered_cloth.h"
 
 namespace vfit {
 namespace {
 
-struct Cloth {
-  std::vector<float> x, v;
-  SpringAdjacency adjacency;
-  ClothParticles particles;
-};
-
-// A jittered n × n grid (side 1 m, numbered row by row) with random spring constants, two
-// pinned corners, masses m and random velocities (as cloth_implicit_test.cpp's).
-Cloth jittered_cloth(int n, unsigned seed, float mass) {
-  const Mesh m = make_grid(n, n, 1.0f, 1.0f);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> jitter(-0.2f / float(n), 0.2f / float(n)), kd(100.0f, 500.0f), cd(0.0f, 0.05f),
-      vel(-0.5f, 0.5f);
-  ClothSprings s = build_cloth_springs(m.position_view(), m.triangle_view());
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    s.stiffness[i] = kd(rng);
-    s.damping[i] = cd(rng);
-  }
-  Cloth c;
-  c.adjacency = build_spring_adjacency(s, m.vertex_count());
-  c.x = m.positions;
-  for (float& p : c.x)
-    p += jitter(rng);
-  c.v.resize(c.x.size());
-  for (float& q : c.v)
-    q = vel(rng);
-  c.particles.inverse_masses.assign(m.vertex_count(), 1.0f / mass);
-  c.particles.inverse_masses[0] = c.particles.inverse_masses[std::size_t(n - 1)] = 0.0f;
-  c.particles.global_damping = 0.5f;
-  return c;
-}
+using Cloth = JitteredCloth; // tests/support/jittered_cloth.h
 
 ImplicitConstraints random_constraints(const Cloth& c, unsigned seed) {
   const std::size_t nv = c.adjacency.particle_count();

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "geometry/mesh/primitives.h"
+#include "jittered_cloth.h"
 #include "test_support.h"
 #include "kernels/cloth_collision.h"
 #include "kernels/cloth_gather.h"
@@ -28,37 +29,7 @@ Eigen::Matrix3d dense(vfit_sym3 s) {
   return m;
 }
 
-// A jittered grid (side 1 m) with random per-spring constants, two pinned corners, masses m,
-// random velocities: a generic state for the solver.
-struct Cloth {
-  std::vector<float> x, v;
-  SpringAdjacency adjacency;
-  ClothParticles particles;
-};
-
-Cloth jittered_cloth(int n, unsigned seed, float mass) {
-  const Mesh m = make_grid(n, n, 1.0f, 1.0f);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> jitter(-0.2f / float(n), 0.2f / float(n)), kd(100.0f, 500.0f), cd(0.0f, 0.05f),
-      vel(-0.5f, 0.5f);
-  ClothSprings s = build_cloth_springs(m.position_view(), m.triangle_view());
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    s.stiffness[i] = kd(rng);
-    s.damping[i] = cd(rng);
-  }
-  Cloth c;
-  c.adjacency = build_spring_adjacency(s, m.vertex_count());
-  c.x = m.positions;
-  for (float& p : c.x)
-    p += jitter(rng); // some springs stretched, some compressed
-  c.v.resize(c.x.size());
-  for (float& q : c.v)
-    q = vel(rng);
-  c.particles.inverse_masses.assign(m.vertex_count(), 1.0f / mass);
-  c.particles.inverse_masses[0] = c.particles.inverse_masses[std::size_t(n - 1)] = 0.0f;
-  c.particles.global_damping = 0.5f;
-  return c;
-}
+using Cloth = JitteredCloth; // tests/support/jittered_cloth.h
 
 // K = ∂f_i/∂x_j (h = 1, c = 0, unclamped) against central differences of vfit_spring_force in
 // x_j, and D = ∂f_i/∂v_j against differences in v_j (the force is linear in v, so those are
