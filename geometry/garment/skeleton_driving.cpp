@@ -21,9 +21,24 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-// The hip joint's height between the cloth's crotch key point (0) and the waistband's centre
-// (1), measured on the catalogue's mannequin: (0.865 − 0.773) / (1.020 − 0.773).
-constexpr double HIP_HEIGHT_FRACTION = 0.37;
+// The hip joint's height above the crotch key point, per distance between the two legs' axes
+// at the key point's height, measured on the catalogue's mannequin: (0.865 − 0.7734) / 0.1974
+// for its trousers (size M). A body's proportion, not the garment's rise: the rule before
+// this one, a fraction (0.37) of the way from the crotch key point up to the source opening's
+// centre, was exact on the catalogue, whose waistbands sit at the mannequin's waist, but put
+// the corpus's low-rise jeans on hm08 31–39 mm low and its shorts 55 mm low, and the worksuit's
+// bib overalls, whose source opening is the top of the bib, 74 mm high. With this rule: the
+// same garments within 8–20 mm (jeans +8 and −12, shorts −16, overalls −20 mm), the catalogue's
+// trousers and shorts in sizes P1–P3 within 21 mm (a loose pair's crotch hangs lower).
+constexpr double HIP_RISE_PER_LEG_SPACING = 0.464;
+// The legs' wedges (their skeletons' nodes before PartSkeleton::tube_start) count towards the
+// axes when their first nodes are mirror images to within this share of the legs' spacing at
+// the crotch. Measured, first nodes' mirror distance / spacing: the catalogue's trousers 0.07
+// (0.17 in one driving test's pose), the corpus's jeans, shorts and leggings 0.02–0.08, its suit
+// trousers 0.28, the worksuit overalls 0.86 (its right leg's label runs up the hip, its left
+// leg's chain starts at the crotch). Half the spacing: a wedge that far from its mirror image
+// reaches up a different side of the hip.
+constexpr double WEDGE_MIRROR_TOLERANCE = 0.5;
 
 Eigen::Vector3d point(std::span<const float> p, std::size_t v) { return {p[3 * v], p[3 * v + 1], p[3 * v + 2]}; }
 
@@ -132,20 +147,25 @@ std::optional<Hem> leg_hem(const Mesh& garment, std::span<const GarmentPart> par
 // towards the last; but when the nodes span less than the hem's diameter (shorts: a tube about
 // as long as it is wide, whose skeleton zigzags across it), the hem's normal through its
 // centre (`hem`), as the cuff's area vector gives a short sleeve's axis (segment_sleeves.cpp).
-void leg_axis(const PartSkeleton& leg, const std::optional<Hem>& hem, double height, Eigen::Vector3d& joint,
-              Eigen::Vector3d& direction) {
+void leg_axis(const PartSkeleton& leg, const std::optional<Hem>& hem, double height, std::size_t first,
+              Eigen::Vector3d& joint, Eigen::Vector3d& direction) {
+  // The nodes from `first` on: garment_key_joints() passes tube_start, or 0 when the two legs'
+  // wedges above the crotch agree. (The thigh's half of the nodes alone tilted a short leg's
+  // axis to the horizontal: the female jeans of the corpus were extrapolated metres away.)
+  const std::span<const Eigen::Vector3d> nodes =
+      std::span<const Eigen::Vector3d>(leg.nodes).subspan(std::min(first, leg.nodes.size() - 1));
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : leg.nodes)
+  for (const Eigen::Vector3d& p : nodes)
     c += p;
-  c /= double(leg.nodes.size());
+  c /= double(nodes.size());
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : leg.nodes)
+  for (const Eigen::Vector3d& p : nodes)
     cov += (p - c) * (p - c).transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
   direction = eig.eigenvectors().col(2);
-  if (direction.dot(leg.nodes.back() - leg.nodes.front()) < 0) direction = -direction;
+  if (direction.dot(nodes.back() - nodes.front()) < 0) direction = -direction;
   double lo = INFINITY, hi = -INFINITY;
-  for (const Eigen::Vector3d& p : leg.nodes) {
+  for (const Eigen::Vector3d& p : nodes) {
     lo = std::min(lo, (p - c).dot(direction));
     hi = std::max(hi, (p - c).dot(direction));
   }
@@ -153,7 +173,7 @@ void leg_axis(const PartSkeleton& leg, const std::optional<Hem>& hem, double hei
     direction = hem->normal;
     c = hem->centre;
   }
-  if (leg.nodes.size() < 2 || std::abs(direction.y()) < 1e-6) {
+  if (nodes.size() < 2 || std::abs(direction.y()) < 1e-6) {
     direction = -Eigen::Vector3d::UnitY();
     joint = {c.x(), height, c.z()};
     return;
@@ -405,14 +425,32 @@ GarmentKeyJoints garment_key_joints(const Mesh& garment, const GarmentSegmentati
   const PartSkeleton* left = find_skeleton(skeletons, GarmentPart::LEFT_LEG);
   const PartSkeleton* right = find_skeleton(skeletons, GarmentPart::RIGHT_LEG);
   if (kp.crotch && left && right) {
-    const double height = kp.crotch->y() + HIP_HEIGHT_FRACTION * (kp.source.y() - kp.crotch->y());
     std::optional<Hem> hems[2];
     if (segmentation.vertex_parts.size() == garment.vertex_count()) {
       hems[0] = leg_hem(garment, segmentation.vertex_parts, GarmentPart::RIGHT_LEG, *kp.crotch);
       hems[1] = leg_hem(garment, segmentation.vertex_parts, GarmentPart::LEFT_LEG, *kp.crotch);
     }
-    leg_axis(*right, hems[0], height, out.j1, out.right_axis);
-    leg_axis(*left, hems[1], height, out.j2, out.left_axis);
+    // The hips' height from the legs' own spacing: their tubes' axes' distance apart at the
+    // crotch (the tubes alone: a wedge that differs between the legs would skew it).
+    leg_axis(*right, hems[0], kp.crotch->y(), right->tube_start, out.j1, out.right_axis);
+    leg_axis(*left, hems[1], kp.crotch->y(), left->tube_start, out.j2, out.left_axis);
+    const double spacing = (out.j2 - out.j1).norm();
+    const double height = kp.crotch->y() + HIP_RISE_PER_LEG_SPACING * spacing;
+    // The wedges above the crotch, when they are mirror images (the label runs equally far up
+    // both hips), carry the hips' place: they reach out towards the hip joints, which lie
+    // outboard of the tubes' axes (a thigh's tube narrows inwards up to the crotch). The
+    // catalogue's trousers' hips from the tubes alone were 11 mm inboard and 15 mm forward of the
+    // mannequin's. When the wedges differ (one leg's label runs up its hip, the other's chain
+    // starts at the crotch), neither counts: the tubes alone are mirror images.
+    std::size_t first[2] = {right->tube_start, left->tube_start};
+    if (!right->nodes.empty() && !left->nodes.empty()) {
+      const double mid = 0.5 * (out.j1.x() + out.j2.x());
+      Eigen::Vector3d mirrored = left->nodes.front();
+      mirrored.x() = 2 * mid - mirrored.x();
+      if ((mirrored - right->nodes.front()).norm() < WEDGE_MIRROR_TOLERANCE * spacing) first[0] = first[1] = 0;
+    }
+    leg_axis(*right, hems[0], height, first[0], out.j1, out.right_axis);
+    leg_axis(*left, hems[1], height, first[1], out.j2, out.left_axis);
     symmetrise(out);
     out.crotch = *kp.crotch;
     out.legs = true;

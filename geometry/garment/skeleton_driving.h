@@ -88,12 +88,16 @@ struct SkeletonDriving {
 /// top, j1 and j2 are the right and left shoulder joints and the axes the upper sleeves' (the
 /// sleeve boundary planes' points and normals of §4.2, eq. 1–2). For trousers and shorts they
 /// are the right and left hip joints and the legs' axes: each leg's axis is the principal
-/// direction of its skeleton's nodes through their centroid, or, when the nodes span less than
+/// direction through their centroid of its skeleton's nodes (all of them when the two legs'
+/// first nodes are mirror images to within half the legs' spacing at the crotch, the wedges
+/// above the crotch then reaching out towards the hips; else the tube's only, from
+/// PartSkeleton::tube_start on), or, when the nodes span less than
 /// the leg's hem is wide (shorts, whose short wide tube has a skeleton that zigzags across it),
 /// the normal of the hem (the `garment` boundary vertices labelled with the leg, #V labels in
-/// `segmentation`) through its centre, and the hip is the axis's point at
-/// a height calibrated on the catalogue's mannequin between the crotch key point and the
-/// waistband's centre. Either pair is then made mirror-symmetric about the garment's mid-plane
+/// `segmentation`) through its centre, and the hip is the axis's point at a height above the
+/// crotch key point proportional to the two tubes' axes' distance apart at the crotch (a body
+/// proportion calibrated on the catalogue's mannequin, whatever the garment's rise or its
+/// source opening: a waistband, a bib's top). Either pair is then made mirror-symmetric about the garment's mid-plane
 /// x = (j1.x + j2.x) / 2 (mean height and depth; each axis the mean of its own and the other
 /// side's mirrored), since segment_garment() requires a left/right symmetric garment and the
 /// two sides' estimates differ by their noise alone. The garment's vertical is +Y. Throws

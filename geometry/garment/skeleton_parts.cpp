@@ -121,6 +121,35 @@ double proxy_spacing(const Mesh& piece, std::size_t vertices) {
   return std::sqrt(2 * area / (std::sqrt(3.0) * double(vertices)));
 }
 
+// tube_start(): the tube starts at the node that holds the seam's far end, the first node past
+// all but this share of the seam's vertices, so that a few stray seam vertices (a
+// torso-labelled speck on the limb) do not pull the start down the limb.
+constexpr double SEAM_END_QUANTILE = 0.95;
+// ... and never past this share of the chain's nodes (a part whose seam runs along most of it
+// is no tube with an attachment: its whole chain counts).
+constexpr double MAX_TUBE_START = 0.5;
+
+// The node of an oriented chain (attachment end first) where the part becomes a whole tube. A
+// limb's seam with the torso is cut slantwise (a trouser leg's top runs from the crotch up the
+// hip to the waist, seed 000 eq. 3–4; a sleeve's from the armpit over the shoulder), and the
+// label can run further up one side than the other (a side opening, a pocket or a flap at the
+// hip): before the seam's far end (the crotch, the armpit) the part is an open wedge, not a
+// tube, and its skeleton wanders into that wedge wherever the contraction took it: the worksuit
+// overalls' right leg started 18 cm out on the hip, its left leg at the crotch. The tube starts
+// at the node holding the seam's far end (SEAM_END_QUANTILE); 0 when that is past
+// MAX_TUBE_START of the chain or there is no seam.
+std::size_t tube_start(const std::vector<char>& seam, const PartSkeleton& skeleton) {
+  std::vector<std::int32_t> seam_nodes;
+  for (std::size_t i = 0; i < skeleton.vertices.size(); ++i)
+    if (seam[std::size_t(skeleton.vertices[i])]) seam_nodes.push_back(skeleton.vertex_node[i]);
+  if (seam_nodes.empty()) return 0;
+  const auto q = seam_nodes.begin() + std::ptrdiff_t(SEAM_END_QUANTILE * double(seam_nodes.size() - 1));
+  std::nth_element(seam_nodes.begin(), q, seam_nodes.end());
+  const std::int32_t first = *q;
+  if (first <= 0 || double(first) > MAX_TUBE_START * double(skeleton.nodes.size())) return 0;
+  return std::size_t(first);
+}
+
 } // namespace
 
 PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentPart> vertex_parts, GarmentPart part,
@@ -222,6 +251,7 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
       const auto last = std::int32_t(result.nodes.size()) - 1;
       for (std::int32_t& n : result.vertex_node) n = last - n;
     }
+    result.tube_start = tube_start(seam, result);
   }
   result.timings.map_ms = ms_since(stage);
   result.timings.total_ms = ms_since(start);

@@ -52,6 +52,14 @@ struct PartSkeleton {
   /// garment: shoulder or hip) to the open end (cuff or hem); each is the centre of its
   /// vertices' cross-section (seed 000 eq. 12; cross_section_centres(), curve_skeleton.h).
   std::vector<Eigen::Vector3d> nodes;
+  /// The first node where the part is a whole tube (index into `nodes`): the node holding the
+  /// far end of the part's seam with the rest of the garment (the node of the 95th percentile
+  /// of the seam vertices' nodes: a trouser leg's crotch, whose top is cut slantwise up the
+  /// hip; a sleeve's armpit). The nodes before it lie in the open wedge above that end, placed
+  /// wherever the contraction took them and as far up one side as the label runs (a side
+  /// opening, a pocket, a flap), so a limb's axis is measured from this node on. 0 when the
+  /// part has no seam or the seam's far end lies past half the chain (no tube to speak of).
+  std::size_t tube_start = 0;
   std::vector<std::int32_t> vertices;    ///< the part's garment vertex ids, ascending
   std::vector<std::int32_t> vertex_node; ///< per entry of `vertices`: its node in [0, #N); disjoint sets
   std::size_t proxy_vertices = 0;        ///< vertices the contraction ran on (proxy, or the closed part itself)
@@ -70,7 +78,8 @@ struct PartSkeleton {
 /// Nodes are recentred on all their vertices, at their cross-sections' centres
 /// (cross_section_centres()). The chain starts at the end nearest the
 /// centroid of the part's seam vertices (those with a neighbour of another label); a part
-/// with no seam keeps the order extract_curve_skeleton() gave. Throws vfit::Error
+/// with no seam keeps the order extract_curve_skeleton() gave. `tube_start` is then the node
+/// holding the seam's far end (see PartSkeleton::tube_start). Throws vfit::Error
 /// ("part skeleton", …) when the labels do not match the mesh, the part has no face, or the
 /// part has an edge shared by more than two faces.
 PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentPart> vertex_parts, GarmentPart part,

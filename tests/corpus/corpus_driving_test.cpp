@@ -70,6 +70,26 @@ const std::map<std::string, std::string> KNOWN_OFFSET = {
     {"male_elegantsuit01__suit_jacket", "torso ~10.3 mm off: lifted ~10 mm by the envelope fit"},
 };
 
+// Bars of JointsAloneNeitherShiftTheGarmentSidewaysNorSinkIt, against what was measured over
+// the 20 garments with the rigged hm08's joints. Sideways: at most 5.4 mm (a long-sleeve
+// shirt), 5.0 mm for the overalls (30.9 mm before their legs' key joints came from the tubes).
+constexpr double MAX_SIDE_SHIFT = 0.010;
+// Newly inside, per vertex of the garment: 0.09-0.25 (the key joints' remaining error, up to 2
+// cm up or down for bottoms and 1.4-4.2 cm forward for tops, presses the garment's tight side a
+// centimetre or two into the body); the overalls had 0.41 before (1,037 of 2,497 vertices).
+constexpr double MAX_NEWLY_INSIDE = 0.30;
+// Deepest vertex inside the body: at most 41.6 mm (the blazer; suit trousers 40.1 mm) but for
+// the long-sleeve tops of KNOWN_SUNK; the overalls were 61 mm deep before.
+constexpr double MAX_INSIDE_DEPTH = 0.045;
+// Known defect (not fixed): the long-sleeve tops are placed 29-42 mm forward by their sleeve
+// boundary planes' key joints (the tops' rule, eq. 16), which sinks their back into the body.
+// With the body surface (RestPoseLeavesTheGarmentInPlace) the contact translation corrects it.
+const std::map<std::string, std::string> KNOWN_SUNK = {
+    {"male_casualsuit02__longsleeve_tshirt", "29 mm forward, 45.2 mm deep"},
+    {"male_casualsuit03__longsleeve_shirt", "33 mm forward, 64.9 mm deep"},
+    {"male_elegantsuit01__suit_jacket", "42 mm forward, 51.6 mm deep"},
+};
+
 class CorpusDriving : public ::testing::TestWithParam<const char*> {
 protected:
   static void SetUpTestSuite() {
@@ -144,6 +164,55 @@ TEST_P(CorpusDriving, RestPoseLeavesTheGarmentInPlace) {
     if (const auto known = KNOWN_OFFSET.find(name); known != KNOWN_OFFSET.end())
       GTEST_SKIP() << "known defect: torso moved " << torso_mean * 1e3 << " mm on average: " << known->second;
   EXPECT_LE(torso_mean, MAX_TORSO_DISPLACEMENT);
+}
+
+// The pipeline's path (engine/fit_pipeline.cpp drives with the joints alone, no body surface):
+// a garment modelled on this very body must not be shifted sideways or sunk into it by the key
+// joints' placement (seed 000 eq. 16–17) and the limbs' driving. Before the legs' key joints
+// were taken from their tubes (PartSkeleton::tube_start) and the hips' height from the legs'
+// spacing, the worksuit overalls moved 30.9 mm sideways (their right leg's skeleton started 18
+// cm up the hip) and 73 mm down, with 1,037 vertices inside the body (61 mm deep).
+TEST_P(CorpusDriving, JointsAloneNeitherShiftTheGarmentSidewaysNorSinkIt) {
+  const std::string name = GetParam();
+  const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
+  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
+  Mesh garment = read_mesh(path).mesh;
+  scale_positions(garment.positions, 0.1); // MakeHuman files are in decimetres
+  const GarmentSegmentation seg = segment_garment(garment);
+  const std::vector<PartSkeleton> skeletons = extract_limb_skeletons(garment, seg.vertex_parts);
+  const SkeletonDriving d = SkeletonDriver(garment, seg, skeletons).drive(s_body->joints);
+  ASSERT_EQ(d.positions.size(), garment.positions.size());
+  const std::size_t nv = garment.vertex_count();
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  double mean = 0;
+  for (std::size_t v = 0; v < nv; ++v) {
+    Eigen::Vector3d e;
+    for (int c = 0; c < 3; ++c) e[c] = double(d.positions[3 * v + c]) - double(garment.positions[3 * v + c]);
+    shift += e;
+    mean += e.norm();
+  }
+  shift /= double(nv);
+  mean /= double(nv);
+  Mesh driven = garment;
+  driven.positions = d.positions;
+  const PenetrationStats as_modelled = measure_penetration(garment, *s_index, *s_crossings, 0.0);
+  const PenetrationStats after = measure_penetration(driven, *s_index, *s_crossings, 0.0);
+  std::printf("%-38s %-11s joints alone: mean %5.1f mm, shift (%5.1f %5.1f %5.1f) mm | inside %4zu of %5zu (max %5.1f "
+              "mm), as modelled %4zu (max %4.1f mm)\n",
+              name.c_str(), garment_type_name(seg.type).c_str(), mean * 1e3, shift.x() * 1e3, shift.y() * 1e3,
+              shift.z() * 1e3, after.inside_count, nv, after.max_depth * 1e3, as_modelled.inside_count,
+              as_modelled.max_depth * 1e3);
+  // Sideways: the key joints are made mirror images about the garment's own mid-plane
+  // (symmetrise()), so what is left is the two sides' tubes and planes differing by their mesh
+  // (MAX_SIDE_SHIFT, below).
+  EXPECT_LT(std::abs(shift.x()), MAX_SIDE_SHIFT);
+  // Sunk: vertices inside the body after driving, beyond those inside as modelled, as a share of
+  // the garment (MAX_NEWLY_INSIDE, below), and no deeper than MAX_INSIDE_DEPTH.
+  EXPECT_LT(double(after.inside_count), double(as_modelled.inside_count) + MAX_NEWLY_INSIDE * double(nv));
+  if (after.max_depth >= MAX_INSIDE_DEPTH)
+    if (const auto known = KNOWN_SUNK.find(name); known != KNOWN_SUNK.end())
+      GTEST_SKIP() << "known defect: " << after.max_depth * 1e3 << " mm inside the body: " << known->second;
+  EXPECT_LT(after.max_depth, MAX_INSIDE_DEPTH);
 }
 
 INSTANTIATE_TEST_SUITE_P(Hm08, CorpusDriving, ::testing::ValuesIn(DRIVEN),
