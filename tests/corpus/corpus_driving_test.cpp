@@ -111,6 +111,24 @@ protected:
     if (!s_body) GTEST_SKIP() << "hm08_body_rigged.glb absent from the corpus";
   }
 
+  // A MakeHuman garment (decimetres) in metres, segmented, and driven onto the rigged hm08
+  // body in its own rest pose: by the joints alone (surface null, the pipeline's path) or with
+  // the body surface.
+  struct InPlaceDrive {
+    Mesh garment;
+    GarmentSegmentation seg;
+    SkeletonDriving driving;
+  };
+  static InPlaceDrive drive_in_place(const std::filesystem::path& path, const ProximityIndex* surface) {
+    InPlaceDrive r;
+    r.garment = read_mesh(path).mesh;
+    scale_positions(r.garment.positions, 0.1); // MakeHuman files are in decimetres
+    r.seg = segment_garment(r.garment);
+    const std::vector<PartSkeleton> skeletons = extract_limb_skeletons(r.garment, r.seg.vertex_parts);
+    r.driving = SkeletonDriver(r.garment, r.seg, skeletons).drive(s_body->joints, surface);
+    return r;
+  }
+
   static inline std::optional<std::filesystem::path> s_corpus;
   static inline std::optional<Body> s_body;
   static inline std::unique_ptr<ProximityIndex> s_index;
@@ -121,11 +139,10 @@ TEST_P(CorpusDriving, RestPoseLeavesTheGarmentInPlace) {
   const std::string name = GetParam();
   const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
   if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
-  Mesh garment = read_mesh(path).mesh;
-  scale_positions(garment.positions, 0.1); // MakeHuman files are in decimetres
-  const GarmentSegmentation seg = segment_garment(garment);
-  const std::vector<PartSkeleton> skeletons = extract_limb_skeletons(garment, seg.vertex_parts);
-  const SkeletonDriving d = SkeletonDriver(garment, seg, skeletons).drive(s_body->joints, s_index.get());
+  const InPlaceDrive run = drive_in_place(path, s_index.get());
+  const Mesh& garment = run.garment;
+  const GarmentSegmentation& seg = run.seg;
+  const SkeletonDriving& d = run.driving;
   ASSERT_EQ(d.positions.size(), garment.positions.size());
   double sum = 0, worst = 0, torso_sum = 0;
   std::size_t torso_n = 0;
@@ -176,11 +193,10 @@ TEST_P(CorpusDriving, JointsAloneNeitherShiftTheGarmentSidewaysNorSinkIt) {
   const std::string name = GetParam();
   const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
   if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
-  Mesh garment = read_mesh(path).mesh;
-  scale_positions(garment.positions, 0.1); // MakeHuman files are in decimetres
-  const GarmentSegmentation seg = segment_garment(garment);
-  const std::vector<PartSkeleton> skeletons = extract_limb_skeletons(garment, seg.vertex_parts);
-  const SkeletonDriving d = SkeletonDriver(garment, seg, skeletons).drive(s_body->joints);
+  const InPlaceDrive run = drive_in_place(path, nullptr);
+  const Mesh& garment = run.garment;
+  const GarmentSegmentation& seg = run.seg;
+  const SkeletonDriving& d = run.driving;
   ASSERT_EQ(d.positions.size(), garment.positions.size());
   const std::size_t nv = garment.vertex_count();
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();

@@ -152,23 +152,11 @@ TEST(ClothImplicitTwoLevel, ConjugateGradientMatchesADenseSolveAndBlockJacobi) {
   const std::size_t nv = c.adjacency.particle_count();
   ImplicitWorkspace w;
   assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, 0.005f, w.system, false);
-  std::vector<std::size_t> free_rows;
-  for (std::size_t i = 0; i < nv; ++i)
-    if (w.system.free[i])
-      for (std::size_t k = 0; k < 3; ++k)
-        free_rows.push_back(3 * i + k);
+  const DenseFreeSystem dense = dense_free_system(w.system, c.adjacency);
+  const std::vector<std::size_t>& free_rows = dense.free_rows;
   const auto n = static_cast<Eigen::Index>(free_rows.size());
-  Eigen::MatrixXd A(n, n);
-  Eigen::VectorXd b(n);
-  std::vector<float> unit(3 * nv, 0.0f), column;
-  for (Eigen::Index col = 0; col < n; ++col) {
-    unit[free_rows[std::size_t(col)]] = 1.0f;
-    implicit_system_multiply(w.system, c.adjacency, unit, column);
-    unit[free_rows[std::size_t(col)]] = 0.0f;
-    for (Eigen::Index row = 0; row < n; ++row)
-      A(row, col) = column[free_rows[std::size_t(row)]];
-    b(col) = w.system.rhs[free_rows[std::size_t(col)]];
-  }
+  const Eigen::MatrixXd& A = dense.A;
+  const Eigen::VectorXd& b = dense.b;
   const Eigen::VectorXd exact = A.ldlt().solve(b);
   const ImplicitSolveReport r = solve_implicit_system(c.adjacency, two_level(1e-6, 500), w, false);
   EXPECT_TRUE(r.converged) << r.relative_residual;

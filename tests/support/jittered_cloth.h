@@ -10,8 +10,11 @@
 #include <random>
 #include <vector>
 
+#include <Eigen/Dense>
+
 #include "geometry/mesh/primitives.h"
 #include "kernels/cloth_gather.h"
+#include "kernels/cloth_implicit.h"
 #include "kernels/cloth_springs.h"
 
 namespace vfit {
@@ -46,6 +49,37 @@ inline JitteredCloth jittered_cloth(int n, unsigned seed, float mass) {
   c.particles.inverse_masses[0] = c.particles.inverse_masses[std::size_t(n - 1)] = 0.0f;
   c.particles.global_damping = 0.5f;
   return c;
+}
+
+/// An assembled implicit system over its free rows, in double, built column by column from
+/// implicit_system_multiply() of unit vectors: the oracle the CG solves are checked against.
+struct DenseFreeSystem {
+  std::vector<std::size_t> free_rows; ///< the free particles' 3 components each, ascending
+  Eigen::MatrixXd A;                  ///< #free × #free
+  Eigen::VectorXd b;                  ///< the right-hand side on the free rows
+};
+
+/// See DenseFreeSystem; `system` assembled over `adjacency`.
+inline DenseFreeSystem dense_free_system(const ImplicitSystem& system, const SpringAdjacency& adjacency) {
+  const std::size_t nv = adjacency.particle_count();
+  DenseFreeSystem d;
+  for (std::size_t i = 0; i < nv; ++i)
+    if (system.free[i])
+      for (std::size_t k = 0; k < 3; ++k)
+        d.free_rows.push_back(3 * i + k);
+  const auto n = static_cast<Eigen::Index>(d.free_rows.size());
+  d.A.resize(n, n);
+  d.b.resize(n);
+  std::vector<float> unit(3 * nv, 0.0f), column;
+  for (Eigen::Index col = 0; col < n; ++col) {
+    unit[d.free_rows[std::size_t(col)]] = 1.0f;
+    implicit_system_multiply(system, adjacency, unit, column);
+    unit[d.free_rows[std::size_t(col)]] = 0.0f;
+    for (Eigen::Index row = 0; row < n; ++row)
+      d.A(row, col) = column[d.free_rows[std::size_t(row)]];
+    d.b(col) = system.rhs[d.free_rows[std::size_t(col)]];
+  }
+  return d;
 }
 
 } // namespace vfit
