@@ -16,24 +16,6 @@ namespace {
 
 using Cloth = JitteredCloth; // tests/support/jittered_cloth.h
 
-ImplicitConstraints random_constraints(const Cloth& c, unsigned seed) {
-  const std::size_t nv = c.adjacency.particle_count();
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> gauss(0.0f, 1.0f);
-  ImplicitConstraints k;
-  k.normals.assign(3 * nv, 0.0f);
-  k.targets.assign(nv, 0.0f);
-  for (std::size_t i = 0; i < nv; i += 3) {
-    if (c.particles.inverse_masses[i] == 0.0f) continue;
-    Eigen::Vector3f n(gauss(rng), gauss(rng), gauss(rng));
-    n.normalize();
-    for (int a = 0; a < 3; ++a)
-      k.normals[3 * i + std::size_t(a)] = n[a];
-    k.targets[i] = 0.1f;
-  }
-  return k;
-}
-
 // Dense 3·#V matrices of the filter S, the filtered operator S·A·S and the preconditioner M⁻¹
 // (columns by apply_implicit_preconditioner on unit vectors).
 struct Dense {
@@ -86,7 +68,7 @@ TEST(ClothImplicitTwoLevel, PreconditionerIsItsDefinitionAndSymmetricPositiveDef
   ImplicitSolveOptions o;
   o.preconditioner = ImplicitPreconditioner::TWO_LEVEL;
   o.aggregate_particles = 16;
-  const ImplicitConstraints k = random_constraints(c, 22u);
+  const ImplicitConstraints k = random_constraints(c, 22u, 0.1f);
   for (const ImplicitConstraints* constraints : {static_cast<const ImplicitConstraints*>(nullptr), &k}) {
     ImplicitWorkspace w;
     assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, 0.005f, w.system, false);
@@ -167,7 +149,7 @@ TEST(ClothImplicitTwoLevel, ConjugateGradientMatchesADenseSolveAndBlockJacobi) {
   for (std::size_t k = 0; k < 3; ++k)
     EXPECT_EQ(w.dv[k], 0.0f); // pinned
 
-  const ImplicitConstraints k = random_constraints(c, 4u);
+  const ImplicitConstraints k = random_constraints(c, 4u, 0.1f);
   ImplicitWorkspace wb;
   wb.system = w.system;
   const ImplicitSolveReport rt = solve_implicit_system(c.adjacency, two_level(1e-6, 500), w, false, &k);
@@ -218,7 +200,7 @@ TEST(ClothImplicitTwoLevel, FewerIterationsThanBlockJacobiOnARefinedGrid) {
 // the soft one (heavier particles: fewer) it stays block Jacobi, bit for bit.
 TEST(ClothImplicitTwoLevel, TbbEqualsSerialBitForBitAndAutoSwitchesOnStiffCloth) {
   const Cloth c = jittered_cloth(120, 5u, 1e-4f); // 14,400 particles: several chunks and aggregate blocks
-  const ImplicitConstraints k = random_constraints(c, 6u);
+  const ImplicitConstraints k = random_constraints(c, 6u, 0.1f);
   for (const ImplicitPreconditioner p : {ImplicitPreconditioner::TWO_LEVEL, ImplicitPreconditioner::AUTO})
     for (const ImplicitConstraints* constraints : {static_cast<const ImplicitConstraints*>(nullptr), &k}) {
       std::vector<float> xs = c.x, vs = c.v, xt = c.x, vt = c.v;

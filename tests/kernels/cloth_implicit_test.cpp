@@ -306,27 +306,6 @@ TEST(ClothImplicit, FanWithARowLongerThanABlockAssemblesAndSolves) {
   EXPECT_LT(std::sqrt(residual), 1e-4 * std::sqrt(rhs));
 }
 
-// Random unit normals and targets on every third free particle: the contact constraints of a
-// generic state.
-ImplicitConstraints random_constraints(const Cloth& c, unsigned seed) {
-  const std::size_t nv = c.adjacency.particle_count();
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> gauss(0.0f, 1.0f);
-  std::uniform_real_distribution<float> target(-0.2f, 0.2f);
-  ImplicitConstraints k;
-  k.normals.assign(3 * nv, 0.0f);
-  k.targets.assign(nv, 0.0f);
-  for (std::size_t i = 0; i < nv; i += 3) {
-    if (c.particles.inverse_masses[i] == 0.0f) continue;
-    Eigen::Vector3f n(gauss(rng), gauss(rng), gauss(rng));
-    n.normalize();
-    for (int a = 0; a < 3; ++a)
-      k.normals[3 * i + std::size_t(a)] = n[a];
-    k.targets[i] = target(rng);
-  }
-  return k;
-}
-
 // B&W's filtered CG with contact constraints against the dense KKT system
 //   [A Cᵀ; C 0]·[Δv; λ] = [b; t]   (C: one row nᵀ per constrained particle)
 // solved by LU in double: the constrained components equal their targets (to float rounding of

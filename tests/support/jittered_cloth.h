@@ -7,6 +7,7 @@
 /// pinned corners (0 and n − 1) and a global damping of 0.5. The same seed gives the same cloth.
 
 #include <cstddef>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -80,6 +81,29 @@ inline DenseFreeSystem dense_free_system(const ImplicitSystem& system, const Spr
     d.b(col) = system.rhs[d.free_rows[std::size_t(col)]];
   }
   return d;
+}
+
+/// Contact constraints of a generic state: a random unit normal (seeded) on every third free
+/// particle, with a velocity target (m/s) drawn uniformly in [−0.2, 0.2] per constraint, or
+/// `target` on every one when given; zero normals elsewhere.
+inline ImplicitConstraints random_constraints(const JitteredCloth& c, unsigned seed,
+                                              std::optional<float> target = std::nullopt) {
+  const std::size_t nv = c.adjacency.particle_count();
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  std::uniform_real_distribution<float> drawn(-0.2f, 0.2f);
+  ImplicitConstraints k;
+  k.normals.assign(3 * nv, 0.0f);
+  k.targets.assign(nv, 0.0f);
+  for (std::size_t i = 0; i < nv; i += 3) {
+    if (c.particles.inverse_masses[i] == 0.0f) continue;
+    Eigen::Vector3f n(gauss(rng), gauss(rng), gauss(rng));
+    n.normalize();
+    for (int a = 0; a < 3; ++a)
+      k.normals[3 * i + std::size_t(a)] = n[a];
+    k.targets[i] = target ? *target : drawn(rng);
+  }
+  return k;
 }
 
 } // namespace vfit
