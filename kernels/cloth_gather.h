@@ -85,24 +85,26 @@ inline bool avx512_available() {
   return available;
 }
 
-// xo[c][l] = x[offsets[l] + c] and vo[c][l] = v[offsets[l] + c] for the 16 lanes l and c < 3:
-// the rows x_j and v_j of 16 scattered particles (offsets[l] = 3·j) transposed into structure
-// of arrays. Each row is one masked 16-byte load (x, y, z; the fourth float is masked off, so
-// the last particle's row reads nothing past the array: a masked-off element is never
-// accessed) straight into its 128-bit lane of a register: row 4q + r goes to lane q of
-// register r. A 4 × 4 transpose inside the lanes (six unpacks per array) then gives x, y and z
-// of the 16 lanes in order. 32 loads and 12 shuffles instead of 96 scalar loads and the inserts
-// that assemble them: the same values. Both arrays in one loop, so each offset is loaded once
-// and the address is one base register per array, the offset scaled by 4 and a constant
-// displacement (a lane's load starts 4q floats before its row: integer arithmetic, as that
-// address may lie before the array).
-VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* x, const float* v, const std::int32_t* offsets,
-                                                   float xo[3][16], float vo[3][16]) {
-  const auto xb = reinterpret_cast<std::uintptr_t>(x), vb = reinterpret_cast<std::uintptr_t>(v);
-  __m512 rx[4], rv[4];
-  for (int k = 0; k < 4; ++k) {
-    rx[k] = _mm512_setzero_ps();
-    rv[k] = _mm512_setzero_ps();
+// outs[a][c][l] = arrays[a][offsets[l] + c] for the N arrays a, the 16 lanes l and c < 3: the
+// rows of 16 scattered particles (offsets[l] = 3·j) of each array transposed into structure of
+// arrays. Each row is one masked 16-byte load (x, y, z; the fourth float is masked off, so the
+// last particle's row reads nothing past the array: a masked-off element is never accessed)
+// straight into its 128-bit lane of a register: row 4q + r goes to lane q of register r. A
+// 4 × 4 transpose inside the lanes (six unpacks per array) then gives x, y and z of the 16 lanes
+// in order. 16 loads and 6 shuffles per array instead of 48 scalar loads and the inserts that
+// assemble them: the same values. All arrays in one loop, so each offset is loaded once and the
+// address is one base register per array, the offset scaled by 4 and a constant displacement
+// (a lane's load starts 4q floats before its row: integer arithmetic, as that address may lie
+// before the array).
+template <int N>
+VFIT_CLOTH_AVX512_TARGET inline void gather_rows16_of(const float* const (&arrays)[N], const std::int32_t* offsets,
+                                                      float (*const (&outs)[N])[16]) {
+  std::uintptr_t base[N];
+  __m512 rows[N][4];
+  for (int a = 0; a < N; ++a) {
+    base[a] = reinterpret_cast<std::uintptr_t>(arrays[a]);
+    for (int k = 0; k < 4; ++k)
+      rows[a][k] = _mm512_setzero_ps();
   }
   // No lambdas: they would not inherit the target.
   for (int q = 0; q < 4; ++q)
@@ -110,16 +112,14 @@ VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* x, const float* 
       const auto bytes = static_cast<std::uintptr_t>(static_cast<std::intptr_t>(offsets[4 * q + k])) * sizeof(float) -
                          std::uintptr_t(16 * q);
       const auto mask = static_cast<__mmask16>(0x7u << (4 * q));
-      rx[k] = _mm512_mask_loadu_ps(rx[k], mask, reinterpret_cast<const void*>(xb + bytes));
-      rv[k] = _mm512_mask_loadu_ps(rv[k], mask, reinterpret_cast<const void*>(vb + bytes));
+      for (int a = 0; a < N; ++a)
+        rows[a][k] = _mm512_mask_loadu_ps(rows[a][k], mask, reinterpret_cast<const void*>(base[a] + bytes));
     }
   // The zero-masking forms with a full mask are the plain instructions; the unmasked
   // intrinsics start from _mm512_undefined_ps(), which GCC 12 warns of (-Wmaybe-uninitialized).
   constexpr __mmask16 ALL = 0xffff;
   constexpr __mmask8 ALL8 = 0xff;
-  const __m512* rows[2] = {rx, rv};
-  float(*outs[2])[16] = {xo, vo};
-  for (int a = 0; a < 2; ++a) {
+  for (int a = 0; a < N; ++a) {
     const __m512* r = rows[a];
     const __m512d t0 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[0], r[1])); // x0 x1 y0 y1 a lane
     const __m512d t1 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(ALL, r[2], r[3])); // x2 x3 y2 y3
@@ -129,6 +129,19 @@ VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* x, const float* 
     _mm512_store_ps(outs[a][1], _mm512_castpd_ps(_mm512_maskz_unpackhi_pd(ALL8, t0, t1)));
     _mm512_store_ps(outs[a][2], _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(ALL8, t2, t3)));
   }
+}
+
+// xo[c][l] = x[offsets[l] + c] and vo[c][l] = v[offsets[l] + c] (gather_rows16_of): the rows
+// x_j and v_j of the 16 neighbours of an RK4 column.
+VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* x, const float* v, const std::int32_t* offsets,
+                                                   float xo[3][16], float vo[3][16]) {
+  gather_rows16_of<2>({x, v}, offsets, {xo, vo});
+}
+
+// po[c][l] = p[offsets[l] + c] (gather_rows16_of): the rows p_j of the 16 neighbours of a
+// column of the implicit solver's product.
+VFIT_CLOTH_AVX512_TARGET inline void gather_rows16(const float* p, const std::int32_t* offsets, float po[3][16]) {
+  gather_rows16_of<1>({p}, offsets, {po});
 }
 
 // The permutation indices of load_rows16 / store_rows16: _mm512_permutex2var_ps picks element

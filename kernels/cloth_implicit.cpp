@@ -61,6 +61,11 @@ struct SliceProduct {
   alignas(64) float p[3][CLOTH_SLICE_WIDTH]; // p_i of each lane
 };
 
+//
+// ROW_LOADS (VFIT_CLOTH_AVX512_TARGET kernels only): each column's 16 neighbour rows p_j are
+// loaded by one masked vector load each (gather_rows16) instead of 48 scalar loads and their
+// inserts, which bound the pass: the same values, so the same bits.
+template <bool ROW_LOADS = false>
 VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjacency& adj, const float* p,
                                      std::size_t slice, SliceProduct& out) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
@@ -82,6 +87,21 @@ VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjace
   for (std::size_t column = first; column < end; column += W) {
     const std::int32_t* neighbors = adj.slice_neighbor_offsets.data() + column;
     const float* springs = s.sliced_springs.data() + column;
+#if VFIT_CLOTH_AVX512
+    if constexpr (ROW_LOADS) {
+      static_assert(W == 16, "gather_rows16 fills 16 lanes");
+      alignas(64) float pj[3][W];
+      gather_rows16(p, neighbors, pj);
+      for (std::size_t l = 0; l < W; ++l) {
+        const vfit_vec3 d{out.p[0][l] - pj[0][l], out.p[1][l] - pj[1][l], out.p[2][l] - pj[2][l]};
+        const vfit_vec3 t = spring_times(springs, slots, l, d);
+        out.r[0][l] += t.x;
+        out.r[1][l] += t.y;
+        out.r[2][l] += t.z;
+      }
+      continue;
+    }
+#endif
     for (std::size_t l = 0; l < W; ++l) {
       const std::int32_t j3 = neighbors[l];
       const vfit_vec3 d{out.p[0][l] - p[j3], out.p[1][l] - p[j3 + 1], out.p[2][l] - p[j3 + 2]};
@@ -143,9 +163,11 @@ VFIT_CLOTH_INLINE void filter_slice(const ImplicitSystem& s, const float* normal
 // The first pass of a CG iteration over the particles [begin, end) (whole slices, or up to
 // #V): p = z + β·p and q = S·A·z + β·q in place; returns Σ p·q over the range (double, in
 // lane_sum's order). The per-particle work of a slice runs lane-parallel (it vectorises).
-VFIT_CLOTH_MULTIVERSION double direction_range(const ImplicitSystem& s, const SpringAdjacency& adj,
-                                               const float* normals, const float* z, float beta, float* p, float* q,
-                                               std::size_t begin, std::size_t end) {
+// ROW_LOADS: slice_product's row loads (the AVX-512 kernel direction_range_rows).
+template <bool ROW_LOADS>
+VFIT_CLOTH_INLINE double direction_slices(const ImplicitSystem& s, const SpringAdjacency& adj, const float* normals,
+                                          const float* z, float beta, float* p, float* q, std::size_t begin,
+                                          std::size_t end) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
   assert(begin % W == 0 && "a range of whole slices");
   alignas(64) double pq_lanes[W] = {};
@@ -153,7 +175,7 @@ VFIT_CLOTH_MULTIVERSION double direction_range(const ImplicitSystem& s, const Sp
   SliceDots lanes;
   for (std::size_t first = begin; first < end; first += W) {
     const std::size_t count = std::min(W, end - first);
-    slice_product(s, adj, z, first / W, product);
+    slice_product<ROW_LOADS>(s, adj, z, first / W, product);
     for (std::size_t c = 0; c < 3; ++c)
       std::copy_n(product.r[c], W, lanes.a[c]);
     filter_slice(s, normals, first, count, lanes); // zero for a pinned row
@@ -173,6 +195,29 @@ VFIT_CLOTH_MULTIVERSION double direction_range(const ImplicitSystem& s, const Sp
       pq_lanes[l] += lanes.first[l];
   }
   return lane_sum(pq_lanes);
+}
+
+VFIT_CLOTH_MULTIVERSION double direction_range_lanes(const ImplicitSystem& s, const SpringAdjacency& adj,
+                                                     const float* normals, const float* z, float beta, float* p,
+                                                     float* q, std::size_t begin, std::size_t end) {
+  return direction_slices<false>(s, adj, normals, z, beta, p, q, begin, end);
+}
+
+#if VFIT_CLOTH_AVX512
+VFIT_CLOTH_AVX512_TARGET double direction_range_rows(const ImplicitSystem& s, const SpringAdjacency& adj,
+                                                     const float* normals, const float* z, float beta, float* p,
+                                                     float* q, std::size_t begin, std::size_t end) {
+  return direction_slices<true>(s, adj, normals, z, beta, p, q, begin, end);
+}
+#endif
+
+// direction_slices() in the variant this CPU runs fastest: row loads where AVX-512 is there.
+double direction_range(const ImplicitSystem& s, const SpringAdjacency& adj, const float* normals, const float* z,
+                       float beta, float* p, float* q, std::size_t begin, std::size_t end) {
+#if VFIT_CLOTH_AVX512
+  if (avx512_available()) return direction_range_rows(s, adj, normals, z, beta, p, q, begin, end);
+#endif
+  return direction_range_lanes(s, adj, normals, z, beta, p, q, begin, end);
 }
 
 // The second pass of a CG iteration over the particles [begin, end): Δv += α·p, r −= α·q,
