@@ -180,6 +180,16 @@ VFIT_CLOTH_AVX512_TARGET inline void load_rows16(const float* s, float out[3][16
   }
 }
 
+// out[c][l] = s[6l + c] for the 16 lanes and c < 6: 16 symmetric 3 × 3 blocks stored six
+// floats each (xx, xy, xz, yy, yz, zz; ImplicitSystem::particle_blocks) into structure of
+// arrays, one 16-lane gather per component (the full-mask form: the unmasked intrinsic starts
+// from an undefined register, which GCC 12 warns of).
+VFIT_CLOTH_AVX512_TARGET inline void load_sym_rows16(const float* s, float out[6][16]) {
+  const __m512i six = _mm512_set_epi32(90, 84, 78, 72, 66, 60, 54, 48, 42, 36, 30, 24, 18, 12, 6, 0);
+  for (int c = 0; c < 6; ++c)
+    _mm512_store_ps(out[c], _mm512_mask_i32gather_ps(_mm512_setzero_ps(), 0xffff, six, s + c, 4));
+}
+
 // d[3l + c] = in[c][l] for the 16 lanes: load_rows16 backwards.
 VFIT_CLOTH_AVX512_TARGET inline void store_rows16(float* d, const float in[3][16]) {
   const __m512 x = _mm512_load_ps(in[0]), y = _mm512_load_ps(in[1]), z = _mm512_load_ps(in[2]);

@@ -70,17 +70,34 @@ VFIT_CLOTH_INLINE void slice_product(const ImplicitSystem& s, const SpringAdjace
                                      std::size_t slice, SliceProduct& out) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
   const std::size_t last = adj.particle_count() - 1;
-  for (std::size_t l = 0; l < W; ++l) {
-    const std::size_t i = std::min(W * slice + l, last);
-    const vfit_vec3 pi = load3(p, i);
-    const vfit_vec3 r = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), pi);
-    out.r[0][l] = r.x;
-    out.r[1][l] = r.y;
-    out.r[2][l] = r.z;
-    out.p[0][l] = pi.x;
-    out.p[1][l] = pi.y;
-    out.p[2][l] = pi.z;
+#if VFIT_CLOTH_AVX512
+  if constexpr (ROW_LOADS) {
+    if (W * slice + W <= last + 1) { // a full slice: its rows of p and D are contiguous
+      load_rows16(p + 3 * W * slice, out.p);
+      alignas(64) float d[6][W];
+      load_sym_rows16(s.particle_blocks.data() + 6 * W * slice, d);
+      for (std::size_t l = 0; l < W; ++l) {
+        const vfit_vec3 r = vfit_sym3_apply(vfit_sym3{d[0][l], d[1][l], d[2][l], d[3][l], d[4][l], d[5][l]},
+                                            vfit_vec3{out.p[0][l], out.p[1][l], out.p[2][l]});
+        out.r[0][l] = r.x;
+        out.r[1][l] = r.y;
+        out.r[2][l] = r.z;
+      }
+    }
   }
+  if (!ROW_LOADS || W * slice + W > last + 1)
+#endif
+    for (std::size_t l = 0; l < W; ++l) {
+      const std::size_t i = std::min(W * slice + l, last);
+      const vfit_vec3 pi = load3(p, i);
+      const vfit_vec3 r = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), pi);
+      out.r[0][l] = r.x;
+      out.r[1][l] = r.y;
+      out.r[2][l] = r.z;
+      out.p[0][l] = pi.x;
+      out.p[1][l] = pi.y;
+      out.p[2][l] = pi.z;
+    }
   const std::size_t slots = adj.slice_neighbor_offsets.size();
   const auto first = static_cast<std::size_t>(adj.slice_offsets[slice]);
   const auto end = static_cast<std::size_t>(adj.slice_offsets[slice + 1]);
@@ -182,6 +199,33 @@ VFIT_CLOTH_INLINE double direction_slices(const ImplicitSystem& s, const SpringA
     float* pb = p + 3 * first;
     float* qb = q + 3 * first;
     const float* zb = z + 3 * first;
+#if VFIT_CLOTH_AVX512
+    if constexpr (ROW_LOADS) {
+      if (count == W) { // the same operations on the rows transposed (load_rows16, store_rows16)
+        alignas(64) float zs[3][W], ps[3][W], qs[3][W];
+        load_rows16(zb, zs);
+        load_rows16(pb, ps);
+        load_rows16(qb, qs);
+        for (std::size_t l = 0; l < W; ++l) {
+          const vfit_vec3 pn{zs[0][l] + beta * ps[0][l], zs[1][l] + beta * ps[1][l], zs[2][l] + beta * ps[2][l]};
+          const vfit_vec3 qn{lanes.a[0][l] + beta * qs[0][l], lanes.a[1][l] + beta * qs[1][l],
+                             lanes.a[2][l] + beta * qs[2][l]};
+          ps[0][l] = pn.x;
+          ps[1][l] = pn.y;
+          ps[2][l] = pn.z;
+          qs[0][l] = qn.x;
+          qs[1][l] = qn.y;
+          qs[2][l] = qn.z;
+          lanes.first[l] = dot3(pn, qn);
+        }
+        store_rows16(pb, ps);
+        store_rows16(qb, qs);
+        for (std::size_t l = 0; l < W; ++l)
+          pq_lanes[l] += lanes.first[l];
+        continue;
+      }
+    }
+#endif
     for (std::size_t l = 0; l < count; ++l) {
       const vfit_vec3 pn{zb[3 * l] + beta * pb[3 * l], zb[3 * l + 1] + beta * pb[3 * l + 1],
                          zb[3 * l + 2] + beta * pb[3 * l + 2]};
@@ -222,10 +266,13 @@ double direction_range(const ImplicitSystem& s, const SpringAdjacency& adj, cons
 
 // The second pass of a CG iteration over the particles [begin, end): Δv += α·p, r −= α·q,
 // z = S·P⁻¹·r; writes r·r and r·z over the range to rr and rz (double, in lane_sum's order),
-// lane-parallel per slice as direction_range.
-VFIT_CLOTH_MULTIVERSION void update_range(const ImplicitSystem& s, const float* normals, float alpha, const float* p,
-                                          const float* q, float* dv, float* r, float* z, std::size_t begin,
-                                          std::size_t end, double& rr, double& rz) {
+// lane-parallel per slice as direction_range. ROW_LOADS (the AVX-512 kernel update_range_rows):
+// a full slice's rows of r and z are transposed by load_rows16 and store_rows16 instead of
+// strided scalar loads and stores: the same operations, so the same bits.
+template <bool ROW_LOADS>
+VFIT_CLOTH_INLINE void update_slices(const ImplicitSystem& s, const float* normals, float alpha, const float* p,
+                                     const float* q, float* dv, float* r, float* z, std::size_t begin, std::size_t end,
+                                     double& rr, double& rz) {
   constexpr std::size_t W = CLOTH_SLICE_WIDTH;
   const float* precond = s.preconditioner.data();
   SliceDots lanes;
@@ -236,6 +283,35 @@ VFIT_CLOTH_MULTIVERSION void update_range(const ImplicitSystem& s, const float* 
       dv[k] += alpha * p[k];
       r[k] -= alpha * q[k];
     }
+#if VFIT_CLOTH_AVX512
+    if constexpr (ROW_LOADS) {
+      if (count == W) {
+        alignas(64) float rs[3][W];
+        load_rows16(r + 3 * first, rs);
+        const float* pc = precond + sliced_sym_index(first); // the slice's 6 × W components
+        for (std::size_t l = 0; l < W; ++l) {
+          const vfit_vec3 zi =
+              vfit_sym3_apply(vfit_sym3{pc[l], pc[W + l], pc[2 * W + l], pc[3 * W + l], pc[4 * W + l], pc[5 * W + l]},
+                              vfit_vec3{rs[0][l], rs[1][l], rs[2][l]});
+          lanes.a[0][l] = zi.x;
+          lanes.a[1][l] = zi.y;
+          lanes.a[2][l] = zi.z;
+        }
+        filter_slice(s, normals, first, count, lanes);
+        store_rows16(z + 3 * first, lanes.a);
+        for (std::size_t l = 0; l < W; ++l) {
+          const vfit_vec3 ri{rs[0][l], rs[1][l], rs[2][l]}, zi{lanes.a[0][l], lanes.a[1][l], lanes.a[2][l]};
+          lanes.first[l] = dot3(ri, ri);
+          lanes.second[l] = dot3(ri, zi);
+        }
+        for (std::size_t l = 0; l < W; ++l) {
+          rr_lanes[l] += lanes.first[l];
+          rz_lanes[l] += lanes.second[l];
+        }
+        continue;
+      }
+    }
+#endif
     for (std::size_t l = 0; l < count; ++l) {
       const vfit_vec3 zi = vfit_sym3_apply(load_sliced_sym(precond, first + l), load3(r, first + l));
       lanes.a[0][l] = zi.x;
@@ -256,6 +332,32 @@ VFIT_CLOTH_MULTIVERSION void update_range(const ImplicitSystem& s, const float* 
   }
   rr = lane_sum(rr_lanes);
   rz = lane_sum(rz_lanes);
+}
+
+VFIT_CLOTH_MULTIVERSION void update_range_lanes(const ImplicitSystem& s, const float* normals, float alpha,
+                                                const float* p, const float* q, float* dv, float* r, float* z,
+                                                std::size_t begin, std::size_t end, double& rr, double& rz) {
+  update_slices<false>(s, normals, alpha, p, q, dv, r, z, begin, end, rr, rz);
+}
+
+#if VFIT_CLOTH_AVX512
+VFIT_CLOTH_AVX512_TARGET void update_range_rows(const ImplicitSystem& s, const float* normals, float alpha,
+                                                const float* p, const float* q, float* dv, float* r, float* z,
+                                                std::size_t begin, std::size_t end, double& rr, double& rz) {
+  update_slices<true>(s, normals, alpha, p, q, dv, r, z, begin, end, rr, rz);
+}
+#endif
+
+// update_slices() in the variant this CPU runs fastest (as direction_range).
+void update_range(const ImplicitSystem& s, const float* normals, float alpha, const float* p, const float* q,
+                  float* dv, float* r, float* z, std::size_t begin, std::size_t end, double& rr, double& rz) {
+#if VFIT_CLOTH_AVX512
+  if (avx512_available()) {
+    update_range_rows(s, normals, alpha, p, q, dv, r, z, begin, end, rr, rz);
+    return;
+  }
+#endif
+  update_range_lanes(s, normals, alpha, p, q, dv, r, z, begin, end, rr, rz);
 }
 
 bool contact_row(const ImplicitContactSprings& c, std::size_t i) {
