@@ -512,6 +512,69 @@ ImplicitCoarseSpace* coarse_level(const SpringAdjacency& adjacency, const Implic
   return factor_coarse_space(c, w.system, adjacency, normals, parallel) ? &c : nullptr;
 }
 
+// ImplicitSolveOptions::translation_start: w.dv = P·c on the free rows, c = (Pᵀ·A·P)⁻¹·Pᵀ·b
+// (P: a common translation of the free particles). Row i of A·P·c is D_i·c plus S_e·c for each
+// spring to a pinned neighbour (the springs between free particles see no relative motion), so
+// Pᵀ·A·P = Σ_free (D_i + Σ_{e: j pinned} S_e). Sums per chunk in double, added in chunk order
+// (the same bits for any thread count). False, and w.dv left zero, when no row is free or
+// Pᵀ·A·P is not safely positive definite.
+bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, ImplicitWorkspace& w, bool parallel) {
+  const std::size_t nv = adj.particle_count();
+  const std::size_t chunks = chunk_count(nv);
+  constexpr std::size_t K = 9; // Pᵀ·b (3), then Pᵀ·A·P (xx, xy, xz, yy, yz, zz)
+  std::vector<double> part(K * chunks, 0.0);
+  const std::size_t slots = adj.slice_neighbor_offsets.size();
+  run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
+    double* q = part.data() + K * c;
+    for (std::size_t i = b; i < e; ++i) {
+      if (!s.free[i]) continue;
+      const vfit_vec3 bi = load3(s.rhs.data(), i);
+      q[0] += bi.x;
+      q[1] += bi.y;
+      q[2] += bi.z;
+      vfit_sym3 m = load_sym(s.particle_blocks.data(), i);
+      std::size_t slot = static_cast<std::size_t>(adj.slice_offsets[i / CLOTH_SLICE_WIDTH]) + i % CLOTH_SLICE_WIDTH;
+      for (std::int32_t k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k, slot += CLOTH_SLICE_WIDTH) {
+        if (s.free[static_cast<std::size_t>(adj.neighbors[k])]) continue;
+        const float* sp = s.sliced_springs.data();
+        const vfit_vec3 u{sp[slot], sp[slots + slot], sp[2 * slots + slot]};
+        const float a = sp[3 * slots + slot], t = sp[4 * slots + slot];
+        m.xx += a * u.x * u.x + t;
+        m.xy += a * u.x * u.y;
+        m.xz += a * u.x * u.z;
+        m.yy += a * u.y * u.y + t;
+        m.yz += a * u.y * u.z;
+        m.zz += a * u.z * u.z + t;
+      }
+      q[3] += m.xx;
+      q[4] += m.xy;
+      q[5] += m.xz;
+      q[6] += m.yy;
+      q[7] += m.yz;
+      q[8] += m.zz;
+    }
+  });
+  double t[K] = {};
+  for (std::size_t c = 0; c < chunks; ++c)
+    for (std::size_t k = 0; k < K; ++k)
+      t[k] += part[K * c + k];
+  // c = M⁻¹·(Pᵀ·b) by the adjugate of the symmetric M (double).
+  const double xx = t[3], xy = t[4], xz = t[5], yy = t[6], yz = t[7], zz = t[8];
+  const double cxx = yy * zz - yz * yz, cxy = xz * yz - xy * zz, cxz = xy * yz - xz * yy;
+  const double det = xx * cxx + xy * cxy + xz * cxz;
+  if (!(xx > 0) || !(det > 1e-12 * xx * xx * xx)) return false; // nothing free, or not safely definite
+  const double cyy = xx * zz - xz * xz, cyz = xy * xz - xx * yz, czz = xx * yy - xy * xy;
+  const double c[3] = {(cxx * t[0] + cxy * t[1] + cxz * t[2]) / det, (cxy * t[0] + cyy * t[1] + cyz * t[2]) / det,
+                       (cxz * t[0] + cyz * t[1] + czz * t[2]) / det};
+  if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2])) return false;
+  const vfit_vec3 cf{static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2])};
+  run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i)
+      if (s.free[i]) store3(w.dv.data(), i, cf);
+  });
+  return true;
+}
+
 ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
                                  ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints,
                                  bool reuse_coarse) {
@@ -525,6 +588,7 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   const bool warm = options.warm_start && w.dv.size() == 3 * nv && !constrained;
   for (auto* buf : {&w.dv, &w.r, &w.z, &w.p, &w.q})
     if (!warm || buf != &w.dv) buf->assign(3 * nv, 0.0f);
+  bool translated = options.translation_start && !warm && !constrained && translation_start(s, adjacency, w, parallel);
   w.partials.assign(2 * chunks, 0.0);
   float* dv = w.dv.data();
   float* r = w.r.data();
@@ -550,29 +614,44 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     });
   }
   // r = S·(b − A·Δv₀), z = S·P⁻¹·r; partials: |S·b|², r·z.
-  run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
-    double bb = 0, rz = 0;
-    for (std::size_t i = b; i < e; ++i) {
-      const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
-      vfit_vec3 ri = bi;
-      if ((constrained || warm) && s.free[i])
-        ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), row_times(s, adjacency, dv, i)));
-      const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sliced_sym(precond, i), ri));
-      store3(r, i, ri);
-      store3(z, i, zi);
-      bb += dot3(bi, bi);
-      rz += dot3(ri, zi);
+  const auto initial_pass = [&] {
+    run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
+      double bb = 0, rz = 0;
+      for (std::size_t i = b; i < e; ++i) {
+        const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
+        vfit_vec3 ri = bi;
+        if ((constrained || warm || translated) && s.free[i])
+          ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), row_times(s, adjacency, dv, i)));
+        const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sliced_sym(precond, i), ri));
+        store3(r, i, ri);
+        store3(z, i, zi);
+        bb += dot3(bi, bi);
+        rz += dot3(ri, zi);
+      }
+      part[2 * c] = bb;
+      part[2 * c + 1] = rz;
+    });
+  };
+  initial_pass();
+  double rr = 0;
+  for (std::size_t k = 0; k < 3 * nv; ++k)
+    rr += double(r[k]) * r[k];
+  if (translated) {
+    // Kept only where it answers most of the step (see ImplicitSolveOptions::translation_keep).
+    const double keep = options.translation_keep;
+    if (rr > keep * keep * chunk_sum(w.partials, chunks, 2, 0)) {
+      translated = false;
+      w.dv.assign(3 * nv, 0.0f);
+      initial_pass();
+      rr = 0;
+      for (std::size_t k = 0; k < 3 * nv; ++k)
+        rr += double(r[k]) * r[k];
     }
-    part[2 * c] = bb;
-    part[2 * c + 1] = rz;
-  });
+  }
   const double bb = chunk_sum(w.partials, chunks, 2, 0);
   double rz = chunk_sum(w.partials, chunks, 2, 1);
   if (coarse != nullptr) rz += coarse_correct(*coarse, s, normals, r, z, parallel);
   ImplicitSolveReport report;
-  double rr = 0;
-  for (std::size_t k = 0; k < 3 * nv; ++k)
-    rr += double(r[k]) * r[k];
   // The scale of the relative test: |S·b| (the impulse the free directions must balance; |b|
   // instead, which includes the weight the contacts carry, lets the 6,000-vertex tee drape
   // diverge at steps of 1/60 s), or |r₀| when only the constraints drive the solve; with a warm

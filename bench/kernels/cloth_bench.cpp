@@ -448,15 +448,21 @@ BENCHMARK(BM_drape_tee_to_rest_cg_tolerance)
     ->UseRealTime()
     ->Iterations(1);
 
-// The same drape in implicit steps of 1 / the argument s (ClothOptions::implicit_step; the
-// default is 1/120): per-step work (assembly, contact passes) against CG iterations per step.
+// The same drape with ClothOptions::implicit_step = 1 / the argument s (default 1/120).
+// run_to_rest() steps by 0.01 s (or by implicit_step when longer), each split into
+// ⌈0.01 / implicit_step⌉ equal steps: 60 and 90 step by 1/60 and 1/90 s, 100 by 10 ms, 200 (as
+// the default 120) by 5 ms, 300 by 3.3 ms. Per-step work (assembly, contact passes) against CG
+// iterations per step. Measured (stop 21): 1/60 diverges; at 1/90 the tee rests after 3.4
+// simulated s and at 10 ms not within 10 s; run at 1/120 s steps (strides of 1/120 s), it does
+// not rest within 10 s either: a standing two-step jiggle of the resting contacts keeps the mean
+// displacement near 0.0125 mm per 0.01 s after 2 s, above the 0.008 mm threshold.
 void BM_drape_tee_to_rest_step(benchmark::State& state) {
   drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0, false, true, true, 0,
               vfit::ImplicitPreconditioner::BLOCK_JACOBI, 1.0 / double(state.range(1)));
   state.counters["steps_per_s"] = double(state.range(1));
 }
 BENCHMARK(BM_drape_tee_to_rest_step)
-    ->ArgsProduct({{2}, {60, 90, 100, 120, 200, 240}})
+    ->ArgsProduct({{2}, {60, 90, 100, 200, 300}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
@@ -529,3 +535,4 @@ BENCHMARK(BM_rk4_opencl_tee)->Apply(sizes);
 } // namespace
 
 BENCHMARK_MAIN();
+

@@ -219,6 +219,57 @@ TEST(ClothImplicit, SlicedProductEqualsThePerRowReference) {
   EXPECT_GT(nonzero, reference.size() / 2); // a product that is not trivially zero
 }
 
+// ImplicitSolveOptions::translation_start on a cloth in free fall: a 40² grid at its rest
+// shape, at rest, no pins, falling edge-on (gravity along -Z, in the grid's XZ plane, where its
+// springs are stiff). The springs exert nothing and resist no common motion, so the
+// exact step is the common Δv = h·g / (1 + h·μ) (A·1 = m·(1 + h·μ)·1, b = h·m·g). The
+// translation start is that answer (float rounding of the mass sums: relative 1e-5) and the
+// solve ends without an iteration, where block-Jacobi CG from zero needs many (a smooth error
+// leaves one spring ring per iteration) and still stops short of it by up to the 1e-2
+// tolerance. With two corners pinned, the translation is not the answer (‖r₀‖ > 0.1·‖b‖) and
+// the solve starts from zero: the same bits as without the option.
+TEST(ClothImplicit, FreeFallIsSolvedByTheTranslationStart) {
+  const Mesh m = make_grid(40, 40, 1.0f, 1.0f);
+  const std::size_t nv = m.vertex_count();
+  ClothSprings springs = build_cloth_springs(m.position_view(), m.triangle_view());
+  std::fill(springs.stiffness.begin(), springs.stiffness.end(), 400.0f);
+  std::fill(springs.damping.begin(), springs.damping.end(), 0.05f);
+  const SpringAdjacency adj = build_spring_adjacency(springs, nv);
+  std::vector<float> x = m.positions, v(3 * nv, 0.0f);
+  ClothParticles particles;
+  particles.inverse_masses.assign(nv, 1.0f / 2e-5f); // 20 mg: the tee drape's particles
+  particles.global_damping = 0.5f;
+  particles.gravity[1] = 0.0f;
+  particles.gravity[2] = -9.81f;
+  const float h = 0.005f;
+  const auto solve = [&](bool translation, ImplicitWorkspace& w) {
+    assemble_implicit_system(x, v, adj, particles, h, w.system, true);
+    ImplicitSolveOptions o{1e-2, 200};
+    o.translation_start = translation;
+    return solve_implicit_system(adj, o, w, true);
+  };
+  ImplicitWorkspace with, without;
+  const ImplicitSolveReport rw = solve(true, with), ro = solve(false, without);
+  EXPECT_EQ(rw.iterations, 0);
+  EXPECT_GT(ro.iterations, 10);
+  const double exact = h * -9.81 / (1.0 + h * 0.5);
+  double worst_with = 0, worst_without = 0;
+  for (std::size_t i = 0; i < nv; ++i) {
+    EXPECT_NEAR(with.dv[3 * i], 0.0, 1e-9);
+    EXPECT_NEAR(with.dv[3 * i + 1], 0.0, 1e-9);
+    worst_with = std::max(worst_with, std::abs(with.dv[3 * i + 2] - exact));
+    worst_without = std::max(worst_without, std::abs(without.dv[3 * i + 2] - exact));
+  }
+  EXPECT_LT(worst_with, 1e-5 * std::abs(exact));
+  EXPECT_GT(worst_without, 10 * worst_with); // the truncated solve from zero falls short
+
+  particles.inverse_masses[0] = particles.inverse_masses[39] = 0.0f;
+  ImplicitWorkspace pinned_with, pinned_without;
+  const ImplicitSolveReport pw = solve(true, pinned_with), po = solve(false, pinned_without);
+  EXPECT_EQ(pw.iterations, po.iterations);
+  EXPECT_EQ(0, std::memcmp(pinned_with.dv.data(), pinned_without.dv.data(), pinned_with.dv.size() * sizeof(float)));
+}
+
 TEST(ClothImplicit, SlicedBlocksAndPreconditionerFollowTheRows) {
   const Cloth c = jittered_cloth(7, 3u, 2e-3f);
   ImplicitWorkspace w;
