@@ -194,6 +194,7 @@ struct ClothSim::Impl {
   int implicit_step(double h, std::size_t& contacts) {
     ImplicitSolveOptions solve{options.cg_tolerance, options.cg_max_iterations};
     solve.preconditioner = options.cg_preconditioner;
+    solve.per_patch = options.cg_per_patch;
     const ImplicitConstraints* c = nullptr;
     const ImplicitContactSprings* cs = nullptr;
     const float hf = static_cast<float>(h);

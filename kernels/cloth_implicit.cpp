@@ -590,6 +590,7 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     if (!warm || buf != &w.dv) buf->assign(3 * nv, 0.0f);
   bool translated = options.translation_start && !warm && !constrained && translation_start(s, adjacency, w, parallel);
   w.partials.assign(2 * chunks, 0.0);
+  w.patches.assign(2 * chunks, 0.0);
   float* dv = w.dv.data();
   float* r = w.r.data();
   float* z = w.z.data();
@@ -613,10 +614,12 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
       }
     });
   }
-  // r = S·(b − A·Δv₀), z = S·P⁻¹·r; partials: |S·b|², r·z.
+  // r = S·(b − A·Δv₀), z = S·P⁻¹·r; partials: |S·b|², r·z; patches: each chunk's free
+  // particles (turned into its bound below) and |r|².
+  double* patch = w.patches.data();
   const auto initial_pass = [&] {
     run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
-      double bb = 0, rz = 0;
+      double bb = 0, rz = 0, rr_c = 0, free_c = 0;
       for (std::size_t i = b; i < e; ++i) {
         const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
         vfit_vec3 ri = bi;
@@ -627,9 +630,13 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
         store3(z, i, zi);
         bb += dot3(bi, bi);
         rz += dot3(ri, zi);
+        rr_c += dot3(ri, ri);
+        free_c += s.free[i] ? 1.0 : 0.0;
       }
       part[2 * c] = bb;
       part[2 * c + 1] = rz;
+      patch[2 * c] = free_c;
+      patch[2 * c + 1] = rr_c;
     });
   };
   initial_pass();
@@ -658,13 +665,26 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   // start |r₀| alone (see ImplicitSolveOptions::warm_start).
   const double scale = warm ? rr : std::max(bb, rr);
   const double stop = options.tolerance * options.tolerance * scale;
+  // Per patch (ImplicitSolveOptions::per_patch): its share n_P / n of the global bound.
+  const double free_total = chunk_sum(w.patches, chunks, 2, 0);
+  for (std::size_t c = 0; c < chunks; ++c)
+    patch[2 * c] = free_total > 0 ? stop * patch[2 * c] / free_total : 0.0;
+  // max over patches of ‖r_P‖² / bound_P.
+  const auto worst_patch = [&] {
+    double worst = 0;
+    for (std::size_t c = 0; c < chunks; ++c)
+      if (patch[2 * c] > 0) worst = std::max(worst, patch[2 * c + 1] / patch[2 * c]);
+    return worst;
+  };
+  const auto met = [&] { return rr <= stop && (!options.per_patch || worst_patch() <= 1.0); };
+  bool done = met();
   // Two passes over the particles per iteration instead of three: the new search direction
   // p = z + β·p and its product q = S·A·p are formed together, q as S·A·z + β·q (the product is
   // linear), so the product gathers z, which is complete before the pass, and p and q are
   // updated in place row by row. p and q start at zero, so β = 0 gives p = z, q = S·A·z.
   float beta = 0.0f;
   tbb::affinity_partitioner affinity;
-  while (scale > 0 && report.iterations < options.max_iterations && rr > stop) {
+  while (scale > 0 && report.iterations < options.max_iterations && !done) {
     // p = z + β·p, q = S·A·z + β·q; partial p·q.
     run_chunks(
         nv, parallel,
@@ -683,12 +703,14 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
           update_range(s, normals, alpha, p, q, dv, r, z, b, e, rr_c, rz_c);
           part[2 * c] = rr_c;
           part[2 * c + 1] = rz_c;
+          patch[2 * c + 1] = rr_c;
         },
         &affinity);
     rr = chunk_sum(w.partials, chunks, 2, 0);
     double rz_next = chunk_sum(w.partials, chunks, 2, 1);
     ++report.iterations;
-    if (rr <= stop) break;
+    done = met();
+    if (done) break;
     if (coarse != nullptr) rz_next += coarse_correct(*coarse, s, normals, r, z, parallel);
     beta = static_cast<float>(rz_next / rz);
     rz = rz_next;
@@ -705,7 +727,8 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     });
   }
   report.relative_residual = scale > 0 ? std::sqrt(rr / scale) : 0.0;
-  report.converged = rr <= stop;
+  report.patch_residual = scale > 0 ? options.tolerance * std::sqrt(worst_patch()) : 0.0;
+  report.converged = done;
   if (options.preconditioner == ImplicitPreconditioner::AUTO && coarse == nullptr &&
       report.iterations > options.two_level_after)
     w.coarse.get().engaged = true;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <Eigen/Dense>
+#include <Eigen/Sparse>
 
 #include "geometry/mesh/primitives.h"
 #include "kernels/cloth_gather.h"
@@ -80,6 +81,55 @@ inline DenseFreeSystem dense_free_system(const ImplicitSystem& system, const Spr
       d.A(row, col) = column[d.free_rows[std::size_t(row)]];
     d.b(col) = system.rhs[d.free_rows[std::size_t(col)]];
   }
+  return d;
+}
+
+/// An assembled implicit system over its free rows, in double, built from its blocks rather
+/// than from the product under test: A_ii = inertia_i·I + Σ_e S_e, A_ij = −S_e (from
+/// ImplicitSystem::inertia and off_diagonal; no contact springs), b = rhs. Free particle i's
+/// rows are 3·column_of[i] + 0..2 (column_of[i] = −1 when pinned).
+struct SparseFreeSystem {
+  std::vector<Eigen::Index> column_of; ///< #V: the free particle's index among the free ones, or −1
+  Eigen::SparseMatrix<double> A;       ///< 3·#free × 3·#free
+  Eigen::VectorXd b;                   ///< 3·#free
+};
+
+/// See SparseFreeSystem; `system` assembled over `adjacency`.
+inline SparseFreeSystem sparse_free_system(const ImplicitSystem& system, const SpringAdjacency& adjacency) {
+  const std::size_t nv = adjacency.particle_count();
+  SparseFreeSystem d;
+  d.column_of.assign(nv, -1);
+  Eigen::Index n = 0;
+  for (std::size_t i = 0; i < nv; ++i)
+    if (system.free[i]) d.column_of[i] = n++;
+  const std::size_t entries = adjacency.neighbors.size();
+  const float* o = system.off_diagonal.data();
+  std::vector<Eigen::Triplet<double>> triplets;
+  d.b.resize(3 * n);
+  for (std::size_t i = 0; i < nv; ++i) {
+    const Eigen::Index r = d.column_of[i];
+    if (r < 0) continue;
+    Eigen::Matrix3d diagonal = double(system.inertia[i]) * Eigen::Matrix3d::Identity();
+    for (std::int32_t e = adjacency.offsets[i]; e < adjacency.offsets[i + 1]; ++e) {
+      const auto k = static_cast<std::size_t>(e);
+      Eigen::Matrix3d se;
+      se << o[k], o[entries + k], o[2 * entries + k], o[entries + k], o[3 * entries + k], o[4 * entries + k],
+          o[2 * entries + k], o[4 * entries + k], o[5 * entries + k];
+      diagonal += se;
+      const Eigen::Index q = d.column_of[static_cast<std::size_t>(adjacency.neighbors[k])];
+      if (q < 0) continue;
+      for (int a = 0; a < 3; ++a)
+        for (int c = 0; c < 3; ++c)
+          triplets.emplace_back(3 * r + a, 3 * q + c, -se(a, c));
+    }
+    for (int a = 0; a < 3; ++a) {
+      for (int c = 0; c < 3; ++c)
+        triplets.emplace_back(3 * r + a, 3 * r + c, diagonal(a, c));
+      d.b(3 * r + a) = system.rhs[3 * i + std::size_t(a)];
+    }
+  }
+  d.A.resize(3 * n, 3 * n);
+  d.A.setFromTriplets(triplets.begin(), triplets.end());
   return d;
 }
 
