@@ -220,8 +220,8 @@ struct ImplicitWorkspace {
 struct ImplicitSolveReport {
   int iterations = 0;           ///< CG iterations
   double relative_residual = 0; ///< ‖r‖/‖b‖ at exit (0 when b = 0)
-  /// max over patches of ‖r_P‖/√(n_P/n · scale) at exit (ImplicitSolveOptions::per_patch's
-  /// ratio, computed with or without it; 0 when b = 0): ≥ relative_residual's share
+  /// max over patches of ‖r_P‖/√(n_P/n · scale) at exit, per_patch's ratio (computed with or
+  /// without it; ≥ relative_residual, its weighted mean; 0 when b = 0 or tolerance = 0)
   double patch_residual = 0;
   bool converged = false; ///< relative_residual ≤ tolerance (and patch_residual, with per_patch)
 };
