@@ -104,8 +104,8 @@ struct ClothOptions {
   /// test does not loosen as the particle count grows. Without it a 10⁶-vertex tee fitted to
   /// the mannequin, whose global test passed with an error held by a few thousand particles,
   /// grew a runaway-stretch front on its upper back and was reported diverged after 9 steps of
-  /// 10 ms; with it, 20 steps (0.2 s) ran with the kinetic energy falling, at 113–251 CG
-  /// iterations per 10 ms. On the 6,000-vertex tee drape (bench/kernels/cloth_bench.cpp,
+  /// 10 ms; with it, 60 steps (0.6 s) ran, settling (113–251 CG iterations per 10 ms, 174 on
+  /// average). On the 6,000-vertex tee drape (bench/kernels/cloth_bench.cpp,
   /// BM_drape_tee_to_rest) it costs 6,678 instead of 6,299 iterations (+6 %), at rest after
   /// 0.99 instead of 0.97 simulated s.
   bool cg_per_patch = true;
