@@ -517,11 +517,13 @@ ImplicitCoarseSpace* coarse_level(const SpringAdjacency& adjacency, const Implic
 // spring to a pinned neighbour (the springs between free particles see no relative motion), so
 // Pᵀ·A·P = Σ_free (D_i + Σ_{e: j pinned} S_e). Sums per chunk in double, added in chunk order
 // (the same bits for any thread count). False, and w.dv left zero, when no row is free or
-// Pᵀ·A·P is not safely positive definite.
-bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, ImplicitWorkspace& w, bool parallel) {
+// Pᵀ·A·P is not safely positive definite. Writes c and whether any free particle has a pinned
+// neighbour (translated_row() then has springs to add).
+bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, ImplicitWorkspace& w, bool parallel,
+                       vfit_vec3& c_out, bool& pinned_neighbours) {
   const std::size_t nv = adj.particle_count();
   const std::size_t chunks = chunk_count(nv);
-  constexpr std::size_t K = 9; // Pᵀ·b (3), then Pᵀ·A·P (xx, xy, xz, yy, yz, zz)
+  constexpr std::size_t K = 10; // Pᵀ·b (3), Pᵀ·A·P (xx, xy, xz, yy, yz, zz), springs to pinned rows
   std::vector<double> part(K * chunks, 0.0);
   const std::size_t slots = adj.slice_neighbor_offsets.size();
   run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
@@ -536,6 +538,7 @@ bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, Impl
       std::size_t slot = static_cast<std::size_t>(adj.slice_offsets[i / CLOTH_SLICE_WIDTH]) + i % CLOTH_SLICE_WIDTH;
       for (std::int32_t k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k, slot += CLOTH_SLICE_WIDTH) {
         if (s.free[static_cast<std::size_t>(adj.neighbors[k])]) continue;
+        q[9] += 1;
         const float* sp = s.sliced_springs.data();
         const vfit_vec3 u{sp[slot], sp[slots + slot], sp[2 * slots + slot]};
         const float a = sp[3 * slots + slot], t = sp[4 * slots + slot];
@@ -572,6 +575,8 @@ bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, Impl
     for (std::size_t i = b; i < e; ++i)
       if (s.free[i]) store3(w.dv.data(), i, cf);
   });
+  c_out = cf;
+  pinned_neighbours = t[9] > 0;
   return true;
 }
 
@@ -588,7 +593,29 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   const bool warm = options.warm_start && w.dv.size() == 3 * nv && !constrained;
   for (auto* buf : {&w.dv, &w.r, &w.z, &w.p, &w.q})
     if (!warm || buf != &w.dv) buf->assign(3 * nv, 0.0f);
-  bool translated = options.translation_start && !warm && !constrained && translation_start(s, adjacency, w, parallel);
+  vfit_vec3 translation{0.0f, 0.0f, 0.0f};
+  bool pinned_neighbours = false;
+  bool translated = options.translation_start && !warm && !constrained &&
+                    translation_start(s, adjacency, w, parallel, translation, pinned_neighbours);
+  // Row i of A·Δv₀ for the translation start Δv₀ = c on the free rows: row_times()'s sum with
+  // the springs between free particles left out, as their p_i − p_j = c − c is exactly zero
+  // and adds ±0 (the same values, a zero's sign aside), so only D_i·c and the springs to pinned
+  // neighbours remain, in adjacency order; without pinned neighbours, D_i·c alone.
+  const auto translated_row = [&](std::size_t i) {
+    vfit_vec3 row = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), translation);
+    if (!pinned_neighbours) return row;
+    const std::size_t slots = adjacency.slice_neighbor_offsets.size();
+    std::size_t slot =
+        static_cast<std::size_t>(adjacency.slice_offsets[i / CLOTH_SLICE_WIDTH]) + i % CLOTH_SLICE_WIDTH;
+    for (std::int32_t e = adjacency.offsets[i]; e < adjacency.offsets[i + 1]; ++e, slot += CLOTH_SLICE_WIDTH) {
+      if (s.free[static_cast<std::size_t>(adjacency.neighbors[e])]) continue;
+      const vfit_vec3 t = spring_times(s.sliced_springs.data(), slots, slot, translation);
+      row.x += t.x;
+      row.y += t.y;
+      row.z += t.z;
+    }
+    return row;
+  };
   w.partials.assign(2 * chunks, 0.0);
   w.patches.assign(2 * chunks, 0.0);
   float* dv = w.dv.data();
@@ -623,7 +650,9 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
       for (std::size_t i = b; i < e; ++i) {
         const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
         vfit_vec3 ri = bi;
-        if ((constrained || warm || translated) && s.free[i])
+        if (translated && s.free[i])
+          ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), translated_row(i)));
+        else if ((constrained || warm) && s.free[i])
           ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), row_times(s, adjacency, dv, i)));
         const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sliced_sym(precond, i), ri));
         store3(r, i, ri);
