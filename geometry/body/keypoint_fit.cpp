@@ -4,11 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
-#include <type_traits>
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 
+#include "keypoint_costs.h"
 #include "kernels/error.h"
 #include "limb_lift.h"
 #include "mannequin_shape.h"
@@ -17,13 +16,10 @@ namespace vfit {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using namespace keypoint_detail;
 constexpr double PI = std::numbers::pi;
-constexpr int BODY_POSE = 3 * (JOINT_COUNT - 1); // the 69 non-root axis-angle numbers
 constexpr double SHAPE_LIMIT = 3.0;              // |β_k| ≤ 3 σ: beyond that, not an adult body
 constexpr double HIP_TRUST = 0.5;
-
-template <typename T> using V3 = Eigen::Matrix<T, 3, 1>;
-template <typename T> using M3 = Eigen::Matrix<T, 3, 3>;
 
 int L(Landmark l) { return static_cast<int>(l); }
 
@@ -103,190 +99,48 @@ KeypointBodyModel build_mannequin_model() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Forward kinematics of the body points, templated for Ceres' automatic differentiation.
+// The objective's terms as Ceres cost functions, with the analytic derivatives of
+// keypoint_costs.h.
 
-template <typename T>
-void posed_body_points(const KeypointBodyModel& model, const T* global, const T* body, const T* trans, const T* beta,
-                       const std::vector<int>& points, V3<T>* out) {
-  std::array<V3<T>, JOINT_COUNT> J, t;
-  std::array<M3<T>, JOINT_COUNT> R;
-  auto rest = [&](int i) {
-    V3<T> p = model.mean.row(i).transpose().template cast<T>();
-    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k)
-      p += model.basis[static_cast<std::size_t>(k)].row(i).transpose().template cast<T>() * beta[k];
-    return p;
-  };
-  for (int j = 0; j < JOINT_COUNT; ++j) J[static_cast<std::size_t>(j)] = rest(j);
-  for (int j = 0; j < JOINT_COUNT; ++j) {
-    const auto uj = static_cast<std::size_t>(j);
-    M3<T> local;
-    ceres::AngleAxisToRotationMatrix(j == 0 ? global : body + 3 * (j - 1), local.data()); // column-major, as Eigen
-    if (j == 0) {
-      R[0] = local;
-      t[0] = J[0] + V3<T>(trans[0], trans[1], trans[2]);
-    } else {
-      const auto p = static_cast<std::size_t>(joint_parent(j));
-      R[uj] = R[p] * local;
-      t[uj] = R[p] * (J[uj] - J[p]) + t[p];
-    }
+// The reprojection error of every observation in one residual block (one forward kinematics
+// per evaluation); parameter blocks global (3), body (BODY_POSE), trans (3), beta (4).
+class ReprojectionCost final : public ceres::CostFunction {
+public:
+  ReprojectionCost(const KeypointBodyModel& model, const Observations& obs, const PinholeCamera& cam)
+      : m_model(model), m_obs(obs), m_camera(cam) {
+    set_num_residuals(2 * static_cast<int>(obs.points.size()));
+    *mutable_parameter_block_sizes() = {3, BODY_POSE, 3, KEYPOINT_SHAPE_PARAMS};
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const int pt = points[i];
-    if (pt < JOINT_COUNT) {
-      out[i] = t[static_cast<std::size_t>(pt)];
-    } else {
-      const auto a = static_cast<std::size_t>(model.joint[static_cast<std::size_t>(pt)]);
-      out[i] = R[a] * (rest(pt) - J[a]) + t[a];
-    }
-  }
-}
-
-struct Observations {
-  std::vector<int> points;
-  std::vector<Eigen::Vector2d> pixels;
-  std::vector<double> sqrt_weight; // sqrt(confidence × trust)
-  double sigma = 100;              // Geman–McClure scale (px)
-};
-
-// Robust reprojection residual of every observation: r_i = √w_i · e_i · σ / √(σ² + |e_i|²), so
-// |r_i|² = w_i ρ_GM(e_i) exactly, smooth, in one residual block (one FK per evaluation).
-template <typename T>
-void reprojection(const KeypointBodyModel& model, const Observations& obs, const PinholeCamera& cam, const T* global,
-                  const T* body, const T* trans, const T* beta, T* residuals) {
-  std::vector<V3<T>> X(obs.points.size());
-  posed_body_points(model, global, body, trans, beta, obs.points, X.data());
-  using std::sqrt;
-  const T sigma2(obs.sigma * obs.sigma);
-  for (std::size_t i = 0; i < X.size(); ++i) {
-    // Points behind or at the camera are held at 5 cm in front of it (the optimiser steps back).
-    T depth = -X[i].z();
-    if (depth < T(0.05)) depth = T(0.05);
-    const T u = cam.principal_point.x() + cam.focal * X[i].x() / depth;
-    const T v = cam.principal_point.y() - cam.focal * X[i].y() / depth;
-    const T eu = u - obs.pixels[i].x(), ev = v - obs.pixels[i].y();
-    const T s = obs.sqrt_weight[i] * obs.sigma / sqrt(sigma2 + eu * eu + ev * ev);
-    residuals[2 * i] = s * eu;
-    residuals[2 * i + 1] = s * ev;
-  }
-}
-
-struct FullReprojection {
-  const KeypointBodyModel* model;
-  const Observations* obs;
-  PinholeCamera camera;
-  template <typename T> bool operator()(const T* global, const T* body, const T* trans, const T* beta, T* r) const {
-    reprojection(*model, *obs, camera, global, body, trans, beta, r);
+  bool Evaluate(double const* const* p, double* r, double** jacobians) const override {
+    reprojection(m_model, m_obs, m_camera, p[0], p[1], p[2], p[3], r, jacobians);
     return true;
   }
+
+private:
+  const KeypointBodyModel& m_model;
+  const Observations& m_obs;
+  PinholeCamera m_camera;
 };
 
-// Stage 1: only the global orientation and translation vary; pose and shape are constants.
-struct TorsoReprojection {
-  const KeypointBodyModel* model;
-  const Observations* obs;
-  PinholeCamera camera;
-  std::array<double, BODY_POSE> body;
-  KeypointShape beta;
-  template <typename T> bool operator()(const T* global, const T* trans, T* r) const {
-    std::array<T, BODY_POSE> b;
-    std::array<T, KEYPOINT_SHAPE_PARAMS> s;
-    for (std::size_t i = 0; i < b.size(); ++i) b[i] = T(body[i]);
-    for (std::size_t i = 0; i < s.size(); ++i) s[i] = T(beta[i]);
-    reprojection(*model, *obs, camera, global, b.data(), trans, s.data(), r);
+class PosePriorCost final : public ceres::CostFunction {
+public:
+  explicit PosePriorCost(const std::array<double, BODY_POSE>& relaxed) : m_relaxed(relaxed) {
+    set_num_residuals(pose_prior_residual_count());
+    *mutable_parameter_block_sizes() = {BODY_POSE};
+  }
+  bool Evaluate(double const* const* p, double* r, double** jacobians) const override {
+    pose_prior(p[0], m_relaxed, r, jacobians ? jacobians[0] : nullptr);
     return true;
   }
+
+private:
+  std::array<double, BODY_POSE> m_relaxed; // the pose pulled toward (relaxed_pose_for())
 };
 
-// ---------------------------------------------------------------------------------------------
-// Pose prior: anatomical limits and a saturating pull toward a relaxed pose, each arm toward the
-// nearest of three rest places (T-pose-relative axis-angle; body faces +Z, +X is its left, so
-// e.g. a knee bends about +X and the left elbow about −Y).
-
-struct BoxLimit {
-  int joint, axis;
-  double lo, hi;
-};
-
-const std::vector<BoxLimit>& box_limits() {
-  static const std::vector<BoxLimit> limits = [] {
-    std::vector<BoxLimit> v;
-    auto box = [&](Joint j, double xl, double xh, double yl, double yh, double zl, double zh) {
-      v.push_back({idx(j), 0, xl, xh});
-      v.push_back({idx(j), 1, yl, yh});
-      v.push_back({idx(j), 2, zl, zh});
-    };
-    for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3}) box(j, -0.35, 0.60, -0.45, 0.45, -0.35, 0.35);
-    box(Joint::NECK, -0.50, 0.60, -0.70, 0.70, -0.40, 0.40);
-    box(Joint::HEAD, -0.45, 0.45, -0.60, 0.60, -0.35, 0.35);
-    for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR}) box(j, -0.30, 0.30, -0.30, 0.30, -0.35, 0.35);
-    // Knees hinge forward only: flexion about +X up to ~150°, a little twist, no side bend.
-    for (Joint j : {Joint::LEFT_KNEE, Joint::RIGHT_KNEE}) box(j, 0.0, 2.6, -0.30, 0.30, -0.10, 0.10);
-    // Elbows hinge forward only (left about −Y, right about +Y); forearm twist is free-ish.
-    box(Joint::LEFT_ELBOW, -1.5, 1.5, -2.6, 0.0, -0.10, 0.10);
-    box(Joint::RIGHT_ELBOW, -1.5, 1.5, 0.0, 2.6, -0.10, 0.10);
-    for (Joint j : {Joint::LEFT_ANKLE, Joint::RIGHT_ANKLE}) box(j, -0.80, 0.60, -0.40, 0.40, -0.40, 0.40);
-    // Ball joints: twist about the bone (x for arms, y for thighs) within a range; direction
-    // limits below.
-    for (Joint j : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) v.push_back({idx(j), 0, -1.3, 1.3});
-    for (Joint j : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) v.push_back({idx(j), 1, -0.7, 0.7});
-    return v;
-  }();
-  return limits;
-}
-
-// per hip: extension, crossing, behind; per arm: far behind, across the body, humeral rotation,
-// upper and forearm behind
-constexpr int DIRECTION_LIMITS = 16;
-constexpr double LIMIT_WEIGHT = 400.0;    // px-equivalent per rad (or per unit of direction)
-// px-equivalent per unit of an upper arm's hinge axis along the torso's forward axis (humeral
-// rotation away from neutral).
-constexpr double HINGE_WEIGHT = 20.0;
-constexpr double PRIOR_SATURATION = 0.5;  // rad: where the pull toward the relaxed pose levels off
-constexpr double BEHIND_WEIGHT = 20.0;    // px-equivalent per unit of a limb's backward direction
 // Levenberg–Marquardt iterations for each depth hypothesis: enough to tell a better basin
 // (stage 3 finishes the winner), a cap that keeps the fit within its time budget.
 constexpr int FLIP_ITERATIONS = 15;
 constexpr double SAME_HYPOTHESIS = 0.02; // m: a lifted limb this close to the fit's is the fit's own
-constexpr double BEHIND_MARGIN = 0.2;     // backward direction component free of cost (~12°)
-
-// The relaxed pose (arms ~60° down, elbows and knees slightly bent) and per-number weights of
-// the saturating pull toward it (px-equivalent per rad near it): strong on what 2D joints
-// barely see.
-struct PoseMean {
-  std::array<double, BODY_POSE> mean{};
-  std::array<double, BODY_POSE> weight{};
-};
-
-const PoseMean& pose_mean() {
-  static const PoseMean m = [] {
-    PoseMean p;
-    auto at = [](Joint j, int axis) { return static_cast<std::size_t>(3 * (idx(j) - 1) + axis); };
-    p.mean[at(Joint::LEFT_SHOULDER, 2)] = -1.05;
-    p.mean[at(Joint::RIGHT_SHOULDER, 2)] = 1.05;
-    p.mean[at(Joint::LEFT_ELBOW, 1)] = -0.15;
-    p.mean[at(Joint::RIGHT_ELBOW, 1)] = 0.15;
-    p.mean[at(Joint::LEFT_KNEE, 0)] = 0.08;
-    p.mean[at(Joint::RIGHT_KNEE, 0)] = 0.08;
-    p.weight.fill(20.0);
-    for (Joint j : {Joint::LEFT_WRIST, Joint::RIGHT_WRIST, Joint::LEFT_HAND, Joint::RIGHT_HAND, Joint::LEFT_FOOT, Joint::RIGHT_FOOT})
-      for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 200.0;
-    // The torso and neck stay near upright unless the keypoints insist: 2D joints cannot tell a
-    // spine bent towards the camera from one bent away.
-    for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR, Joint::SPINE1, Joint::SPINE2, Joint::SPINE3, Joint::NECK})
-      for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 40.0;
-    // Twists about the bone: invisible in 2D joints.
-    p.weight[at(Joint::LEFT_ELBOW, 0)] = p.weight[at(Joint::RIGHT_ELBOW, 0)] = 60.0;
-    p.weight[at(Joint::LEFT_SHOULDER, 0)] = p.weight[at(Joint::RIGHT_SHOULDER, 0)] = 20.0;
-    // Elbow and knee flexion: everyday poses use the whole range and the 2D angle between the
-    // bones shows it in most views, so the pull is half the default: it settles a foreshortened
-    // limb without straightening a bent one that the keypoints show.
-    p.weight[at(Joint::LEFT_ELBOW, 1)] = p.weight[at(Joint::RIGHT_ELBOW, 1)] = 10.0;
-    p.weight[at(Joint::LEFT_KNEE, 0)] = p.weight[at(Joint::RIGHT_KNEE, 0)] = 10.0;
-    p.weight[at(Joint::LEFT_KNEE, 1)] = p.weight[at(Joint::RIGHT_KNEE, 1)] = 60.0;
-    return p;
-  }();
-  return m;
-}
 
 // An elbow whose wrist keypoint was not detected is seen only through its upper arm, so its
 // flexion is left to the prior: there the pull aims at a typical everyday flexion (~17°) rather
@@ -306,119 +160,6 @@ template <typename Observed> std::array<double, BODY_POSE> relaxed_pose_for(Obse
   if (!observed(idx(Joint::RIGHT_WRIST))) mean[at(Joint::RIGHT_ELBOW, 1)] = HIDDEN_ELBOW_FLEXION;
   return mean;
 }
-
-// Where an upper arm rests besides the relaxed pose's ~60° drop (T-pose-relative axis-angle of the
-// shoulder, left arm; the right arm's mirror negates the y and z numbers): reaching forward
-// (horizontal, pointing ahead) and raised overhead. Everyday arms work in these three places
-// (hanging, handling things in front, reaching up); a single relaxed pose pulls a forward or
-// raised arm back down along its depth ambiguity, which the keypoints cannot resist.
-constexpr std::array<std::array<double, 3>, 2> ARM_MODES = {{{0.0, -PI / 2, 0.0}, {0.0, 0.0, PI / 2}}};
-
-template <typename T> double value_of(const T& x) {
-  if constexpr (std::is_same_v<T, double>) {
-    return x;
-  } else {
-    return x.a; // a ceres::Jet: its value, not differentiated
-  }
-}
-
-struct PosePrior {
-  std::array<double, BODY_POSE> relaxed = pose_mean().mean; // the pose pulled toward (relaxed_pose_for())
-  static int residual_count() { return BODY_POSE + static_cast<int>(box_limits().size()) + DIRECTION_LIMITS; }
-
-  template <typename T> bool operator()(const T* body, T* r) const {
-    const PoseMean& m = pose_mean();
-    int k = 0;
-    // Saturating (Geman–McClure-like) pull toward the relaxed pose: quadratic for small
-    // deviations, so keypoint noise is not explained by bending limbs in depth, but bounded for
-    // large ones (r² → (w·PRIOR_SATURATION)²), so a pose the keypoints clearly show is not
-    // dragged along its depth ambiguity toward the relaxed pose.
-    // Each shoulder is pulled toward the nearest of its three rest places (ARM_MODES and the
-    // relaxed pose), nearest by this pull's own cost at the present pose: a mixture prior's
-    // minimum, continuous, with a kink where two places are equally near.
-    using std::sqrt;
-    auto pull2 = [&](std::size_t i, double target) {
-      const double d = value_of(body[i]) - target, w = m.weight[i];
-      return w * w * d * d / (1 + d * d / (PRIOR_SATURATION * PRIOR_SATURATION));
-    };
-    std::array<double, BODY_POSE> target = relaxed;
-    for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-      const auto at = static_cast<std::size_t>(3 * (idx(sh) - 1));
-      const double side = sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
-      double best = pull2(at, relaxed[at]) + pull2(at + 1, relaxed[at + 1]) + pull2(at + 2, relaxed[at + 2]);
-      for (const auto& mode : ARM_MODES) {
-        const double c = pull2(at, mode[0]) + pull2(at + 1, side * mode[1]) + pull2(at + 2, side * mode[2]);
-        if (c < best) {
-          best = c;
-          target[at] = mode[0];
-          target[at + 1] = side * mode[1];
-          target[at + 2] = side * mode[2];
-        }
-      }
-    }
-    for (int i = 0; i < BODY_POSE; ++i) {
-      const T d = body[i] - target[static_cast<std::size_t>(i)];
-      r[k++] = m.weight[static_cast<std::size_t>(i)] * d / sqrt(T(1) + d * d / T(PRIOR_SATURATION * PRIOR_SATURATION));
-    }
-    auto excess = [](const T& x, double lo, double hi) { return x > T(hi) ? x - T(hi) : (x < T(lo) ? x - T(lo) : T(0)); };
-    for (const BoxLimit& b : box_limits()) r[k++] = T(LIMIT_WEIGHT) * excess(body[3 * (b.joint - 1) + b.axis], b.lo, b.hi);
-    // Thighs: not more than 30° behind the body, not crossing far over the mid-line.
-    for (Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
-      const V3<T> down(T(0), T(-1), T(0));
-      V3<T> d;
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(hip) - 1), down.data(), d.data());
-      const double side = hip == Joint::LEFT_HIP ? 1.0 : -1.0;
-      r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.5, 10.0);
-      r[k++] = T(LIMIT_WEIGHT) * excess(T(side) * d.x(), -0.35, 10.0);
-    }
-    // Upper arms: not far behind the body, and not across it except in front of the chest: the
-    // shoulder adducts ~25° past the vertical in the frontal plane (sin 25° ≈ 0.4), further only
-    // as the arm comes forward (horizontal adduction); an arm pointing through the torso or over
-    // and down the other side is out of range.
-    for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-      const double side = sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
-      const V3<T> out(T(side), T(0), T(0));
-      V3<T> d;
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), out.data(), d.data());
-      r[k++] = T(LIMIT_WEIGHT) * excess(d.z(), -0.6, 10.0);
-      const T forward = d.z() > T(0) ? d.z() : T(0);
-      r[k++] = T(LIMIT_WEIGHT) * excess(T(-side) * d.x() - forward, -10.0, 0.4);
-      // Humeral rotation: in neutral rotation the elbow's hinge axis lies square to the torso's
-      // forward axis (the forearm flexes in the arm's plane of elevation, towards the front when
-      // the arm hangs); rotating the humerus inwards or outwards tilts the axis forward or back.
-      // A pull toward neutral, which also tells a forearm bent towards the camera from one bent
-      // away (the other needs a humerus turned far round). Silent where the arm points forward
-      // (the axis is then square to it whatever the rotation).
-      const V3<T> hinge_rest(T(0), T(-side), T(0));
-      V3<T> hinge;
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), hinge_rest.data(), hinge.data());
-      r[k++] = T(HINGE_WEIGHT) * hinge.z();
-    }
-    // Limbs reach forward further than back (shoulder flexion ~180° against extension ~50°, hip
-    // flexion ~120° against extension ~20°): a soft cost on each upper arm, forearm and thigh
-    // pointing behind the torso's frontal plane, beyond a margin that lets arms and legs swing.
-    for (const Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-      const Joint collar = sh == Joint::LEFT_SHOULDER ? Joint::LEFT_COLLAR : Joint::RIGHT_COLLAR;
-      const Joint elbow = sh == Joint::LEFT_SHOULDER ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW;
-      const V3<T> out(T(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0), T(0), T(0));
-      V3<T> a, b, upper, fore;
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), out.data(), a.data());
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(collar) - 1), a.data(), upper.data());
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(elbow) - 1), out.data(), a.data());
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(sh) - 1), a.data(), b.data());
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(collar) - 1), b.data(), fore.data());
-      r[k++] = T(BEHIND_WEIGHT) * excess(upper.z(), -BEHIND_MARGIN, 10.0);
-      r[k++] = T(BEHIND_WEIGHT) * excess(fore.z(), -BEHIND_MARGIN, 10.0);
-    }
-    for (const Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
-      const V3<T> down(T(0), T(-1), T(0));
-      V3<T> d;
-      ceres::AngleAxisRotatePoint(body + 3 * (idx(hip) - 1), down.data(), d.data());
-      r[k++] = T(BEHIND_WEIGHT) * excess(d.z(), -BEHIND_MARGIN, 10.0);
-    }
-    return true;
-  }
-};
 
 constexpr double SHAPE_WEIGHT = 3.0;  // px-equivalent per population σ
 constexpr double DEPTH_WEIGHT = 200.0; // px-equivalent per metre of depth change in stage 1
@@ -668,9 +409,11 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
     const Eigen::Vector3d t = centre_cam - R0 * (centre_rest - pelvis_rest) - pelvis_rest;
     s.trans = {t.x(), t.y(), t.z()};
     ceres::Problem problem;
-    auto* torso_cost = new ceres::AutoDiffCostFunction<TorsoReprojection, ceres::DYNAMIC, 3, 3>(
-        new TorsoReprojection{&model, &torso, cam, s.body, s.beta}, 2 * static_cast<int>(torso.points.size()));
-    problem.AddResidualBlock(torso_cost, nullptr, s.global.data(), s.trans.data());
+    // Only the global orientation and translation vary; pose and shape are held.
+    problem.AddResidualBlock(new ReprojectionCost(model, torso, cam), nullptr, s.global.data(), s.body.data(), s.trans.data(),
+                             s.beta.data());
+    problem.SetParameterBlockConstant(s.body.data());
+    problem.SetParameterBlockConstant(s.beta.data());
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DepthPrior, 1, 3>(new DepthPrior{t.z()}), nullptr, s.trans.data());
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &problem, &summary);
@@ -695,12 +438,9 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
       relaxed_pose_for([&](int p) { return observed_pixel(all, p) != nullptr; });
   auto solve_full = [&](State& s, bool with_shape, int& iterations, int max_iterations = 0) {
     ceres::Problem problem;
-    auto* cost = new ceres::AutoDiffCostFunction<FullReprojection, ceres::DYNAMIC, 3, BODY_POSE, 3, KEYPOINT_SHAPE_PARAMS>(
-        new FullReprojection{&model, &all, cam}, 2 * static_cast<int>(all.points.size()));
-    problem.AddResidualBlock(cost, nullptr, s.global.data(), s.body.data(), s.trans.data(), s.beta.data());
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, ceres::DYNAMIC, BODY_POSE>(
-                                 new PosePrior{relaxed}, PosePrior::residual_count()),
-                             nullptr, s.body.data());
+    problem.AddResidualBlock(new ReprojectionCost(model, all, cam), nullptr, s.global.data(), s.body.data(), s.trans.data(),
+                             s.beta.data());
+    problem.AddResidualBlock(new PosePriorCost(relaxed), nullptr, s.body.data());
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ShapePrior, KEYPOINT_SHAPE_PARAMS, KEYPOINT_SHAPE_PARAMS>(new ShapePrior),
                              nullptr, s.beta.data());
     for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) {
@@ -823,12 +563,12 @@ double keypoint_fit_objective(const Keypoints& keypoints, const Pose& pose, cons
   for (int j = 1; j < JOINT_COUNT; ++j)
     for (int a = 0; a < 3; ++a) body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
   std::vector<double> r(2 * su.all.points.size());
-  FullReprojection{&model, &su.all, su.camera}(global.data(), body.data(), trans.data(), shape.data(), r.data());
+  reprojection(model, su.all, su.camera, global.data(), body.data(), trans.data(), shape.data(), r.data(), nullptr);
   double sum = 0;
   for (double x : r) sum += x * x;
-  r.assign(static_cast<std::size_t>(PosePrior::residual_count()), 0.0);
+  r.assign(static_cast<std::size_t>(pose_prior_residual_count()), 0.0);
   const auto relaxed = relaxed_pose_for([&](int p) { return observed_pixel(su.all, p) != nullptr; });
-  PosePrior{relaxed}(body.data(), r.data());
+  pose_prior(body.data(), relaxed, r.data(), nullptr);
   for (double x : r) sum += x * x;
   std::array<double, KEYPOINT_SHAPE_PARAMS> rs{};
   ShapePrior{}(shape.data(), rs.data());

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// Pose and shape of a body from a photo's 2D keypoints (seed 000 §3, which uses SMPLify):
-/// SMPLify's objective with our own priors, solved with Ceres (automatic differentiation):
+/// SMPLify's objective with our own priors, solved with Ceres (analytic derivatives, keypoint_costs.h):
 ///   E(θ, β, t) = Σ_i w_i c_i ρ(Π(X_i(θ, β) + t) − x_i) + E_pose(θ) + E_shape(β)
 /// with ρ Geman–McClure (σ = the torso's length in px), Π a pinhole camera, X_i the posed body point that
 /// keypoint i observes, c_i its confidence and w_i its trust (0.5 for hips, whose annotations
