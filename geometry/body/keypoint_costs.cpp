@@ -201,9 +201,6 @@ const std::vector<BoxLimit>& box_limits() {
   return limits;
 }
 
-// per hip: extension, crossing, behind; per arm: far behind, across the body, humeral rotation,
-// upper and forearm behind
-constexpr int DIRECTION_LIMITS = 16;
 constexpr double LIMIT_WEIGHT = 400.0;    // px-equivalent per rad (or per unit of direction)
 // px-equivalent per unit of an upper arm's hinge axis along the torso's forward axis (humeral
 // rotation away from neutral).
@@ -253,60 +250,47 @@ const PoseMean& pose_mean() {
   return m;
 }
 
-int pose_prior_residual_count() { return BODY_POSE + static_cast<int>(box_limits().size()) + DIRECTION_LIMITS; }
+const std::vector<PosePriorTerm>& pose_prior_terms() {
+  static const std::vector<PosePriorTerm> terms = [] {
+    std::vector<PosePriorTerm> v;
+    for (int j = 1; j < JOINT_COUNT; ++j) {
+      int rows = 3; // the pull
+      for (const BoxLimit& b : box_limits()) rows += b.joint == j;
+      if (j == idx(Joint::LEFT_HIP) || j == idx(Joint::RIGHT_HIP)) rows += 3;           // extension, crossing, behind
+      if (j == idx(Joint::LEFT_SHOULDER) || j == idx(Joint::RIGHT_SHOULDER)) rows += 3; // far behind, across, rotation
+      v.push_back({{j}, rows});
+    }
+    v.push_back({{idx(Joint::LEFT_COLLAR), idx(Joint::LEFT_SHOULDER), idx(Joint::LEFT_ELBOW)}, 2});
+    v.push_back({{idx(Joint::RIGHT_COLLAR), idx(Joint::RIGHT_SHOULDER), idx(Joint::RIGHT_ELBOW)}, 2});
+    return v;
+  }();
+  return terms;
+}
 
-void pose_prior(const double* body, const std::array<double, BODY_POSE>& relaxed, double* r, double* jacobian) {
-  const PoseMean& m = pose_mean();
-  const int rows = pose_prior_residual_count();
-  Eigen::Map<RowJacobian> Jac(jacobian, jacobian ? rows : 0, BODY_POSE);
+int pose_prior_residual_count() {
+  static const int count = [] {
+    int n = 0;
+    for (const PosePriorTerm& t : pose_prior_terms()) n += t.residuals;
+    return n;
+  }();
+  return count;
+}
+
+void pose_prior_term(std::size_t term, const double* body, const std::array<double, BODY_POSE>& relaxed, double* r,
+                     double* jacobian) {
+  const PosePriorTerm& pt = pose_prior_terms().at(term);
+  const auto cols = static_cast<Eigen::Index>(3 * pt.joints.size());
+  Eigen::Map<RowJacobian> Jac(jacobian, jacobian ? pt.residuals : 0, jacobian ? cols : 0);
   if (jacobian) Jac.setZero();
   int k = 0;
   auto angles = [&](Joint j) { return body + 3 * (idx(j) - 1); };
-  auto column = [](Joint j) { return 3 * (idx(j) - 1); };
-  // Saturating (Geman–McClure-like) pull toward the relaxed pose: quadratic for small
-  // deviations, so keypoint noise is not explained by bending limbs in depth, but bounded for
-  // large ones (r² → (w·PRIOR_SATURATION)²), so a pose the keypoints clearly show is not
-  // dragged along its depth ambiguity toward the relaxed pose.
-  // Each shoulder is pulled toward the nearest of its three rest places (ARM_MODES and the
-  // relaxed pose), nearest by this pull's own cost at the present pose: a mixture prior's
-  // minimum, continuous, with a kink where two places are equally near.
-  constexpr double S2 = PRIOR_SATURATION * PRIOR_SATURATION;
-  auto pull2 = [&](std::size_t i, double target) {
-    const double d = body[i] - target, w = m.weight[i];
-    return w * w * d * d / (1 + d * d / S2);
+  auto column = [&](Joint j) {
+    return 3 * static_cast<Eigen::Index>(std::find(pt.joints.begin(), pt.joints.end(), idx(j)) - pt.joints.begin());
   };
-  std::array<double, BODY_POSE> target = relaxed;
-  for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-    const auto at = static_cast<std::size_t>(column(sh));
-    const double side = sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
-    double best = pull2(at, relaxed[at]) + pull2(at + 1, relaxed[at + 1]) + pull2(at + 2, relaxed[at + 2]);
-    for (const auto& mode : ARM_MODES) {
-      const double c = pull2(at, mode[0]) + pull2(at + 1, side * mode[1]) + pull2(at + 2, side * mode[2]);
-      if (c < best) {
-        best = c;
-        target[at] = mode[0];
-        target[at + 1] = side * mode[1];
-        target[at + 2] = side * mode[2];
-      }
-    }
-  }
-  for (int i = 0; i < BODY_POSE; ++i) {
-    const auto ui = static_cast<std::size_t>(i);
-    const double d = body[i] - target[ui], g = 1 + d * d / S2;
-    r[k] = m.weight[ui] * d / std::sqrt(g);
-    if (jacobian) Jac(k, i) = m.weight[ui] / (g * std::sqrt(g)); // d/dd [w d / √(1 + d²/S²)]
-    ++k;
-  }
   auto excess = [](double x, double lo, double hi) { return x > hi ? x - hi : (x < lo ? x - lo : 0.0); };
   auto slope = [](double x, double lo, double hi) { return x > hi || x < lo ? 1.0 : 0.0; };
-  for (const BoxLimit& b : box_limits()) {
-    const double x = body[3 * (b.joint - 1) + b.axis];
-    r[k] = LIMIT_WEIGHT * excess(x, b.lo, b.hi);
-    if (jacobian) Jac(k, 3 * (b.joint - 1) + b.axis) = LIMIT_WEIGHT * slope(x, b.lo, b.hi);
-    ++k;
-  }
-  // A residual w · excess(c · x) of one component c·x of a rotated direction: its Jacobian row
-  // w · slope · (c · ∂x/∂θ) over the joints' columns.
+  // A residual w · excess(x) of a component x of a rotated direction: its Jacobian row
+  // w · slope · ∂x/∂θ over the joints' columns.
   using Row3 = Eigen::Matrix<double, 1, 3>;
   auto put = [&](double w, double x, double lo, double hi, std::initializer_list<std::pair<Joint, Row3>> grads) {
     r[k] = w * excess(x, lo, hi);
@@ -315,68 +299,125 @@ void pose_prior(const double* body, const std::array<double, BODY_POSE>& relaxed
     ++k;
   };
   const Vec3 down(0, -1, 0);
-  // Thighs: not more than 30° behind the body, not crossing far over the mid-line.
-  for (Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
-    const Vec3 d = rotate(angles(hip), down);
-    const Mat3 D = jacobian ? rotated_derivative(angles(hip), rotation(angles(hip)), down) : Mat3::Zero();
-    const double side = hip == Joint::LEFT_HIP ? 1.0 : -1.0;
-    put(LIMIT_WEIGHT, d.z(), -0.5, 10.0, {{hip, D.row(2)}});
-    put(LIMIT_WEIGHT, side * d.x(), -0.35, 10.0, {{hip, side * D.row(0)}});
-  }
-  // Upper arms: not far behind the body, and not across it except in front of the chest: the
-  // shoulder adducts ~25° past the vertical in the frontal plane (sin 25° ≈ 0.4), further only
-  // as the arm comes forward (horizontal adduction); an arm pointing through the torso or over
-  // and down the other side is out of range.
-  for (Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-    const double side = sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
-    const Vec3 out(side, 0, 0);
-    const Vec3 d = rotate(angles(sh), out);
-    const Mat3 Rs = jacobian ? rotation(angles(sh)) : Mat3::Identity();
-    const Mat3 D = jacobian ? rotated_derivative(angles(sh), Rs, out) : Mat3::Zero();
-    put(LIMIT_WEIGHT, d.z(), -0.6, 10.0, {{sh, D.row(2)}});
-    const double forward = d.z() > 0 ? d.z() : 0.0;
-    put(LIMIT_WEIGHT, -side * d.x() - forward, -10.0, 0.4, {{sh, -side * D.row(0) - (d.z() > 0 ? 1.0 : 0.0) * D.row(2)}});
-    // Humeral rotation: in neutral rotation the elbow's hinge axis lies square to the torso's
-    // forward axis (the forearm flexes in the arm's plane of elevation, towards the front when
-    // the arm hangs); rotating the humerus inwards or outwards tilts the axis forward or back.
-    // A pull toward neutral, which also tells a forearm bent towards the camera from one bent
-    // away (the other needs a humerus turned far round). Silent where the arm points forward
-    // (the axis is then square to it whatever the rotation).
-    const Vec3 hinge_rest(0, -side, 0);
-    const Vec3 hinge = rotate(angles(sh), hinge_rest);
-    r[k] = HINGE_WEIGHT * hinge.z();
-    if (jacobian) Jac.block<1, 3>(k, column(sh)) = HINGE_WEIGHT * rotated_derivative(angles(sh), Rs, hinge_rest).row(2);
-    ++k;
+
+  if (term + 1 < static_cast<std::size_t>(JOINT_COUNT)) {
+    const int j = pt.joints[0];
+    const Joint joint = static_cast<Joint>(j);
+    const auto at = static_cast<std::size_t>(3 * (j - 1));
+    const PoseMean& m = pose_mean();
+    // Saturating (Geman–McClure-like) pull toward the relaxed pose: quadratic for small
+    // deviations, so keypoint noise is not explained by bending limbs in depth, but bounded for
+    // large ones (r² → (w·PRIOR_SATURATION)²), so a pose the keypoints clearly show is not
+    // dragged along its depth ambiguity toward the relaxed pose.
+    // Each shoulder is pulled toward the nearest of its three rest places (ARM_MODES and the
+    // relaxed pose), nearest by this pull's own cost at the present pose: a mixture prior's
+    // minimum, continuous, with a kink where two places are equally near.
+    constexpr double S2 = PRIOR_SATURATION * PRIOR_SATURATION;
+    auto pull2 = [&](std::size_t i, double target) {
+      const double d = body[i] - target, w = m.weight[i];
+      return w * w * d * d / (1 + d * d / S2);
+    };
+    std::array<double, 3> target = {relaxed[at], relaxed[at + 1], relaxed[at + 2]};
+    const bool shoulder = joint == Joint::LEFT_SHOULDER || joint == Joint::RIGHT_SHOULDER;
+    if (shoulder) {
+      const double side = joint == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
+      double best = pull2(at, relaxed[at]) + pull2(at + 1, relaxed[at + 1]) + pull2(at + 2, relaxed[at + 2]);
+      for (const auto& mode : ARM_MODES) {
+        const double c = pull2(at, mode[0]) + pull2(at + 1, side * mode[1]) + pull2(at + 2, side * mode[2]);
+        if (c < best) {
+          best = c;
+          target = {mode[0], side * mode[1], side * mode[2]};
+        }
+      }
+    }
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double d = body[at + a] - target[a], g = 1 + d * d / S2;
+      r[k] = m.weight[at + a] * d / std::sqrt(g);
+      if (jacobian) Jac(k, static_cast<Eigen::Index>(a)) = m.weight[at + a] / (g * std::sqrt(g)); // d/dd [w d / √(1 + d²/S²)]
+      ++k;
+    }
+    for (const BoxLimit& b : box_limits()) {
+      if (b.joint != j) continue;
+      const double x = body[3 * (b.joint - 1) + b.axis];
+      r[k] = LIMIT_WEIGHT * excess(x, b.lo, b.hi);
+      if (jacobian) Jac(k, b.axis) = LIMIT_WEIGHT * slope(x, b.lo, b.hi);
+      ++k;
+    }
+    if (joint == Joint::LEFT_HIP || joint == Joint::RIGHT_HIP) {
+      // Thighs: not more than 30° behind the body, not crossing far over the mid-line; and the
+      // softer behind-the-body cost below.
+      const Vec3 d = rotate(angles(joint), down);
+      const Mat3 D = jacobian ? rotated_derivative(angles(joint), rotation(angles(joint)), down) : Mat3::Zero();
+      const double side = joint == Joint::LEFT_HIP ? 1.0 : -1.0;
+      put(LIMIT_WEIGHT, d.z(), -0.5, 10.0, {{joint, D.row(2)}});
+      put(LIMIT_WEIGHT, side * d.x(), -0.35, 10.0, {{joint, side * D.row(0)}});
+      put(BEHIND_WEIGHT, d.z(), -BEHIND_MARGIN, 10.0, {{joint, D.row(2)}});
+    }
+    if (shoulder) {
+      // Upper arms: not far behind the body, and not across it except in front of the chest:
+      // the shoulder adducts ~25° past the vertical in the frontal plane (sin 25° ≈ 0.4),
+      // further only as the arm comes forward (horizontal adduction); an arm pointing through
+      // the torso or over and down the other side is out of range.
+      const double side = joint == Joint::LEFT_SHOULDER ? 1.0 : -1.0;
+      const Vec3 out(side, 0, 0);
+      const Vec3 d = rotate(angles(joint), out);
+      const Mat3 Rs = jacobian ? rotation(angles(joint)) : Mat3::Identity();
+      const Mat3 D = jacobian ? rotated_derivative(angles(joint), Rs, out) : Mat3::Zero();
+      put(LIMIT_WEIGHT, d.z(), -0.6, 10.0, {{joint, D.row(2)}});
+      const double forward = d.z() > 0 ? d.z() : 0.0;
+      put(LIMIT_WEIGHT, -side * d.x() - forward, -10.0, 0.4, {{joint, -side * D.row(0) - (d.z() > 0 ? 1.0 : 0.0) * D.row(2)}});
+      // Humeral rotation: in neutral rotation the elbow's hinge axis lies square to the torso's
+      // forward axis (the forearm flexes in the arm's plane of elevation, towards the front when
+      // the arm hangs); rotating the humerus inwards or outwards tilts the axis forward or back.
+      // A pull toward neutral, which also tells a forearm bent towards the camera from one bent
+      // away (the other needs a humerus turned far round). Silent where the arm points forward
+      // (the axis is then square to it whatever the rotation).
+      const Vec3 hinge_rest(0, -side, 0);
+      const Vec3 hinge = rotate(angles(joint), hinge_rest);
+      r[k] = HINGE_WEIGHT * hinge.z();
+      if (jacobian) Jac.block<1, 3>(k, 0) = HINGE_WEIGHT * rotated_derivative(angles(joint), Rs, hinge_rest).row(2);
+      ++k;
+    }
+    return;
   }
   // Limbs reach forward further than back (shoulder flexion ~180° against extension ~50°, hip
   // flexion ~120° against extension ~20°): a soft cost on each upper arm, forearm and thigh
-  // pointing behind the torso's frontal plane, beyond a margin that lets arms and legs swing.
-  for (const Joint sh : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) {
-    const Joint collar = sh == Joint::LEFT_SHOULDER ? Joint::LEFT_COLLAR : Joint::RIGHT_COLLAR;
-    const Joint elbow = sh == Joint::LEFT_SHOULDER ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW;
-    const Vec3 out(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0, 0, 0);
-    // upper = R_c R_s out, fore = R_c R_s R_e out.
-    const Vec3 a = rotate(angles(sh), out);
-    const Vec3 upper = rotate(angles(collar), a);
-    const Vec3 ae = rotate(angles(elbow), out);
-    const Vec3 b = rotate(angles(sh), ae);
-    const Vec3 fore = rotate(angles(collar), b);
-    Mat3 Du_c = Mat3::Zero(), Du_s = Mat3::Zero(), Df_c = Mat3::Zero(), Df_s = Mat3::Zero(), Df_e = Mat3::Zero();
-    if (jacobian) {
-      const Mat3 Rc = rotation(angles(collar)), Rs = rotation(angles(sh)), Re = rotation(angles(elbow));
-      Du_c = rotated_derivative(angles(collar), Rc, a);
-      Du_s = Rc * rotated_derivative(angles(sh), Rs, out);
-      Df_c = rotated_derivative(angles(collar), Rc, b);
-      Df_s = Rc * rotated_derivative(angles(sh), Rs, ae);
-      Df_e = Rc * Rs * rotated_derivative(angles(elbow), Re, out);
-    }
-    put(BEHIND_WEIGHT, upper.z(), -BEHIND_MARGIN, 10.0, {{collar, Du_c.row(2)}, {sh, Du_s.row(2)}});
-    put(BEHIND_WEIGHT, fore.z(), -BEHIND_MARGIN, 10.0, {{collar, Df_c.row(2)}, {sh, Df_s.row(2)}, {elbow, Df_e.row(2)}});
+  // (above) pointing behind the torso's frontal plane, beyond a margin that lets arms and legs
+  // swing. upper = R_c R_s out, fore = R_c R_s R_e out.
+  const Joint collar = static_cast<Joint>(pt.joints[0]), sh = static_cast<Joint>(pt.joints[1]), elbow = static_cast<Joint>(pt.joints[2]);
+  const Vec3 out(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0, 0, 0);
+  const Vec3 a = rotate(angles(sh), out);
+  const Vec3 upper = rotate(angles(collar), a);
+  const Vec3 ae = rotate(angles(elbow), out);
+  const Vec3 b = rotate(angles(sh), ae);
+  const Vec3 fore = rotate(angles(collar), b);
+  Mat3 Du_c = Mat3::Zero(), Du_s = Mat3::Zero(), Df_c = Mat3::Zero(), Df_s = Mat3::Zero(), Df_e = Mat3::Zero();
+  if (jacobian) {
+    const Mat3 Rc = rotation(angles(collar)), Rs = rotation(angles(sh)), Re = rotation(angles(elbow));
+    Du_c = rotated_derivative(angles(collar), Rc, a);
+    Du_s = Rc * rotated_derivative(angles(sh), Rs, out);
+    Df_c = rotated_derivative(angles(collar), Rc, b);
+    Df_s = Rc * rotated_derivative(angles(sh), Rs, ae);
+    Df_e = Rc * Rs * rotated_derivative(angles(elbow), Re, out);
   }
-  for (const Joint hip : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) {
-    const Vec3 d = rotate(angles(hip), down);
-    const Mat3 D = jacobian ? rotated_derivative(angles(hip), rotation(angles(hip)), down) : Mat3::Zero();
-    put(BEHIND_WEIGHT, d.z(), -BEHIND_MARGIN, 10.0, {{hip, D.row(2)}});
+  put(BEHIND_WEIGHT, upper.z(), -BEHIND_MARGIN, 10.0, {{collar, Du_c.row(2)}, {sh, Du_s.row(2)}});
+  put(BEHIND_WEIGHT, fore.z(), -BEHIND_MARGIN, 10.0, {{collar, Df_c.row(2)}, {sh, Df_s.row(2)}, {elbow, Df_e.row(2)}});
+}
+
+void pose_prior(const double* body, const std::array<double, BODY_POSE>& relaxed, double* r, double* jacobian) {
+  const auto& terms = pose_prior_terms();
+  Eigen::Map<RowJacobian> Jac(jacobian, jacobian ? pose_prior_residual_count() : 0, BODY_POSE);
+  if (jacobian) Jac.setZero();
+  RowJacobian part;
+  int row = 0;
+  for (std::size_t t = 0; t < terms.size(); ++t) {
+    const PosePriorTerm& pt = terms[t];
+    if (jacobian) part.resize(pt.residuals, static_cast<Eigen::Index>(3 * pt.joints.size()));
+    pose_prior_term(t, body, relaxed, r + row, jacobian ? part.data() : nullptr);
+    if (jacobian)
+      for (std::size_t c = 0; c < pt.joints.size(); ++c)
+        Jac.block(row, 3 * (pt.joints[c] - 1), pt.residuals, 3) = part.middleCols(static_cast<Eigen::Index>(3 * c), 3);
+    row += pt.residuals;
   }
 }
 

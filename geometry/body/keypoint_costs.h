@@ -50,16 +50,39 @@ struct PoseMean {
 /// The prior's relaxed pose and weights, built on first use; thread-safe.
 const PoseMean& pose_mean();
 
-/// Number of residuals of pose_prior(): BODY_POSE pulls, the box limits, 16 direction limits.
+/// One term of the pose prior: `residuals` consecutive residuals of pose_prior() that depend on
+/// the angles of `joints` only (1–3 joints in [1, JOINT_COUNT)), so that a solver sees the
+/// prior's sparsity (each term its own residual block on per-joint parameter blocks).
+struct PosePriorTerm {
+  std::vector<int> joints; ///< joints whose axis-angles the term reads, in its Jacobian's column order
+  int residuals = 0;       ///< number of residuals
+};
+
+/// The pose prior's terms in the order of pose_prior()'s residuals: per joint 1 … 23 its pull
+/// toward the relaxed pose (3), its box limits and, for hips and shoulders, their direction
+/// limits; then per arm (left, right) the upper arm's and forearm's behind-the-body costs, on
+/// collar, shoulder and elbow. Built on first use; thread-safe.
+const std::vector<PosePriorTerm>& pose_prior_terms();
+
+/// Number of residuals of pose_prior(): the terms' residuals together (BODY_POSE pulls, the box
+/// limits, 16 direction limits).
 int pose_prior_residual_count();
+
+/// Residuals of pose_prior_terms()[term] at the body pose `body` (BODY_POSE numbers) and, when
+/// `jacobian` is not null, their derivatives (row-major residuals × 3·joints.size(), three
+/// columns per joint of the term, overwritten). Throws std::out_of_range for a term past the
+/// last.
+void pose_prior_term(std::size_t term, const double* body, const std::array<double, BODY_POSE>& relaxed, double* residuals,
+                     double* jacobian);
 
 /// The anatomical pose prior E_pose (keypoint_fit.h) of the body pose `body` (BODY_POSE
 /// numbers): a saturating pull toward `relaxed` (each upper arm toward the nearest of its three
 /// rest places instead), box limits on joint angles and limits on limb directions, as
-/// residuals (`residuals`: pose_prior_residual_count(), E_pose = Σ r²). `jacobian`: null or
-/// row-major pose_prior_residual_count() × BODY_POSE, overwritten. The limits are one-sided
-/// (derivative 0 inside the range); the rest place each arm is pulled toward is held fixed
-/// (chosen by the present pose, not differentiated).
+/// residuals (`residuals`: pose_prior_residual_count(), E_pose = Σ r²; every term of
+/// pose_prior_terms() in turn). `jacobian`: null or row-major pose_prior_residual_count() ×
+/// BODY_POSE, overwritten. The limits are one-sided (derivative 0 inside the range); the rest
+/// place each arm is pulled toward is held fixed (chosen by the present pose, not
+/// differentiated).
 void pose_prior(const double* body, const std::array<double, BODY_POSE>& relaxed, double* residuals, double* jacobian);
 
 } // namespace vfit::keypoint_detail

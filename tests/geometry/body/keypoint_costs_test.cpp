@@ -107,6 +107,19 @@ TEST(KeypointCosts, PosePriorJacobianMatchesCentralDifferences) {
         central_differences([&](const double* x, double* out) { pose_prior(x, pose_mean().mean, out, nullptr); }, body, rows);
     const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
     EXPECT_LT((analytic - numeric).cwiseAbs().maxCoeff(), 1e-6 * scale) << "trial " << trial;
+    // Each term reads only its own joints (the fit gives it nothing else): with every other
+    // joint zeroed it gives pose_prior()'s rows exactly.
+    int row = 0;
+    for (std::size_t t = 0; t < pose_prior_terms().size(); ++t) {
+      const PosePriorTerm& term = pose_prior_terms()[t];
+      std::vector<double> only(BODY_POSE, 0.0), rt(static_cast<std::size_t>(term.residuals));
+      for (int j : term.joints)
+        for (int a = 0; a < 3; ++a) only[static_cast<std::size_t>(3 * (j - 1) + a)] = body[static_cast<std::size_t>(3 * (j - 1) + a)];
+      pose_prior_term(t, only.data(), pose_mean().mean, rt.data(), nullptr);
+      for (int i = 0; i < term.residuals; ++i) EXPECT_EQ(rt[static_cast<std::size_t>(i)], r[static_cast<std::size_t>(row + i)]) << "term " << t;
+      row += term.residuals;
+    }
+    EXPECT_EQ(row, rows);
   }
   EXPECT_GT(active_limits, 8 * 10) << "the draws exercise the limits"; // measured count printed on failure
 }
