@@ -62,26 +62,34 @@ Vec3 rotate(const double* w, const Vec3& v) {
 void reprojection(const KeypointBodyModel& model, const Observations& obs, const PinholeCamera& cam,
                   const double* global, const double* body, const double* trans, const double* beta, double* residuals,
                   double* const* jacobians) {
-  // Forward kinematics of the rest joints of β, once for all points.
+  // Forward kinematics of the rest joints of β, once for all points, on the joints that move
+  // them (a limb's keypoints need ~8 of the 24).
+  static const std::array<int, JOINT_COUNT> parent = [] {
+    std::array<int, JOINT_COUNT> p{};
+    for (int j = 0; j < JOINT_COUNT; ++j) p[static_cast<std::size_t>(j)] = joint_parent(j);
+    return p;
+  }();
+  std::array<bool, JOINT_COUNT> needed{};
+  for (int pt : obs.points)
+    for (int j = model.joint[static_cast<std::size_t>(pt)]; j >= 0 && !needed[static_cast<std::size_t>(j)]; j = parent[static_cast<std::size_t>(j)])
+      needed[static_cast<std::size_t>(j)] = true;
   std::array<Vec3, JOINT_COUNT> J, t;
   std::array<Mat3, JOINT_COUNT> R;
-  std::array<int, JOINT_COUNT> parent{};
   auto rest = [&](int i) {
     Vec3 p = model.mean.row(i).transpose();
     for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) p += model.basis[static_cast<std::size_t>(k)].row(i).transpose() * beta[k];
     return p;
   };
   auto angles = [&](int j) { return j == 0 ? global : body + 3 * (j - 1); };
-  for (int j = 0; j < JOINT_COUNT; ++j) J[static_cast<std::size_t>(j)] = rest(j);
   for (int j = 0; j < JOINT_COUNT; ++j) {
     const auto uj = static_cast<std::size_t>(j);
+    if (!needed[uj]) continue; // a joint's parent comes before it, and is needed when it is
+    J[uj] = rest(j);
     const Mat3 local = rotation(angles(j));
     if (j == 0) {
-      parent[0] = -1;
       R[0] = local;
       t[0] = J[0] + Vec3(trans[0], trans[1], trans[2]);
     } else {
-      parent[uj] = joint_parent(j);
       const auto p = static_cast<std::size_t>(parent[uj]);
       R[uj] = R[p] * local;
       t[uj] = R[p] * (J[uj] - J[p]) + t[p];
@@ -99,7 +107,8 @@ void reprojection(const KeypointBodyModel& model, const Observations& obs, const
   // B_k = R_k J_r(θ_k): ∂X/∂θ_k = −[X − t_k]× B_k for every X below joint k.
   std::array<Mat3, JOINT_COUNT> B;
   if (jg || jb)
-    for (int j = 0; j < JOINT_COUNT; ++j) B[static_cast<std::size_t>(j)] = R[static_cast<std::size_t>(j)] * right_jacobian(angles(j));
+    for (int j = 0; j < JOINT_COUNT; ++j)
+      if (needed[static_cast<std::size_t>(j)]) B[static_cast<std::size_t>(j)] = R[static_cast<std::size_t>(j)] * right_jacobian(angles(j));
   // ∂t_j/∂β (3 × 4 per joint): t_j = R_p (J_j − J_p) + t_p with the rotations fixed.
   using ShapeJacobian = Eigen::Matrix<double, 3, KEYPOINT_SHAPE_PARAMS>;
   auto rest_basis = [&](int i) {
@@ -112,6 +121,7 @@ void reprojection(const KeypointBodyModel& model, const Observations& obs, const
     dt[0] = rest_basis(0);
     for (int j = 1; j < JOINT_COUNT; ++j) {
       const auto uj = static_cast<std::size_t>(j), p = static_cast<std::size_t>(parent[uj]);
+      if (!needed[uj]) continue;
       dt[uj] = R[p] * (rest_basis(j) - rest_basis(parent[uj])) + dt[p];
     }
   }
