@@ -70,7 +70,9 @@ struct KeypointBodyModel {
   Points posed_points(const KeypointShape& beta, const Pose& pose) const;
 };
 
-/// The mannequin's keypoint model, built on first use (a few ms) and cached; thread-safe.
+/// The mannequin's keypoint model, built on first use and cached; thread-safe. The first use
+/// builds 9 mannequins (MannequinShape, ~0.6 s each on the project's 2-core host, ~5.5 s in
+/// all): a one-off per process, which a fit of one image in a fresh process pays.
 const KeypointBodyModel& mannequin_keypoint_model();
 
 /// A pinhole camera at the origin looking along −Z with Y up (our world convention, so a body
@@ -87,8 +89,9 @@ struct PinholeCamera {
 /// Settings of fit_keypoints().
 struct KeypointFitOptions {
   int max_iterations = 60;   ///< per stage and start (Levenberg–Marquardt iterations)
-  /// Ceres threads, at most 2. One residual block holds every keypoint, so a second thread
-  /// has nothing to share and measured slower (keypoint_fit_bench); default 1.
+  /// Ceres threads, at most 2. The residual blocks are small (a limb's keypoints, one prior
+  /// term; ~35 µs of evaluation per iteration in all), so a second thread costs more than it
+  /// shares: measured slower (keypoint_fit_bench: 31-52 against 39-110 ms per image); default 1.
   int threads = 1;
   bool fit_shape = true;     ///< stage 3 (shape + pose); false: the average body's shape
   /// A warm start (e.g. the previous video frame's fit, or a known pose in a test): when set,
