@@ -66,18 +66,21 @@ void reprojection(const KeypointBodyModel& model, const Observations& obs, const
   // them (a limb's keypoints need ~8 of the 24).
   static const std::array<int, JOINT_COUNT> parent = [] {
     std::array<int, JOINT_COUNT> p{};
-    for (int j = 0; j < JOINT_COUNT; ++j) p[static_cast<std::size_t>(j)] = joint_parent(j);
+    for (int j = 0; j < JOINT_COUNT; ++j)
+      p[static_cast<std::size_t>(j)] = joint_parent(j);
     return p;
   }();
   std::array<bool, JOINT_COUNT> needed{};
   for (int pt : obs.points)
-    for (int j = model.joint[static_cast<std::size_t>(pt)]; j >= 0 && !needed[static_cast<std::size_t>(j)]; j = parent[static_cast<std::size_t>(j)])
+    for (int j = model.joint[static_cast<std::size_t>(pt)]; j >= 0 && !needed[static_cast<std::size_t>(j)];
+         j = parent[static_cast<std::size_t>(j)])
       needed[static_cast<std::size_t>(j)] = true;
   std::array<Vec3, JOINT_COUNT> J, t;
   std::array<Mat3, JOINT_COUNT> R;
   auto rest = [&](int i) {
     Vec3 p = model.mean.row(i).transpose();
-    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) p += model.basis[static_cast<std::size_t>(k)].row(i).transpose() * beta[k];
+    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k)
+      p += model.basis[static_cast<std::size_t>(k)].row(i).transpose() * beta[k];
     return p;
   };
   auto angles = [&](int j) { return j == 0 ? global : body + 3 * (j - 1); };
@@ -108,12 +111,14 @@ void reprojection(const KeypointBodyModel& model, const Observations& obs, const
   std::array<Mat3, JOINT_COUNT> B;
   if (jg || jb)
     for (int j = 0; j < JOINT_COUNT; ++j)
-      if (needed[static_cast<std::size_t>(j)]) B[static_cast<std::size_t>(j)] = R[static_cast<std::size_t>(j)] * right_jacobian(angles(j));
+      if (needed[static_cast<std::size_t>(j)])
+        B[static_cast<std::size_t>(j)] = R[static_cast<std::size_t>(j)] * right_jacobian(angles(j));
   // ∂t_j/∂β (3 × 4 per joint): t_j = R_p (J_j − J_p) + t_p with the rotations fixed.
   using ShapeJacobian = Eigen::Matrix<double, 3, KEYPOINT_SHAPE_PARAMS>;
   auto rest_basis = [&](int i) {
     ShapeJacobian d;
-    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) d.col(k) = model.basis[static_cast<std::size_t>(k)].row(i).transpose();
+    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k)
+      d.col(k) = model.basis[static_cast<std::size_t>(k)].row(i).transpose();
     return d;
   };
   std::array<ShapeJacobian, JOINT_COUNT> dt;
@@ -156,7 +161,8 @@ void reprojection(const KeypointBodyModel& model, const Observations& obs, const
     if (jg || jb)
       for (int k = a; k >= 0; k = parent[static_cast<std::size_t>(k)]) {
         if (k == pt) continue; // a joint's own rotation does not move it
-        const Eigen::Matrix<double, 2, 3> C = -M * skew(X - t[static_cast<std::size_t>(k)]) * B[static_cast<std::size_t>(k)];
+        const Eigen::Matrix<double, 2, 3> C =
+            -M * skew(X - t[static_cast<std::size_t>(k)]) * B[static_cast<std::size_t>(k)];
         if (k == 0) {
           if (jg) Rows(jg + 2 * i * 3, 2, 3, Eigen::OuterStride<>(3)) = C;
         } else if (jb) {
@@ -166,7 +172,8 @@ void reprojection(const KeypointBodyModel& model, const Observations& obs, const
     if (js) {
       const ShapeJacobian dX = pt < JOINT_COUNT ? dt[static_cast<std::size_t>(pt)]
                                                 : ShapeJacobian(R[ua] * (rest_basis(pt) - rest_basis(a)) + dt[ua]);
-      Rows(js + 2 * i * KEYPOINT_SHAPE_PARAMS, 2, KEYPOINT_SHAPE_PARAMS, Eigen::OuterStride<>(KEYPOINT_SHAPE_PARAMS)) = M * dX;
+      Rows(js + 2 * i * KEYPOINT_SHAPE_PARAMS, 2, KEYPOINT_SHAPE_PARAMS, Eigen::OuterStride<>(KEYPOINT_SHAPE_PARAMS)) =
+          M * dX;
     }
   }
 }
@@ -192,32 +199,38 @@ const std::vector<BoxLimit>& box_limits() {
       v.push_back({idx(j), 1, yl, yh});
       v.push_back({idx(j), 2, zl, zh});
     };
-    for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3}) box(j, -0.35, 0.60, -0.45, 0.45, -0.35, 0.35);
+    for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3})
+      box(j, -0.35, 0.60, -0.45, 0.45, -0.35, 0.35);
     box(Joint::NECK, -0.50, 0.60, -0.70, 0.70, -0.40, 0.40);
     box(Joint::HEAD, -0.45, 0.45, -0.60, 0.60, -0.35, 0.35);
-    for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR}) box(j, -0.30, 0.30, -0.30, 0.30, -0.35, 0.35);
+    for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR})
+      box(j, -0.30, 0.30, -0.30, 0.30, -0.35, 0.35);
     // Knees hinge forward only: flexion about +X up to ~150°, a little twist, no side bend.
-    for (Joint j : {Joint::LEFT_KNEE, Joint::RIGHT_KNEE}) box(j, 0.0, 2.6, -0.30, 0.30, -0.10, 0.10);
+    for (Joint j : {Joint::LEFT_KNEE, Joint::RIGHT_KNEE})
+      box(j, 0.0, 2.6, -0.30, 0.30, -0.10, 0.10);
     // Elbows hinge forward only (left about −Y, right about +Y); forearm twist is free-ish.
     box(Joint::LEFT_ELBOW, -1.5, 1.5, -2.6, 0.0, -0.10, 0.10);
     box(Joint::RIGHT_ELBOW, -1.5, 1.5, 0.0, 2.6, -0.10, 0.10);
-    for (Joint j : {Joint::LEFT_ANKLE, Joint::RIGHT_ANKLE}) box(j, -0.80, 0.60, -0.40, 0.40, -0.40, 0.40);
+    for (Joint j : {Joint::LEFT_ANKLE, Joint::RIGHT_ANKLE})
+      box(j, -0.80, 0.60, -0.40, 0.40, -0.40, 0.40);
     // Ball joints: twist about the bone (x for arms, y for thighs) within a range; direction
     // limits below.
-    for (Joint j : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER}) v.push_back({idx(j), 0, -1.3, 1.3});
-    for (Joint j : {Joint::LEFT_HIP, Joint::RIGHT_HIP}) v.push_back({idx(j), 1, -0.7, 0.7});
+    for (Joint j : {Joint::LEFT_SHOULDER, Joint::RIGHT_SHOULDER})
+      v.push_back({idx(j), 0, -1.3, 1.3});
+    for (Joint j : {Joint::LEFT_HIP, Joint::RIGHT_HIP})
+      v.push_back({idx(j), 1, -0.7, 0.7});
     return v;
   }();
   return limits;
 }
 
-constexpr double LIMIT_WEIGHT = 400.0;    // px-equivalent per rad (or per unit of direction)
+constexpr double LIMIT_WEIGHT = 400.0; // px-equivalent per rad (or per unit of direction)
 // px-equivalent per unit of an upper arm's hinge axis along the torso's forward axis (humeral
 // rotation away from neutral).
 constexpr double HINGE_WEIGHT = 20.0;
-constexpr double PRIOR_SATURATION = 0.5;  // rad: where the pull toward the relaxed pose levels off
-constexpr double BEHIND_WEIGHT = 20.0;    // px-equivalent per unit of a limb's backward direction
-constexpr double BEHIND_MARGIN = 0.2;     // backward direction component free of cost (~12°)
+constexpr double PRIOR_SATURATION = 0.5; // rad: where the pull toward the relaxed pose levels off
+constexpr double BEHIND_WEIGHT = 20.0;   // px-equivalent per unit of a limb's backward direction
+constexpr double BEHIND_MARGIN = 0.2;    // backward direction component free of cost (~12°)
 
 // Where an upper arm rests besides the relaxed pose's ~60° drop (T-pose-relative axis-angle of the
 // shoulder, left arm; the right arm's mirror negates the y and z numbers): reaching forward
@@ -240,12 +253,15 @@ const PoseMean& pose_mean() {
     p.mean[at(Joint::LEFT_KNEE, 0)] = 0.08;
     p.mean[at(Joint::RIGHT_KNEE, 0)] = 0.08;
     p.weight.fill(20.0);
-    for (Joint j : {Joint::LEFT_WRIST, Joint::RIGHT_WRIST, Joint::LEFT_HAND, Joint::RIGHT_HAND, Joint::LEFT_FOOT, Joint::RIGHT_FOOT})
-      for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 200.0;
+    for (Joint j : {Joint::LEFT_WRIST, Joint::RIGHT_WRIST, Joint::LEFT_HAND, Joint::RIGHT_HAND, Joint::LEFT_FOOT,
+                    Joint::RIGHT_FOOT})
+      for (int a = 0; a < 3; ++a)
+        p.weight[at(j, a)] = 200.0;
     // The torso and neck stay near upright unless the keypoints insist: 2D joints cannot tell a
     // spine bent towards the camera from one bent away.
     for (Joint j : {Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR, Joint::SPINE1, Joint::SPINE2, Joint::SPINE3, Joint::NECK})
-      for (int a = 0; a < 3; ++a) p.weight[at(j, a)] = 40.0;
+      for (int a = 0; a < 3; ++a)
+        p.weight[at(j, a)] = 40.0;
     // Twists about the bone: invisible in 2D joints.
     p.weight[at(Joint::LEFT_ELBOW, 0)] = p.weight[at(Joint::RIGHT_ELBOW, 0)] = 60.0;
     p.weight[at(Joint::LEFT_SHOULDER, 0)] = p.weight[at(Joint::RIGHT_SHOULDER, 0)] = 20.0;
@@ -265,7 +281,8 @@ const std::vector<PosePriorTerm>& pose_prior_terms() {
     std::vector<PosePriorTerm> v;
     for (int j = 1; j < JOINT_COUNT; ++j) {
       int rows = 3; // the pull
-      for (const BoxLimit& b : box_limits()) rows += b.joint == j;
+      for (const BoxLimit& b : box_limits())
+        rows += b.joint == j;
       if (j == idx(Joint::LEFT_HIP) || j == idx(Joint::RIGHT_HIP)) rows += 3;           // extension, crossing, behind
       if (j == idx(Joint::LEFT_SHOULDER) || j == idx(Joint::RIGHT_SHOULDER)) rows += 3; // far behind, across, rotation
       v.push_back({{j}, rows});
@@ -280,7 +297,8 @@ const std::vector<PosePriorTerm>& pose_prior_terms() {
 int pose_prior_residual_count() {
   static const int count = [] {
     int n = 0;
-    for (const PosePriorTerm& t : pose_prior_terms()) n += t.residuals;
+    for (const PosePriorTerm& t : pose_prior_terms())
+      n += t.residuals;
     return n;
   }();
   return count;
@@ -305,7 +323,8 @@ void pose_prior_term(std::size_t term, const double* body, const std::array<doub
   auto put = [&](double w, double x, double lo, double hi, std::initializer_list<std::pair<Joint, Row3>> grads) {
     r[k] = w * excess(x, lo, hi);
     if (jacobian && slope(x, lo, hi) != 0.0)
-      for (const auto& [j, g] : grads) Jac.block<1, 3>(k, column(j)) += w * g;
+      for (const auto& [j, g] : grads)
+        Jac.block<1, 3>(k, column(j)) += w * g;
     ++k;
   };
   const Vec3 down(0, -1, 0);
@@ -343,7 +362,8 @@ void pose_prior_term(std::size_t term, const double* body, const std::array<doub
     for (std::size_t a = 0; a < 3; ++a) {
       const double d = body[at + a] - target[a], g = 1 + d * d / S2;
       r[k] = m.weight[at + a] * d / std::sqrt(g);
-      if (jacobian) Jac(k, static_cast<Eigen::Index>(a)) = m.weight[at + a] / (g * std::sqrt(g)); // d/dd [w d / √(1 + d²/S²)]
+      if (jacobian)
+        Jac(k, static_cast<Eigen::Index>(a)) = m.weight[at + a] / (g * std::sqrt(g)); // d/dd [w d / √(1 + d²/S²)]
       ++k;
     }
     for (const BoxLimit& b : box_limits()) {
@@ -375,7 +395,8 @@ void pose_prior_term(std::size_t term, const double* body, const std::array<doub
       const Mat3 D = jacobian ? rotated_derivative(angles(joint), Rs, out) : Mat3::Zero();
       put(LIMIT_WEIGHT, d.z(), -0.6, 10.0, {{joint, D.row(2)}});
       const double forward = d.z() > 0 ? d.z() : 0.0;
-      put(LIMIT_WEIGHT, -side * d.x() - forward, -10.0, 0.4, {{joint, -side * D.row(0) - (d.z() > 0 ? 1.0 : 0.0) * D.row(2)}});
+      put(LIMIT_WEIGHT, -side * d.x() - forward, -10.0, 0.4,
+          {{joint, -side * D.row(0) - (d.z() > 0 ? 1.0 : 0.0) * D.row(2)}});
       // Humeral rotation: in neutral rotation the elbow's hinge axis lies square to the torso's
       // forward axis (the forearm flexes in the arm's plane of elevation, towards the front when
       // the arm hangs); rotating the humerus inwards or outwards tilts the axis forward or back.
@@ -394,7 +415,8 @@ void pose_prior_term(std::size_t term, const double* body, const std::array<doub
   // flexion ~120° against extension ~20°): a soft cost on each upper arm, forearm and thigh
   // (above) pointing behind the torso's frontal plane, beyond a margin that lets arms and legs
   // swing. upper = R_c R_s out, fore = R_c R_s R_e out.
-  const Joint collar = static_cast<Joint>(pt.joints[0]), sh = static_cast<Joint>(pt.joints[1]), elbow = static_cast<Joint>(pt.joints[2]);
+  const Joint collar = static_cast<Joint>(pt.joints[0]), sh = static_cast<Joint>(pt.joints[1]),
+              elbow = static_cast<Joint>(pt.joints[2]);
   const Vec3 out(sh == Joint::LEFT_SHOULDER ? 1.0 : -1.0, 0, 0);
   const Vec3 a = rotate(angles(sh), out);
   const Vec3 upper = rotate(angles(collar), a);

@@ -72,8 +72,8 @@ int pose_prior_residual_count();
 /// `jacobian` is not null, their derivatives (row-major residuals × 3·joints.size(), three
 /// columns per joint of the term, overwritten). Throws std::out_of_range for a term past the
 /// last.
-void pose_prior_term(std::size_t term, const double* body, const std::array<double, BODY_POSE>& relaxed, double* residuals,
-                     double* jacobian);
+void pose_prior_term(std::size_t term, const double* body, const std::array<double, BODY_POSE>& relaxed,
+                     double* residuals, double* jacobian);
 
 /// The anatomical pose prior E_pose (keypoint_fit.h) of the body pose `body` (BODY_POSE
 /// numbers): a saturating pull toward `relaxed` (each upper arm toward the nearest of its three

@@ -30,7 +30,8 @@ template <typename F> RowMatrix central_differences(F&& f, std::vector<double> x
     f(x.data(), minus.data());
     x[k] = x0;
     for (int i = 0; i < rows; ++i)
-      J(i, static_cast<Eigen::Index>(k)) = (plus[static_cast<std::size_t>(i)] - minus[static_cast<std::size_t>(i)]) / (2 * h);
+      J(i, static_cast<Eigen::Index>(k)) =
+          (plus[static_cast<std::size_t>(i)] - minus[static_cast<std::size_t>(i)]) / (2 * h);
   }
   return J;
 }
@@ -44,15 +45,19 @@ TEST(KeypointCosts, ReprojectionJacobiansMatchCentralDifferences) {
   std::mt19937 rng(11);
   auto draw = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
   for (int trial = 0; trial < 6; ++trial) {
-    std::vector<double> global = {draw(-0.5, 0.5), draw(-3, 3), draw(-0.3, 0.3)}, body(BODY_POSE), trans = {draw(-0.3, 0.3), -0.2, -3.2};
+    std::vector<double> global = {draw(-0.5, 0.5), draw(-3, 3), draw(-0.3, 0.3)}, body(BODY_POSE),
+                        trans = {draw(-0.3, 0.3), -0.2, -3.2};
     std::vector<double> beta(KEYPOINT_SHAPE_PARAMS);
-    for (double& b : body) b = draw(-1.2, 1.2);
-    for (double& b : beta) b = draw(-1.5, 1.5);
+    for (double& b : body)
+      b = draw(-1.2, 1.2);
+    for (double& b : beta)
+      b = draw(-1.5, 1.5);
     Observations obs;
     obs.sigma = 150;
     Pose pose;
     pose.axis_angle.row(0) << global[0], global[1], global[2];
-    for (int j = 1; j < JOINT_COUNT; ++j) pose.axis_angle.row(j) << body[3 * (j - 1)], body[3 * (j - 1) + 1], body[3 * (j - 1) + 2];
+    for (int j = 1; j < JOINT_COUNT; ++j)
+      pose.axis_angle.row(j) << body[3 * (j - 1)], body[3 * (j - 1) + 1], body[3 * (j - 1) + 2];
     pose.translation << trans[0], trans[1], trans[2];
     const KeypointShape shape = {beta[0], beta[1], beta[2], beta[3]};
     const auto posed = model.posed_points(shape, pose);
@@ -70,7 +75,8 @@ TEST(KeypointCosts, ReprojectionJacobiansMatchCentralDifferences) {
     // The residuals are the ones posed_points() and project() give.
     for (int p = 0; p < BODY_POINT_COUNT; ++p) {
       const Eigen::Vector2d e = cam.project(posed.row(p).transpose()) - obs.pixels[static_cast<std::size_t>(p)];
-      const double s = obs.sqrt_weight[static_cast<std::size_t>(p)] * obs.sigma / std::sqrt(obs.sigma * obs.sigma + e.squaredNorm());
+      const double s =
+          obs.sqrt_weight[static_cast<std::size_t>(p)] * obs.sigma / std::sqrt(obs.sigma * obs.sigma + e.squaredNorm());
       EXPECT_NEAR(r[static_cast<std::size_t>(2 * p)], s * e.x(), 1e-9);
       EXPECT_NEAR(r[static_cast<std::size_t>(2 * p + 1)], s * e.y(), 1e-9);
     }
@@ -98,13 +104,15 @@ TEST(KeypointCosts, PosePriorJacobianMatchesCentralDifferences) {
   int active_limits = 0;
   for (int trial = 0; trial < 8; ++trial) {
     std::vector<double> body(BODY_POSE);
-    for (double& b : body) b = draw(-1.4, 1.4);
+    for (double& b : body)
+      b = draw(-1.4, 1.4);
     std::vector<double> r(static_cast<std::size_t>(rows));
     RowMatrix analytic(rows, BODY_POSE);
     pose_prior(body.data(), pose_mean().mean, r.data(), analytic.data());
-    for (int i = BODY_POSE; i < rows; ++i) active_limits += r[static_cast<std::size_t>(i)] != 0.0;
-    const RowMatrix numeric =
-        central_differences([&](const double* x, double* out) { pose_prior(x, pose_mean().mean, out, nullptr); }, body, rows);
+    for (int i = BODY_POSE; i < rows; ++i)
+      active_limits += r[static_cast<std::size_t>(i)] != 0.0;
+    const RowMatrix numeric = central_differences(
+        [&](const double* x, double* out) { pose_prior(x, pose_mean().mean, out, nullptr); }, body, rows);
     const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
     EXPECT_LT((analytic - numeric).cwiseAbs().maxCoeff(), 1e-6 * scale) << "trial " << trial;
     // Each term reads only its own joints (the fit gives it nothing else): with every other
@@ -114,9 +122,11 @@ TEST(KeypointCosts, PosePriorJacobianMatchesCentralDifferences) {
       const PosePriorTerm& term = pose_prior_terms()[t];
       std::vector<double> only(BODY_POSE, 0.0), rt(static_cast<std::size_t>(term.residuals));
       for (int j : term.joints)
-        for (int a = 0; a < 3; ++a) only[static_cast<std::size_t>(3 * (j - 1) + a)] = body[static_cast<std::size_t>(3 * (j - 1) + a)];
+        for (int a = 0; a < 3; ++a)
+          only[static_cast<std::size_t>(3 * (j - 1) + a)] = body[static_cast<std::size_t>(3 * (j - 1) + a)];
       pose_prior_term(t, only.data(), pose_mean().mean, rt.data(), nullptr);
-      for (int i = 0; i < term.residuals; ++i) EXPECT_EQ(rt[static_cast<std::size_t>(i)], r[static_cast<std::size_t>(row + i)]) << "term " << t;
+      for (int i = 0; i < term.residuals; ++i)
+        EXPECT_EQ(rt[static_cast<std::size_t>(i)], r[static_cast<std::size_t>(row + i)]) << "term " << t;
       row += term.residuals;
     }
     EXPECT_EQ(row, rows);
