@@ -417,7 +417,9 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
                                   const ImplicitContactSprings* contact_springs) {
   const std::size_t nv = adjacency.particle_count();
   assert(positions.size() == 3 * nv && velocities.size() == 3 * nv && "state and adjacency sizes differ");
-  assemble_implicit_system(positions, velocities, adjacency, particles, h, w.system, parallel);
+  // The CSR blocks only for the coarse level (AUTO may engage it in this solve).
+  assemble_implicit_system(positions, velocities, adjacency, particles, h, w.system, parallel,
+                           options.preconditioner != ImplicitPreconditioner::BLOCK_JACOBI);
   const bool springs = contact_springs != nullptr && !contact_springs->empty();
   if (springs) {
     assert(contact_springs->normals.size() == 3 * nv && contact_springs->gaps.size() == nv &&
@@ -641,6 +643,16 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
       }
     });
   }
+  // A warm start without constraints: q = S·A·Δv₀ by the CG's own product pass (p, zero, as
+  // scratch: p = Δv₀ + 0·p), the values of row_times() (a zero's sign aside) at the cost of one
+  // vectorised pass instead of a scalar one per row; the initial pass reads it and clears p and
+  // q again. (With constraints the filter does not commute with the subtraction, so those rows
+  // keep row_times().)
+  const bool product_start = warm && !constrained;
+  if (product_start)
+    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+      direction_range(s, adjacency, normals, dv, 0.0f, p, q, b, e);
+    });
   // r = S·(b − A·Δv₀), z = S·P⁻¹·r; partials: |S·b|², r·z; patches: each chunk's free
   // particles (turned into its bound below) and |r|².
   double* patch = w.patches.data();
@@ -650,9 +662,13 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
       for (std::size_t i = b; i < e; ++i) {
         const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
         vfit_vec3 ri = bi;
-        if (translated && s.free[i])
+        if (translated && s.free[i]) {
           ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), translated_row(i)));
-        else if ((constrained || warm) && s.free[i])
+        } else if (product_start) {
+          if (s.free[i]) ri = vfit_v3_sub(bi, load3(q, i)); // the filter is the identity on free rows
+          store3(p, i, vfit_vec3{0.0f, 0.0f, 0.0f});
+          store3(q, i, vfit_vec3{0.0f, 0.0f, 0.0f});
+        } else if (constrained && s.free[i])
           ri = filter(i, vfit_v3_sub(load3(s.rhs.data(), i), row_times(s, adjacency, dv, i)));
         const vfit_vec3 zi = filter(i, vfit_sym3_apply(load_sliced_sym(precond, i), ri));
         store3(r, i, ri);

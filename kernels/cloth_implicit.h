@@ -228,9 +228,13 @@ struct ImplicitSolveReport {
 
 /// Assembles the system for a step of h (s) at the state (positions m, velocities m/s, #V × 3)
 /// into `system` (resized). `parallel` selects the TBB driver (same bits as serial).
+/// with_off_diagonal = false leaves system.off_diagonal empty: the CSR blocks S_e are read only
+/// by the TWO_LEVEL coarse level and by dense oracles (the CG's product and row_times() read
+/// the sliced springs), and writing them is 24 B per adjacency entry per step (2.7 MB on the
+/// 6,000-vertex tee); every other array gets the same bits either way.
 void assemble_implicit_system(std::span<const float> positions, std::span<const float> velocities,
                               const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
-                              ImplicitSystem& system, bool parallel);
+                              ImplicitSystem& system, bool parallel, bool with_off_diagonal = true);
 
 /// out = filtered A·p (#V × 3 each, out resized); pinned rows of out are 0 and pinned entries
 /// of p are ignored. Serial; for tests and for building a dense oracle.

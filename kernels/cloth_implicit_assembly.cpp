@@ -128,7 +128,7 @@ inline void assemble_row(const float* v, const SpringAdjacency& adj, const Cloth
 // before adding it (the same function, so the same bits).
 VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, const SpringAdjacency& adj,
                                             const ClothParticles& particles, float h, ImplicitSystem& s,
-                                            std::size_t begin, std::size_t end) {
+                                            bool with_off_diagonal, std::size_t begin, std::size_t end) {
   const float* rest = adj.rest_lengths.data();
   const float* stiffness = adj.stiffness.data();
   const float* damping = adj.damping.data();
@@ -140,7 +140,7 @@ VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, cons
     assemble_row(v, adj, particles, h, s, i, b, [&](std::size_t e) VFIT_CLOTH_LAMBDA {
       const auto j = static_cast<std::size_t>(adj.neighbors[e]);
       assemble_entry(rest, stiffness, damping, h, e, vfit_v3_sub(load3(x, j), xi), vfit_v3_sub(load3(v, j), vi), b, 0);
-      store_blocks(b, off_diagonal, entries, e, 1);
+      if (with_off_diagonal) store_blocks(b, off_diagonal, entries, e, 1);
       return std::size_t{0};
     });
   };
@@ -150,7 +150,7 @@ VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, cons
       assemble_entry(rest, stiffness, damping, h, std::size_t(e0) + k,
                      vfit_vec3{b.states.d[0][k], b.states.d[1][k], b.states.d[2][k]},
                      vfit_vec3{b.states.dv[0][k], b.states.dv[1][k], b.states.dv[2][k]}, b, k);
-    store_blocks(b, off_diagonal, entries, std::size_t(e0), count);
+    if (with_off_diagonal) store_blocks(b, off_diagonal, entries, std::size_t(e0), count);
     for (std::size_t row = first; row < last; ++row)
       assemble_row(v, adj, particles, h, s, row, b,
                    [e0](std::size_t e) VFIT_CLOTH_LAMBDA { return e - std::size_t(e0); });
@@ -158,8 +158,12 @@ VFIT_CLOTH_MULTIVERSION void assemble_range(const float* x, const float* v, cons
   for_each_row_block(adj.offsets.data(), begin, end, GATHER_BLOCK_ENTRIES, long_row, block);
 }
 
-void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries, std::size_t slots) {
-  s.off_diagonal.resize(6 * entries);
+void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries, std::size_t slots, bool with_off_diagonal) {
+  if (with_off_diagonal)
+    s.off_diagonal.resize(6 * entries);
+  else
+    s.off_diagonal.clear(); // not left stale
+
   s.sliced_springs.resize(5 * slots);
   s.diagonal.resize(6 * nv);
   s.particle_blocks.resize(6 * nv);
@@ -172,13 +176,13 @@ void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries, std::
 
 void assemble_implicit_system(std::span<const float> positions, std::span<const float> velocities,
                               const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
-                              ImplicitSystem& system, bool parallel) {
+                              ImplicitSystem& system, bool parallel, bool with_off_diagonal) {
   const std::size_t nv = adjacency.particle_count();
   assert(positions.size() == 3 * nv && velocities.size() == 3 * nv && "state and adjacency sizes differ");
   assert(particles.inverse_masses.size() == nv && "one inverse mass per particle");
-  resize_system(system, nv, adjacency.neighbors.size(), adjacency.slice_neighbor_offsets.size());
+  resize_system(system, nv, adjacency.neighbors.size(), adjacency.slice_neighbor_offsets.size(), with_off_diagonal);
   run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
-    assemble_range(positions.data(), velocities.data(), adjacency, particles, h, system, b, e);
+    assemble_range(positions.data(), velocities.data(), adjacency, particles, h, system, with_off_diagonal, b, e);
   });
 }
 

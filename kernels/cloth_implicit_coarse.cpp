@@ -251,6 +251,7 @@ void prepare_coarse_space(ImplicitCoarseSpace& c, const SpringAdjacency& adj, co
 bool factor_coarse_space(ImplicitCoarseSpace& c, const ImplicitSystem& s, const SpringAdjacency& adj,
                          const float* normals, bool parallel) {
   const std::size_t entries = adj.neighbors.size();
+  assert(s.off_diagonal.size() == 6 * entries && "assembled with_off_diagonal");
   ImplicitCoarseSpace::Scalar* values = c.matrix.valuePtr();
   // Aggregate a's blocks: Σ_{i ∈ a, j} S_i·A_ij·S_j over free i, j (A_ii on the diagonal, −S_e
   // per entry i → j), each aggregate summed by one task in particle and entry order.

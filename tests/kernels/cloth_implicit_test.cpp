@@ -203,6 +203,49 @@ TEST(ClothImplicit, SlicedProductEqualsThePerRowReference) {
   EXPECT_GT(nonzero, reference.size() / 2); // a product that is not trivially zero
 }
 
+// A warm start's residual r₀ = b − A·Δv₀ now comes from the CG's vectorised product pass
+// instead of row_times() per row: the same float operations in the same order, so the same
+// values (EXPECT_EQ; a zero's sign aside, which == ignores) as b − implicit_system_multiply(Δv₀)
+// on every row, pinned rows zero; and p and q are left zero for the iterations. The grid
+// (61², a last slice of 9 lanes, two pinned corners) and Δv₀ (a truncated cold solve) are as
+// the other product tests'. The assembly without the CSR blocks (with_off_diagonal = false)
+// leaves them empty and every other array the same bits.
+TEST(ClothImplicit, WarmStartResidualEqualsTheRowReferenceAndBlocksAreOptional) {
+  const Cloth c = jittered_cloth(61, 23u, 2e-3f);
+  ImplicitWorkspace w;
+  assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, 1.0f / 200.0f, w.system, true);
+  ImplicitSystem without;
+  assemble_implicit_system(c.x, c.v, c.adjacency, c.particles, 1.0f / 200.0f, without, true, false);
+  EXPECT_TRUE(without.off_diagonal.empty());
+  EXPECT_FALSE(w.system.off_diagonal.empty());
+  EXPECT_EQ(without.sliced_springs, w.system.sliced_springs);
+  EXPECT_EQ(without.diagonal, w.system.diagonal);
+  EXPECT_EQ(without.particle_blocks, w.system.particle_blocks);
+  EXPECT_EQ(without.inertia, w.system.inertia);
+  EXPECT_EQ(without.preconditioner, w.system.preconditioner);
+  EXPECT_EQ(without.rhs, w.system.rhs);
+  EXPECT_EQ(without.free, w.system.free);
+
+  ASSERT_GT(solve_implicit_system(c.adjacency, ImplicitSolveOptions{1e-1, 3}, w, true).iterations, 0);
+  const std::vector<float> start = w.dv;
+  ImplicitSolveOptions warm{1e-12, 0};
+  warm.warm_start = true;
+  const ImplicitSolveReport r = solve_implicit_system(c.adjacency, warm, w, true);
+  ASSERT_EQ(r.iterations, 0);
+  EXPECT_EQ(w.dv, start); // no iteration: the start is returned
+  std::vector<float> product;
+  implicit_system_multiply(w.system, c.adjacency, start, product);
+  std::size_t nonzero = 0;
+  for (std::size_t k = 0; k < product.size(); ++k) {
+    const float expected = w.system.free[k / 3] ? w.system.rhs[k] - product[k] : 0.0f;
+    ASSERT_EQ(w.r[k], expected) << "row " << k / 3 << " component " << k % 3;
+    ASSERT_EQ(w.p[k], 0.0f) << "row " << k / 3;
+    ASSERT_EQ(w.q[k], 0.0f) << "row " << k / 3;
+    nonzero += expected != 0.0f ? 1 : 0;
+  }
+  EXPECT_GT(nonzero, product.size() / 2); // a residual that is not trivially zero
+}
+
 // ImplicitSolveOptions::translation_start on a cloth in free fall: a 40² grid at its rest
 // shape, at rest, no pins, falling edge-on (gravity along -Z, in the grid's XZ plane, where its
 // springs are stiff). The springs exert nothing and resist no common motion, so the
