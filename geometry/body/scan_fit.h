@@ -75,6 +75,9 @@ struct ScanFit {
   /// estimation fails, the template's posed joints posed_joints(rest_joints, pose).
   JointPositions joints = JointPositions::Zero();
   bool joints_estimated_unposed = false; ///< `joints` come from the unposed scan
+  /// Limbs (arms, legs) unposed a second time about their estimated root joint instead of the
+  /// template's, because that unstretched their seam with the torso (scan_fit.cpp, stage 5); 0–4.
+  int repivoted_limbs = 0;
   /// The scan as a rigged body: its own mesh in its own (the fitted) pose, `joints` as the
   /// rest joints and per-vertex weights interpolated from the template; pose it with
   /// pose_body() by rotations relative to this pose. rest_pose from classify_rest_pose().

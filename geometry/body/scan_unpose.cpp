@@ -1,6 +1,11 @@
 #include "scan_unpose.h"
 
+#include "scan_skin_transfer.h"
+
+#include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -84,6 +89,44 @@ Mesh unpose_scan(const Mesh& scan, const SkinWeights& w, const std::array<Eigen:
   }
   mend_torn_vertices(unposed, scan);
   return unposed;
+}
+
+std::vector<int> limb_roots() {
+  std::vector<int> out;
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    if (skin_chain_of_joint(j) != skin_chain_of_joint(joint_parent(j))) out.push_back(j);
+  return out;
+}
+
+void move_limb_pivot(std::array<Eigen::Isometry3d, JOINT_COUNT>& A, int root, const Eigen::Vector3d& pivot) {
+  if (root <= 0 || root >= JOINT_COUNT || skin_chain_of_joint(root) == skin_chain_of_joint(joint_parent(root)))
+    throw std::invalid_argument("move_limb_pivot: joint " + std::to_string(root) + " does not start a limb");
+  const Vec3 d = A[static_cast<std::size_t>(joint_parent(root))] * pivot - A[static_cast<std::size_t>(root)] * pivot;
+  const int chain = skin_chain_of_joint(root);
+  for (int k = 0; k < JOINT_COUNT; ++k)
+    if (skin_chain_of_joint(k) == chain) A[static_cast<std::size_t>(k)].pretranslate(d);
+}
+
+double seam_stretch(const Mesh& unposed, const Mesh& posed, const SkinWeights& w, int chain) {
+  const std::size_t n = posed.vertex_count();
+  std::vector<char> seam(n, 0);
+  for (std::size_t v = 0; v < n; ++v) {
+    bool on = false, off = false;
+    for (int k = 0; k < 4; ++k)
+      if (w.weights[4 * v + k] > 0) (skin_chain_of_joint(w.joints[4 * v + k]) == chain ? on : off) = true;
+    seam[v] = on && off;
+  }
+  auto length = [](const Mesh& m, std::size_t a, std::size_t b) {
+    return static_cast<double>(
+        (Eigen::Vector3f::Map(&m.positions[3 * a]) - Eigen::Vector3f::Map(&m.positions[3 * b])).norm());
+  };
+  double sum = 0;
+  for (std::size_t t = 0; t < posed.triangles.size(); ++t) {
+    const auto a = static_cast<std::size_t>(posed.triangles[t]);
+    const auto b = static_cast<std::size_t>(posed.triangles[t % 3 == 2 ? t - 2 : t + 1]);
+    if (seam[a] || seam[b]) sum += std::abs(length(unposed, a, b) - length(posed, a, b));
+  }
+  return sum;
 }
 
 } // namespace vfit::scan_detail

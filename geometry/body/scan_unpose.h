@@ -5,6 +5,7 @@
 /// an A- or T-pose, can read its joints. Not part of the public API.
 
 #include <array>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -21,5 +22,29 @@ namespace vfit::scan_detail {
 /// ring by ring. Vertices whose blended transform is singular come out non-finite; the
 /// weights of a fitted template never blend to a singular one in practice.
 Mesh unpose_scan(const Mesh& scan, const SkinWeights& w, const std::array<Eigen::Isometry3d, JOINT_COUNT>& A);
+
+/// The joints that start a limb: each joint whose skin chain (skin_chain_of_joint(),
+/// scan_skin_transfer.h) differs from its parent's, i.e. the shoulders and the hips.
+std::vector<int> limb_roots();
+
+/// Moves the pivot of the limb that starts at joint `root` (a limb_roots() entry) to `pivot`
+/// (m, rest-pose coordinates): every transform A[k] of the root's chain is translated, as one
+/// rigid piece, by A[parent]·pivot − A[root]·pivot, so that afterwards the root bone and its
+/// parent carry `pivot` to the same point. The limb's rotations, and the transforms of all other
+/// bones, are kept. A limb turned about a pivot other than the body's own joint (the template's
+/// shoulder a few cm off the scan's) slides against its parent when unposed: the seam between
+/// them stretches (seam_stretch()). Throws std::invalid_argument for a joint that is no limb root.
+void move_limb_pivot(std::array<Eigen::Isometry3d, JOINT_COUNT>& A, int root, const Eigen::Vector3d& pivot);
+
+/// How much unposing stretched the seam of skin chain `chain` (1–4: an arm or a leg): the sum
+/// over `posed`'s triangle edges with an end on the seam, |length in `unposed` − length in
+/// `posed`| (m; each interior edge counted twice, once per triangle). A seam vertex has weights
+/// (`w`, as used for unposing) both on the chain and on another one. A rigid move of the whole
+/// body gives 0 up to rounding. Unposing with the transforms the skin was posed with leaves the
+/// blend's own distortion (linear blend skinning is not rigid where weights mix); a limb pivot
+/// off the joint adds its slide against the parent to that, so of two unposings the one with
+/// the truer pivot stretches the seam less (a proxy, not a bound). `unposed` and `posed` share
+/// `posed`'s triangles.
+double seam_stretch(const Mesh& unposed, const Mesh& posed, const SkinWeights& w, int chain);
 
 } // namespace vfit::scan_detail

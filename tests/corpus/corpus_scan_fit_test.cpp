@@ -98,13 +98,13 @@ std::vector<PoseCase> pose_cases() {
   // contrapposto's right shoulder, 3.1 cm (2.7 too high) while the fit left the rig's 4° lean
   // of spine2 to the template's neck (scan_fit_solve.cpp, the pose prior), is 2.0 cm since the
   // spine takes it; so is contrapposto x1.3's below.
-  // elbows_bent: the right shoulder 3.1 cm, 2.7 too high (y), the left 2.3 cm, 1.9 too high. The
-  // rig lowers the arms with a third of the lowering on the collars (pose_io.cpp); the fit
-  // leaves the template's collars at the rest pose's turn and rolls them 45° forward about their
-  // bone to fit the bent arms' twist, so its shoulder pivots stand about 2 cm above the rig's.
-  // On a knife edge: 2.9 cm before the neck's lean was held (a change of 0.2 cm with the fitted
-  // pose otherwise within 1°).
-  cases[8].known_gaps = {{Joint::RIGHT_SHOULDER, 0.041}};
+  // elbows_bent's right shoulder was 3.1 cm, 2.7 too high (y), the left 2.3 cm: the rig lowers
+  // the arms with a third of the lowering on the collars (pose_io.cpp); the fit leaves the
+  // template's collars at the rest pose's turn and rolls them 45° forward about their bone to
+  // fit the bent arms' twist, so its shoulder pivots stood 2-4 cm above the rig's, and the arms
+  // unposed about them sheared the armpits the estimator reads. Unposed a second time about the
+  // estimated shoulders (scan_fit.cpp, stage 5): right 2.4 cm, left 2.4 cm, elbows 2.2 and 1.7
+  // -> 1.4 and 1.3 cm, re-posing 6.5 -> 5.0 mm.
   return cases;
 }
 
@@ -190,7 +190,9 @@ FitErrors fit_and_measure(const Body& rig, const PoseCase& c) {
   const ScanFit fit = fit_scan(bare, c.name);
   std::cout << c.name << ": " << scan.mesh.vertex_count() << " vertices, " << fit.total_ms << " ms wall, "
             << fit.total_cpu_ms << " ms CPU" << (fit.initialised_from_joints ? "" : " (A-pose start)")
-            << (fit.joints_estimated_unposed ? ", joints from the unposed scan" : "") << "\n";
+            << (fit.joints_estimated_unposed ? ", joints from the unposed scan" : "")
+            << (fit.repivoted_limbs > 0 ? ", " + std::to_string(fit.repivoted_limbs) + " limb(s) re-pivoted" : "")
+            << "\n";
   for (const std::string& w : fit.warnings)
     std::cout << "  warning: " << w << "\n";
   std::cout << "  fitted pose (deg):";
