@@ -53,6 +53,7 @@ void BM_ScanFit(benchmark::State& state) {
     state.counters[s.name + "_cpu_ms"] = s.cpu_ms; // all threads: the work, which a busy machine inflates less
   }
   state.counters["total_cpu_ms"] = fit.total_cpu_ms;
+  state.counters["repivoted_limbs"] = fit.repivoted_limbs;
   state.counters["mean_mm"] = 1000 * fit.stages.back().mean_distance;
   state.counters["p95_mm"] = 1000 * fit.stages.back().p95_distance;
 }

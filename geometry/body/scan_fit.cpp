@@ -505,13 +505,11 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     std::string failure;
     std::optional<SkinWeights> plain;
     const SkinWeights* used = nullptr; // the weights the accepted unposing used
-    Mesh unposed;
     for (int attempt = 0; attempt < 4 && !rest; ++attempt) {
       if (attempt == 2) plain = interpolate_skin_weights(posed_template, f.tmpl.weights, scan.positions);
       try {
         used = attempt < 2 ? &fit.rigged.weights : &*plain;
-        unposed = unpose(*used, (attempt % 2 == 0 ? 45.0 : 30.0) * std::numbers::pi / 180);
-        rest = estimate_joints(unposed);
+        rest = estimate_joints(unpose(*used, (attempt % 2 == 0 ? 45.0 : 30.0) * std::numbers::pi / 180));
       } catch (const Error& e) {
         if (attempt == 0) failure = e.what();
       }
@@ -522,20 +520,20 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
     // against the torso, and the estimator reads the shoulder from that sheared seam. Each limb
     // whose seam that stretches clearly less (seam_stretch(), by more than PIVOT_GAIN) keeps the
     // new pivot, and the joints are estimated again on the scan so unposed. Over the corpus test's
-    // 20 poses the seam's stretch moved by -3.5 to +9.9 % in all but three limbs, and the joints
-    // gained nothing there (arms_raised's two arms, -1 and -2 %, took the right elbow 1.7 -> 2.6
-    // cm); elbows_bent's two arms -13 and -16 % (right shoulder 3.1 -> 2.4 cm, re-posing 6.5 ->
-    // 5.0 mm) and arms_down's right arm -7.7 % (re-posing 1.6 -> 1.4 mm) take it.
+    // 20 poses (80 limbs) the seam's stretch moved by -3.5 to +9.9 % in all limbs but two, and
+    // where it fell there the joints gained nothing (arms_raised's arms, -1 and -2 %, re-pivoted
+    // took its right elbow 1.7 -> 2.6 cm and its re-posing 4.1 -> 5.5 mm); elbows_bent's arms,
+    // -13 and -16 %, take it (right shoulder 3.1 -> 2.4 cm, re-posing 6.5 -> 5.0 mm). Any gain
+    // from 3.5 to 13 % picks the same limbs.
     if (rest) {
       constexpr double PIVOT_GAIN = 0.05;
-      std::array<Eigen::Isometry3d, JOINT_COUNT> moved = A, kept = A;
-      for (int root : limb_roots())
-        move_limb_pivot(moved, root, rest->joints.row(root).transpose());
-      const Mesh trial = unpose_scan(scan, *used, moved);
+      std::array<Eigen::Isometry3d, JOINT_COUNT> kept = A;
       int count = 0;
       for (int root : limb_roots()) {
         const int chain = skin_chain_of_joint(root);
-        if (seam_stretch(trial, scan, *used, chain) < (1 - PIVOT_GAIN) * seam_stretch(unposed, scan, *used, chain)) {
+        std::array<Eigen::Isometry3d, JOINT_COUNT> moved = A;
+        move_limb_pivot(moved, root, rest->joints.row(root).transpose());
+        if (seam_stretch(scan, *used, moved, chain) < (1 - PIVOT_GAIN) * seam_stretch(scan, *used, A, chain)) {
           move_limb_pivot(kept, root, rest->joints.row(root).transpose());
           ++count;
         }

@@ -107,7 +107,8 @@ void move_limb_pivot(std::array<Eigen::Isometry3d, JOINT_COUNT>& A, int root, co
     if (skin_chain_of_joint(k) == chain) A[static_cast<std::size_t>(k)].pretranslate(d);
 }
 
-double seam_stretch(const Mesh& unposed, const Mesh& posed, const SkinWeights& w, int chain) {
+double seam_stretch(const Mesh& posed, const SkinWeights& w, const std::array<Eigen::Isometry3d, JOINT_COUNT>& A,
+                    int chain) {
   const std::size_t n = posed.vertex_count();
   std::vector<char> seam(n, 0);
   for (std::size_t v = 0; v < n; ++v) {
@@ -116,15 +117,27 @@ double seam_stretch(const Mesh& unposed, const Mesh& posed, const SkinWeights& w
       if (w.weights[4 * v + k] > 0) (skin_chain_of_joint(w.joints[4 * v + k]) == chain ? on : off) = true;
     seam[v] = on && off;
   }
-  auto length = [](const Mesh& m, std::size_t a, std::size_t b) {
-    return static_cast<double>(
-        (Eigen::Vector3f::Map(&m.positions[3 * a]) - Eigen::Vector3f::Map(&m.positions[3 * b])).norm());
+  std::vector<Vec3> unposed(n);
+  std::vector<char> done(n, 0);
+  auto at = [&](std::size_t v) -> const Vec3& { // v unposed as unpose_scan() does
+    if (!done[v]) {
+      Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
+      for (int k = 0; k < 4; ++k)
+        M += w.weights[4 * v + k] * A[static_cast<std::size_t>(w.joints[4 * v + k])].matrix().topRows<3>();
+      unposed[v] = M.leftCols<3>().inverse() *
+                   (Vec3(posed.positions[3 * v], posed.positions[3 * v + 1], posed.positions[3 * v + 2]) - M.col(3));
+      done[v] = 1;
+    }
+    return unposed[v];
+  };
+  auto point = [&](std::size_t v) {
+    return Vec3(posed.positions[3 * v], posed.positions[3 * v + 1], posed.positions[3 * v + 2]);
   };
   double sum = 0;
   for (std::size_t t = 0; t < posed.triangles.size(); ++t) {
     const auto a = static_cast<std::size_t>(posed.triangles[t]);
     const auto b = static_cast<std::size_t>(posed.triangles[t % 3 == 2 ? t - 2 : t + 1]);
-    if (seam[a] || seam[b]) sum += std::abs(length(unposed, a, b) - length(posed, a, b));
+    if (seam[a] || seam[b]) sum += std::abs((at(a) - at(b)).norm() - (point(a) - point(b)).norm());
   }
   return sum;
 }

@@ -36,15 +36,17 @@ std::vector<int> limb_roots();
 /// them stretches (seam_stretch()). Throws std::invalid_argument for a joint that is no limb root.
 void move_limb_pivot(std::array<Eigen::Isometry3d, JOINT_COUNT>& A, int root, const Eigen::Vector3d& pivot);
 
-/// How much unposing stretched the seam of skin chain `chain` (1–4: an arm or a leg): the sum
-/// over `posed`'s triangle edges with an end on the seam, |length in `unposed` − length in
-/// `posed`| (m; each interior edge counted twice, once per triangle). A seam vertex has weights
-/// (`w`, as used for unposing) both on the chain and on another one. A rigid move of the whole
-/// body gives 0 up to rounding. Unposing with the transforms the skin was posed with leaves the
-/// blend's own distortion (linear blend skinning is not rigid where weights mix); a limb pivot
-/// off the joint adds its slide against the parent to that, so of two unposings the one with
-/// the truer pivot stretches the seam less (a proxy, not a bound). `unposed` and `posed` share
-/// `posed`'s triangles.
-double seam_stretch(const Mesh& unposed, const Mesh& posed, const SkinWeights& w, int chain);
+/// How much unposing `posed` with weights `w` and transforms `A` (as unpose_scan(), without its
+/// mending of torn vertices) stretches the seam of skin chain `chain` (1–4: an arm or a leg):
+/// the sum over `posed`'s triangle edges with an end on the seam of |unposed length − posed
+/// length| (m; each interior edge counted twice, once per triangle). A seam vertex has weights
+/// both on the chain and on another one; only the seam's edges are unposed, so this costs a few
+/// hundred vertices, not the scan. A rigid move of the whole body gives 0 up to rounding.
+/// Unposing with the transforms the skin was posed with leaves the blend's own distortion
+/// (linear blend skinning is not rigid where weights mix); a limb pivot off the joint adds its
+/// slide against the parent to that, so of two unposings the one with the truer pivot stretches
+/// the seam less (a proxy, not a bound). 0 for a chain with no seam.
+double seam_stretch(const Mesh& posed, const SkinWeights& w, const std::array<Eigen::Isometry3d, JOINT_COUNT>& A,
+                    int chain);
 
 } // namespace vfit::scan_detail
