@@ -59,7 +59,8 @@ std::array<Eigen::Isometry3d, JOINT_COUNT> arm_turned_about(const Eigen::Vector3
   std::array<Eigen::Isometry3d, JOINT_COUNT> A;
   A.fill(Eigen::Isometry3d::Identity());
   Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-  turn.translate(pivot).rotate(Eigen::AngleAxisd(-40 * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()))
+  turn.translate(pivot)
+      .rotate(Eigen::AngleAxisd(-40 * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()))
       .translate(-pivot);
   for (int j = 0; j < JOINT_COUNT; ++j)
     if (skin_chain_of_joint(j) == skin_chain_of_joint(SHOULDER)) A[static_cast<std::size_t>(j)] = turn;
@@ -109,7 +110,9 @@ TEST(ScanUnpose, MovingTheLimbPivotToTheTrueJointMakesUnposingExact) {
     auto in_seam = [&](std::size_t v) { return t.weights.weights[4 * v] > 0 && t.weights.weights[4 * v + 1] > 0; };
     if (!in_seam(a) && !in_seam(b)) continue;
     auto length = [&](const Mesh& m) {
-      return (Eigen::Vector3f::Map(&m.positions[3 * a]) - Eigen::Vector3f::Map(&m.positions[3 * b])).cast<double>().norm();
+      return (Eigen::Vector3f::Map(&m.positions[3 * a]) - Eigen::Vector3f::Map(&m.positions[3 * b]))
+          .cast<double>()
+          .norm();
     };
     blend += std::abs(length(t.mesh) - length(posed));
   }
