@@ -1,14 +1,14 @@
 #include "scan_unpose.h"
 
-#include "scan_skin_transfer.h"
-
 #include <cmath>
 #include <cstdint>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
+
+#include "kernels/error.h"
+#include "scan_skin_transfer.h"
 
 namespace vfit::scan_detail {
 namespace {
@@ -100,7 +100,7 @@ std::vector<int> limb_roots() {
 
 void move_limb_pivot(std::array<Eigen::Isometry3d, JOINT_COUNT>& A, int root, const Eigen::Vector3d& pivot) {
   if (root <= 0 || root >= JOINT_COUNT || skin_chain_of_joint(root) == skin_chain_of_joint(joint_parent(root)))
-    throw std::invalid_argument("move_limb_pivot: joint " + std::to_string(root) + " does not start a limb");
+    throw Error("limb pivot", 0, "joint " + std::to_string(root) + " does not start a limb (a shoulder or a hip)");
   const Vec3 d = A[static_cast<std::size_t>(joint_parent(root))] * pivot - A[static_cast<std::size_t>(root)] * pivot;
   const int chain = skin_chain_of_joint(root);
   for (int k = 0; k < JOINT_COUNT; ++k)

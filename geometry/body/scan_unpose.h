@@ -33,7 +33,7 @@ std::vector<int> limb_roots();
 /// parent carry `pivot` to the same point. The limb's rotations, and the transforms of all other
 /// bones, are kept. A limb turned about a pivot other than the body's own joint (the template's
 /// shoulder a few cm off the scan's) slides against its parent when unposed: the seam between
-/// them stretches (seam_stretch()). Throws std::invalid_argument for a joint that is no limb root.
+/// them stretches (seam_stretch()). Throws vfit::Error for a joint that is no limb root.
 void move_limb_pivot(std::array<Eigen::Isometry3d, JOINT_COUNT>& A, int root, const Eigen::Vector3d& pivot);
 
 /// How much unposing `posed` with weights `w` and transforms `A` (as unpose_scan(), without its
