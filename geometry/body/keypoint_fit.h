@@ -71,8 +71,9 @@ struct KeypointBodyModel {
 };
 
 /// The mannequin's keypoint model, built on first use and cached; thread-safe. The first use
-/// builds 9 mannequins (MannequinShape, ~0.6 s each on the project's 2-core host, ~5.5 s in
-/// all): a one-off per process, which a fit of one image in a fresh process pays.
+/// places 9 uncalibrated mannequins (MannequinShape::uncalibrated(), whose skeleton and head
+/// and foot shapes are the calibrated ones; ~6 ms in all on the project's 2-core host, where
+/// calibrated ones took ~5.5 s).
 const KeypointBodyModel& mannequin_keypoint_model();
 
 /// A pinhole camera at the origin looking along −Z with Y up (our world convention, so a body

@@ -73,13 +73,17 @@ double monotone_cubic(const std::vector<double>& xs, const std::vector<double>& 
 
 } // namespace
 
-MannequinShape::MannequinShape(const BodyMeasurements& m, RestPose pose) : m_measurements(m), m_pose(pose) {
+MannequinShape::MannequinShape(const BodyMeasurements& m, RestPose pose) : MannequinShape(m, pose, true) {}
+
+MannequinShape MannequinShape::uncalibrated(const BodyMeasurements& m, RestPose pose) { return MannequinShape(m, pose, false); }
+
+MannequinShape::MannequinShape(const BodyMeasurements& m, RestPose pose, bool calibrated) : m_measurements(m), m_pose(pose) {
   check_measurements(m);
   if (pose != RestPose::TPOSE && pose != RestPose::APOSE)
     throw Error("mannequin", 0, "the mannequin is built in T-pose or A-pose");
   place_skeleton();
   build_shapes();
-  calibrate();
+  if (calibrated) calibrate();
 }
 
 void MannequinShape::place_skeleton() {

@@ -57,6 +57,15 @@ public:
   /// zero set measures within about 0.5 % of the request before meshing).
   MannequinShape(const BodyMeasurements& m, RestPose pose);
 
+  /// The same mannequin without the girth calibration (milliseconds less than ~0.6 s): the
+  /// skeleton (joints(), bone_segments()) and the head, hand, foot, arm and neck shapes are
+  /// bit-for-bit those of the calibrated shape, since the calibration only rescales the torso,
+  /// buttocks and leg shapes and moves the torso's bottom; the torso, buttocks and legs are as
+  /// first placed, so distance() and section_girth() miss the requested girths by a few per
+  /// cent. For callers that read the skeleton and the shapes it does not touch (the keypoint
+  /// fit's body model).
+  static MannequinShape uncalibrated(const BodyMeasurements& m, RestPose pose);
+
   /// Signed distance (m), negative inside; |∇| ≈ 1 near the surface.
   double distance(double x, double y, double z) const { return distance(x, y, z, nullptr); }
   /// The distance to the shapes selected by `inflation`, each grown by its offset.
@@ -86,6 +95,7 @@ public:
   std::array<double, JOINT_COUNT> skin_affinity(const Eigen::Vector3d& p) const;
 
 private:
+  MannequinShape(const BodyMeasurements& m, RestPose pose, bool calibrated);
   void place_skeleton();
   void build_shapes();
   TorsoSection torso_at(double y) const;

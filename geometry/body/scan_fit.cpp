@@ -294,8 +294,8 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   const StageClock t_start;
   check_scan(scan, source);
   ScanFit fit;
-  // Stage 0: the template and the shape basis, each built from the mannequin generator on
-  // first use (seconds; nothing afterwards), side by side on two cores.
+  // Stage 0: the template (a meshed mannequin, about a second) and the shape basis (uncalibrated
+  // mannequins, milliseconds), each built on first use (nothing afterwards), side by side.
   StageClock t0;
   {
     tbb::task_group builds;

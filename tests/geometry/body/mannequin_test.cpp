@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "geometry/body/cross_section.h"
+#include "geometry/body/mannequin_shape.h"
 #include "geometry/mesh/topology.h"
 #include "kernels/error.h"
 
@@ -193,6 +194,53 @@ INSTANTIATE_TEST_SUITE_P(Bodies, MannequinGrid,
                                            Case{"tall_tpose_20k", "tall", RestPose::TPOSE, 20000},
                                            Case{"petite_apose_7k", "petite", RestPose::APOSE, 7000}),
                          [](const auto& p) { return std::string(p.param.name); });
+
+// MannequinShape::uncalibrated() promises the calibrated shape's skeleton and the shapes the
+// calibration does not touch, bit for bit (the keypoint model reads them from it): compared
+// exactly, on two presets and both rest poses.
+TEST(MannequinShape, UncalibratedKeepsTheSkeletonAndTheShapesCalibrationLeaves) {
+  for (const auto& [preset, pose] : {std::pair{"average", RestPose::TPOSE}, std::pair{"pear", RestPose::APOSE},
+                                     std::pair{"tall", RestPose::APOSE}}) {
+    SCOPED_TRACE(preset);
+    const BodyMeasurements m = body_preset(preset);
+    const MannequinShape calibrated(m, pose), raw = MannequinShape::uncalibrated(m, pose);
+    EXPECT_EQ(raw.joints(), calibrated.joints());
+    ASSERT_EQ(raw.bone_segments().size(), calibrated.bone_segments().size());
+    for (std::size_t i = 0; i < raw.bone_segments().size(); ++i) {
+      EXPECT_EQ(raw.bone_segments()[i].a, calibrated.bone_segments()[i].a);
+      EXPECT_EQ(raw.bone_segments()[i].b, calibrated.bone_segments()[i].b);
+    }
+    auto untouched = [](int joint) {
+      const Joint j = static_cast<Joint>(joint);
+      return j != Joint::LEFT_HIP && j != Joint::RIGHT_HIP && j != Joint::LEFT_KNEE && j != Joint::RIGHT_KNEE;
+    };
+    ASSERT_EQ(raw.ellipsoids().size(), calibrated.ellipsoids().size());
+    int compared = 0;
+    for (std::size_t i = 0; i < raw.ellipsoids().size(); ++i) {
+      const Ellipsoid &a = raw.ellipsoids()[i], &b = calibrated.ellipsoids()[i];
+      EXPECT_EQ(a.joint, b.joint);
+      if (!untouched(a.joint)) continue; // buttocks: scaled with the hip girth
+      EXPECT_EQ(a.centre, b.centre);
+      EXPECT_EQ(a.axes, b.axes);
+      EXPECT_EQ(a.radii, b.radii);
+      ++compared;
+    }
+    EXPECT_EQ(compared, 5); // head, two hands, two feet
+    ASSERT_EQ(raw.cones().size(), calibrated.cones().size());
+    for (std::size_t i = 0; i < raw.cones().size(); ++i) {
+      const RoundCone &a = raw.cones()[i], &b = calibrated.cones()[i];
+      EXPECT_EQ(a.joint, b.joint);
+      if (!untouched(a.joint)) continue; // thighs and calves: scaled with their girths
+      EXPECT_EQ(a.p, b.p);
+      EXPECT_EQ(a.q, b.q);
+      EXPECT_EQ(a.rp, b.rp);
+      EXPECT_EQ(a.rq, b.rq);
+    }
+    // And it is the uncalibrated body: the torso as first placed differs from the calibrated one.
+    const double y = calibrated.joints()(idx(Joint::SPINE3), 1);
+    EXPECT_NE(raw.torso_section(y).a, calibrated.torso_section(y).a);
+  }
+}
 
 TEST(Mannequin, RejectsImplausibleRequests) {
   MannequinOptions o;
