@@ -75,9 +75,12 @@ double monotone_cubic(const std::vector<double>& xs, const std::vector<double>& 
 
 MannequinShape::MannequinShape(const BodyMeasurements& m, RestPose pose) : MannequinShape(m, pose, true) {}
 
-MannequinShape MannequinShape::uncalibrated(const BodyMeasurements& m, RestPose pose) { return MannequinShape(m, pose, false); }
+MannequinShape MannequinShape::uncalibrated(const BodyMeasurements& m, RestPose pose) {
+  return MannequinShape(m, pose, false);
+}
 
-MannequinShape::MannequinShape(const BodyMeasurements& m, RestPose pose, bool calibrated) : m_measurements(m), m_pose(pose) {
+MannequinShape::MannequinShape(const BodyMeasurements& m, RestPose pose, bool calibrated)
+    : m_measurements(m), m_pose(pose) {
   check_measurements(m);
   if (pose != RestPose::TPOSE && pose != RestPose::APOSE)
     throw Error("mannequin", 0, "the mannequin is built in T-pose or A-pose");
@@ -230,6 +233,13 @@ void MannequinShape::build_shapes() {
   head.joint = idx(Joint::HEAD);
   m_ellipsoids.push_back(head);
 
+  m_cone_bounds.clear();
+  for (const RoundCone& c : m_cones)
+    m_cone_bounds.push_back({0.5 * (c.p + c.q), 0.5 * (c.q - c.p).norm() + std::max(c.rp, c.rq), 0.0});
+  m_ellipsoid_bounds.clear();
+  for (const Ellipsoid& e : m_ellipsoids)
+    m_ellipsoid_bounds.push_back({e.centre, e.radii.maxCoeff(), e.radii.minCoeff()});
+
   // Bone segments for skin weights: each joint drives the bone(s) to its child(ren).
   m_bones.clear();
   auto bone = [&](Joint j, const Eigen::Vector3d& a, const Eigen::Vector3d& b) { m_bones.push_back({idx(j), a, b}); };
@@ -282,7 +292,7 @@ double MannequinShape::torso_distance(double x, double y, double z) const {
   return smax(bottom, y - m_torso_top, 0.07 * s);
 }
 
-double MannequinShape::distance(double x, double y, double z, const ShapeInflation* inf) const {
+double MannequinShape::evaluate_distance(double x, double y, double z, const ShapeInflation* inf, bool bounded) const {
   const double s = m_measurements.height / 1.70;
   const Eigen::Vector3d p(x, y, z);
   const double torso_off = inf && inf->torso_offset ? inf->torso_offset(y) : 0.0;
@@ -291,29 +301,56 @@ double MannequinShape::distance(double x, double y, double z, const ShapeInflati
   const bool arms = !inf || inf->with_arms, legs_on = !inf || inf->with_legs, head_on = !inf || inf->with_head,
              hands = !inf || inf->with_hands, feet = !inf || inf->with_feet;
   double d = torso_distance(x, y, z) - torso_off;
+  // smin(d, a, k) is exactly d once a - d ≥ k (no blend), so a shape whose distance is
+  // provably beyond d + k is skipped; the margin covers rounding (distances are < 10 m), so
+  // the result is bit-for-bit that of evaluating every shape. A round cone's distance (exact)
+  // is at least the distance to a sphere containing it; an ellipsoid's first-order distance
+  // k0 (k0 − 1) / k1 is at least inner (|p − centre| / outer − 1) outside the outer sphere
+  // (k0 ≥ |p − centre| / outer ≥ 1 and k0 / k1 ≥ inner).
+  constexpr double MARGIN = 1e-9;
+  auto cone_beyond = [&](std::size_t i, double current, double k, double offset) {
+    if (!bounded) return false;
+    const ShapeBound& b = m_cone_bounds[i];
+    const double reach = current + k + MARGIN + b.outer + offset; // skip when |p − centre| ≥ reach
+    return reach <= 0 || (p - b.centre).squaredNorm() >= reach * reach;
+  };
+  auto ellipsoid_beyond = [&](std::size_t i, double current, double k, double offset) {
+    if (!bounded) return false;
+    const ShapeBound& b = m_ellipsoid_bounds[i];
+    const double gap = current + k + MARGIN + offset;
+    if (!(gap >= 0)) return false;
+    const double reach = b.outer * (1.0 + gap / b.inner);
+    return (p - b.centre).squaredNorm() >= reach * reach;
+  };
   // Legs and buttocks blend into the torso; the two legs never blend with each other.
   double legs[2] = {INFINITY, INFINITY};
-  for (const auto& c : m_cones) {
+  for (std::size_t i = 0; i < m_cones.size(); ++i) {
+    const RoundCone& c = m_cones[i];
     const Joint j = static_cast<Joint>(c.joint);
     const bool left_leg = j == Joint::LEFT_HIP || j == Joint::LEFT_KNEE, right_leg = j == Joint::RIGHT_HIP || j == Joint::RIGHT_KNEE;
     if (left_leg || right_leg) {
       if (!legs_on) continue;
-      legs[left_leg ? 0 : 1] = smin(legs[left_leg ? 0 : 1], round_cone_distance(p, c) - leg_off, 0.02 * s);
+      double& leg = legs[left_leg ? 0 : 1];
+      if (!cone_beyond(i, leg, 0.02 * s, leg_off)) leg = smin(leg, round_cone_distance(p, c) - leg_off, 0.02 * s);
     } else if (j == Joint::NECK) {
-      if (head_on) d = smin(d, round_cone_distance(p, c) - neck_off, 0.035 * s);
-    } else if (arms) {
+      if (head_on && !cone_beyond(i, d, 0.035 * s, neck_off))
+        d = smin(d, round_cone_distance(p, c) - neck_off, 0.035 * s);
+    } else if (arms && !cone_beyond(i, d, 0.025 * s, arm_off)) {
       d = smin(d, round_cone_distance(p, c) - arm_off, 0.025 * s); // collar, shoulder, elbow pieces
     }
   }
-  for (const auto& e : m_ellipsoids) {
+  for (std::size_t i = 0; i < m_ellipsoids.size(); ++i) {
+    const Ellipsoid& e = m_ellipsoids[i];
     const Joint j = static_cast<Joint>(e.joint);
     if (j == Joint::LEFT_FOOT || j == Joint::RIGHT_FOOT) {
-      if (feet && legs_on) legs[j == Joint::LEFT_FOOT ? 0 : 1] = smin(legs[j == Joint::LEFT_FOOT ? 0 : 1], ellipsoid_distance(p, e), 0.03 * s);
+      double& leg = legs[j == Joint::LEFT_FOOT ? 0 : 1];
+      if (feet && legs_on && !ellipsoid_beyond(i, leg, 0.03 * s, 0.0))
+        leg = smin(leg, ellipsoid_distance(p, e), 0.03 * s);
     } else if (j == Joint::LEFT_HIP || j == Joint::RIGHT_HIP) {
-      d = smin(d, ellipsoid_distance(p, e) - torso_off, 0.04 * s);
+      if (!ellipsoid_beyond(i, d, 0.04 * s, torso_off)) d = smin(d, ellipsoid_distance(p, e) - torso_off, 0.04 * s);
     } else if (j == Joint::HEAD) {
-      if (head_on) d = smin(d, ellipsoid_distance(p, e), 0.03 * s);
-    } else if (hands && arms) {
+      if (head_on && !ellipsoid_beyond(i, d, 0.03 * s, 0.0)) d = smin(d, ellipsoid_distance(p, e), 0.03 * s);
+    } else if (hands && arms && !ellipsoid_beyond(i, d, 0.015 * s, 0.0)) {
       d = smin(d, ellipsoid_distance(p, e), 0.015 * s);
     }
   }

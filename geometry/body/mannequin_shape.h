@@ -69,7 +69,14 @@ public:
   /// Signed distance (m), negative inside; |∇| ≈ 1 near the surface.
   double distance(double x, double y, double z) const { return distance(x, y, z, nullptr); }
   /// The distance to the shapes selected by `inflation`, each grown by its offset.
-  double distance(double x, double y, double z, const ShapeInflation* inflation) const;
+  double distance(double x, double y, double z, const ShapeInflation* inflation) const {
+    return evaluate_distance(x, y, z, inflation, true);
+  }
+  /// distance() evaluating every shape, without its bounds that skip shapes too far to change
+  /// the result: bit-for-bit equal to distance() (the oracle its tests compare against), slower.
+  double distance_of_every_shape(double x, double y, double z, const ShapeInflation* inflation) const {
+    return evaluate_distance(x, y, z, inflation, false);
+  }
   const JointPositions& joints() const { return m_joints; }
   const BodyMeasurements& measurements() const { return m_measurements; }
   RestPose pose() const { return m_pose; }
@@ -98,6 +105,7 @@ private:
   MannequinShape(const BodyMeasurements& m, RestPose pose, bool calibrated);
   void place_skeleton();
   void build_shapes();
+  double evaluate_distance(double x, double y, double z, const ShapeInflation* inflation, bool bounded) const;
   TorsoSection torso_at(double y) const;
   double torso_distance(double x, double y, double z) const;
 
@@ -120,6 +128,13 @@ private:
   std::vector<RoundCone> m_cones;
   std::vector<Ellipsoid> m_ellipsoids;
   std::vector<BoneSegment> m_bones;
+  /// Per cone: a sphere containing it; per ellipsoid: its centre, largest and smallest radius
+  /// (distance()'s lower bounds).
+  struct ShapeBound {
+    Eigen::Vector3d centre;
+    double outer, inner;
+  };
+  std::vector<ShapeBound> m_cone_bounds, m_ellipsoid_bounds;
   // Calibration factors (1 = as placed).
   double m_scale_chest = 1, m_scale_waist = 1, m_scale_hip = 1, m_scale_thigh = 1, m_scale_calf = 1;
   double m_crotch_shift = 0;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -240,6 +241,55 @@ TEST(MannequinShape, UncalibratedKeepsTheSkeletonAndTheShapesCalibrationLeaves) 
     const double y = calibrated.joints()(idx(Joint::SPINE3), 1);
     EXPECT_NE(raw.torso_section(y).a, calibrated.torso_section(y).a);
   }
+}
+
+// distance() skips shapes whose lower bound shows they cannot change the smooth union; that
+// must not change a single bit. Oracle: the same function evaluating every shape. Points fill
+// the bounding box (most far from some shapes, where the bounds skip) and crowd the surface
+// (within the blend widths, where the bounds must not skip), under inflations of either sign.
+TEST(MannequinShape, BoundedDistanceEqualsEveryShapeBitForBit) {
+  const MannequinShape shape(body_preset("pear"), RestPose::APOSE);
+  ShapeInflation grown;
+  grown.torso_offset = [](double y) { return 0.01 + 0.02 * y; };
+  grown.leg_offset = [](double y) { return 0.03 - 0.01 * y; };
+  grown.arm_offset = 0.012;
+  grown.neck_offset = 0.006;
+  ShapeInflation shrunk;
+  shrunk.torso_offset = [](double) { return -0.008; };
+  shrunk.leg_offset = [](double) { return -0.004; };
+  shrunk.arm_offset = -0.003;
+  ShapeInflation shorts;
+  shorts.leg_offset = [](double) { return 0.06; };
+  shorts.legs_gap = 0.01;
+  shorts.with_arms = false;
+  const ShapeInflation* inflations[] = {nullptr, &grown, &shrunk, &shorts};
+  const auto [lo, hi] = shape.bounding_box(0.05);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int near = 0, total = 0;
+  for (int i = 0; i < 40000; ++i) {
+    Eigen::Vector3d p = lo + (hi - lo).cwiseProduct(Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    // Half the points: pulled onto the surface by a few steps along the distance's gradient.
+    if (i % 2) {
+      for (int step = 0; step < 4; ++step) {
+        const double h = 1e-4, d = shape.distance(p.x(), p.y(), p.z());
+        const Eigen::Vector3d g((shape.distance(p.x() + h, p.y(), p.z()) - d) / h,
+                                (shape.distance(p.x(), p.y() + h, p.z()) - d) / h,
+                                (shape.distance(p.x(), p.y(), p.z() + h) - d) / h);
+        if (g.norm() < 1e-6) break;
+        p -= d * g / g.squaredNorm();
+      }
+      p += 0.02 * (u(rng) - 0.5) * Eigen::Vector3d(u(rng), u(rng), u(rng)); // straddle the blends
+    }
+    for (const ShapeInflation* inf : inflations) {
+      const double got = shape.distance(p.x(), p.y(), p.z(), inf),
+                   want = shape.distance_of_every_shape(p.x(), p.y(), p.z(), inf);
+      ASSERT_EQ(got, want) << "at " << p.transpose() << " inflation " << (inf ? "set" : "none");
+      near += std::abs(want) < 0.02;
+      ++total;
+    }
+  }
+  EXPECT_GT(near, total / 4); // the surface, where shapes blend, is well covered
 }
 
 TEST(Mannequin, RejectsImplausibleRequests) {
