@@ -20,7 +20,50 @@ struct Traits : OpenMesh::DefaultTraits {
   EdgeAttributes(OpenMesh::Attributes::Status);
   FaceAttributes(OpenMesh::Attributes::Status | OpenMesh::Attributes::Normal);
 };
-using OmMesh = OpenMesh::TriMesh_ArrayKernelT<Traits>;
+using OmBase = OpenMesh::TriMesh_ArrayKernelT<Traits>;
+
+// The distribution's OpenMesh library is compiled with assertions on: every status() read inside its
+// out-of-line functions builds a std::string of the property's type name and compares it (a malloc,
+// a memcmp and a free). TriConnectivity::is_collapse_ok (called for every outgoing halfedge of every
+// vertex the decimater re-heaps) does about a dozen, and was ~45 % of make_mannequin's time. The
+// decimater is a template that calls these through the mesh type, so this mesh shadows the two it
+// calls with the same logic inlined here (compiled with this build's settings): the same answers in
+// the same order, so the same collapses and the same output bit for bit.
+struct OmMesh : OmBase {
+  /// Same as OpenMesh::TriConnectivity::is_collapse_ok (OpenMesh 9.0): whether collapsing v0v1 keeps
+  /// the mesh a 2-manifold (link condition, no boundary-triangle collapse). Tags v0's/v1's 1-ring.
+  bool is_collapse_ok(HalfedgeHandle v0v1) {
+    if (status(edge_handle(v0v1)).deleted()) return false;
+    const HalfedgeHandle v1v0 = opposite_halfedge_handle(v0v1);
+    const VertexHandle v0 = to_vertex_handle(v1v0), v1 = to_vertex_handle(v0v1);
+    if (status(v0).deleted() || status(v1).deleted()) return false;
+    VertexHandle vl, vr;
+    if (!is_boundary(v0v1)) {
+      const HalfedgeHandle h1 = next_halfedge_handle(v0v1), h2 = next_halfedge_handle(h1);
+      vl = to_vertex_handle(h1);
+      if (is_boundary(opposite_halfedge_handle(h1)) && is_boundary(opposite_halfedge_handle(h2))) return false;
+    }
+    if (!is_boundary(v1v0)) {
+      const HalfedgeHandle h1 = next_halfedge_handle(v1v0), h2 = next_halfedge_handle(h1);
+      vr = to_vertex_handle(h1);
+      if (is_boundary(opposite_halfedge_handle(h1)) && is_boundary(opposite_halfedge_handle(h2))) return false;
+    }
+    if (vl == vr) return false;
+    for (auto vv = vv_iter(v0); vv.is_valid(); ++vv) status(*vv).set_tagged(false);
+    for (auto vv = vv_iter(v1); vv.is_valid(); ++vv) status(*vv).set_tagged(true);
+    for (auto vv = vv_iter(v0); vv.is_valid(); ++vv)
+      if (status(*vv).tagged() && *vv != vl && *vv != vr) return false;
+    if (is_boundary(v0) && is_boundary(v1) && !is_boundary(v0v1) && !is_boundary(v1v0)) return false;
+    return true;
+  }
+  /// Same as OpenMesh::PolyConnectivity::find_halfedge: the halfedge from `from` to `to`, or an
+  /// invalid handle when they are not adjacent.
+  HalfedgeHandle find_halfedge(VertexHandle from, VertexHandle to) const {
+    for (auto voh = cvoh_iter(from); voh.is_valid(); ++voh)
+      if (to_vertex_handle(*voh) == to) return *voh;
+    return HalfedgeHandle();
+  }
+};
 
 } // namespace
 
