@@ -407,25 +407,25 @@ float contact_impulse(const ImplicitContactSprings& c, const float* v, const flo
 }
 
 ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
-                                 ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints,
-                                 bool reuse_coarse);
+                                 ImplicitWorkspace& w, const ImplicitPasses& passes,
+                                 const ImplicitConstraints* constraints, bool reuse_coarse);
 
 ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> velocities,
                                   const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
-                                  const ImplicitSolveOptions& options, ImplicitWorkspace& w, bool parallel,
-                                  const ImplicitConstraints* constraints,
+                                  const ImplicitSolveOptions& options, ImplicitWorkspace& w,
+                                  const ImplicitPasses& passes, const ImplicitConstraints* constraints,
                                   const ImplicitContactSprings* contact_springs) {
   const std::size_t nv = adjacency.particle_count();
   assert(positions.size() == 3 * nv && velocities.size() == 3 * nv && "state and adjacency sizes differ");
   // The CSR blocks only for the coarse level (AUTO may engage it in this solve).
-  assemble_implicit_system(positions, velocities, adjacency, particles, h, w.system, parallel,
-                           options.preconditioner != ImplicitPreconditioner::BLOCK_JACOBI);
+  cloth_detail::assemble_implicit_system(positions, velocities, adjacency, particles, h, w.system, passes,
+                                         options.preconditioner != ImplicitPreconditioner::BLOCK_JACOBI);
   const bool springs = contact_springs != nullptr && !contact_springs->empty();
   if (springs) {
     assert(contact_springs->normals.size() == 3 * nv && contact_springs->gaps.size() == nv &&
            contact_springs->stiffness.size() == nv && "one contact spring row per particle");
     w.contact_active.assign(nv, 0);
-    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+    passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i)
         if (w.system.free[i] && contact_springs->stiffness[i] > 0.0f && contact_row(*contact_springs, i)) {
           w.contact_active[i] = 1;
@@ -433,13 +433,13 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
         }
     });
   }
-  ImplicitSolveReport report = solve_system(adjacency, options, w, parallel, constraints, false);
+  ImplicitSolveReport report = solve_system(adjacency, options, w, passes, constraints, false);
   if (springs) {
     // One-sided: remove the springs that pulled and solve again from this answer.
     const std::size_t chunks = chunk_count(nv);
     w.partials.assign(chunks, 0.0);
     w.normal_impulses.assign(nv, 0.0f);
-    run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
+    passes.run(nv, [&](std::size_t c, std::size_t b, std::size_t e) {
       double removed = 0;
       for (std::size_t i = b; i < e; ++i) {
         if (!w.contact_active[i]) continue;
@@ -460,9 +460,9 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
       again.max_iterations = contact_springs->release_iterations;
       // The coarse level factored for the first solve still serves (a preconditioner need not
       // match A, only be SPD): the removed springs changed a few diagonal blocks.
-      report.iterations += solve_system(adjacency, again, w, parallel, constraints, true).iterations;
+      report.iterations += solve_system(adjacency, again, w, passes, constraints, true).iterations;
       // Δv changed: the kept springs' impulses are taken again.
-      run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+      passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i)
           if (w.contact_active[i])
             w.normal_impulses[i] = contact_impulse(*contact_springs, velocities.data(), w.dv.data(), h, i);
@@ -473,7 +473,7 @@ ImplicitSolveReport implicit_step(std::span<float> positions, std::span<float> v
   float* v = velocities.data();
   const float* dv = w.dv.data();
   const unsigned char* is_free = w.system.free.data();
-  run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+  passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       if (!is_free[i]) continue;
       for (std::size_t k = 3 * i; k < 3 * i + 3; ++k) {
@@ -521,14 +521,15 @@ ImplicitCoarseSpace* coarse_level(const SpringAdjacency& adjacency, const Implic
 // (the same bits for any thread count). False, and w.dv left zero, when no row is free or
 // Pᵀ·A·P is not safely positive definite. Writes c and whether any free particle has a pinned
 // neighbour (translated_row() then has springs to add).
-bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, ImplicitWorkspace& w, bool parallel,
+bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, ImplicitWorkspace& w,
+                       const ImplicitPasses& passes,
                        vfit_vec3& c_out, bool& pinned_neighbours) {
   const std::size_t nv = adj.particle_count();
   const std::size_t chunks = chunk_count(nv);
   constexpr std::size_t K = 10; // Pᵀ·b (3), Pᵀ·A·P (xx, xy, xz, yy, yz, zz), springs to pinned rows
   std::vector<double> part(K * chunks, 0.0);
   const std::size_t slots = adj.slice_neighbor_offsets.size();
-  run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
+  passes.run(nv, [&](std::size_t c, std::size_t b, std::size_t e) {
     double* q = part.data() + K * c;
     for (std::size_t i = b; i < e; ++i) {
       if (!s.free[i]) continue;
@@ -573,7 +574,7 @@ bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, Impl
                        (cxz * t[0] + cyz * t[1] + czz * t[2]) / det};
   if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || !std::isfinite(c[2])) return false;
   const vfit_vec3 cf{static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2])};
-  run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+  passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i)
       if (s.free[i]) store3(w.dv.data(), i, cf);
   });
@@ -583,8 +584,8 @@ bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, Impl
 }
 
 ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
-                                 ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints,
-                                 bool reuse_coarse) {
+                                 ImplicitWorkspace& w, const ImplicitPasses& passes,
+                                 const ImplicitConstraints* constraints, bool reuse_coarse) {
   const std::size_t nv = adjacency.particle_count();
   const std::size_t chunks = chunk_count(nv);
   const ImplicitSystem& s = w.system;
@@ -598,7 +599,7 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   vfit_vec3 translation{0.0f, 0.0f, 0.0f};
   bool pinned_neighbours = false;
   bool translated = options.translation_start && !warm && !constrained &&
-                    translation_start(s, adjacency, w, parallel, translation, pinned_neighbours);
+                    translation_start(s, adjacency, w, passes, translation, pinned_neighbours);
   // Row i of A·Δv₀ for the translation start Δv₀ = c on the free rows: row_times()'s sum with
   // the springs between free particles left out, as their p_i − p_j = c − c is exactly zero
   // and adds ±0 (the same values, a zero's sign aside), so only D_i·c and the springs to pinned
@@ -630,12 +631,12 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   // B&W's filter S_i: 0 for a pinned particle, I − n·nᵀ for a contact, I otherwise.
   const auto filter = [&](std::size_t i, vfit_vec3 a) { return filter_row(s, normals, i, a); };
   // TWO_LEVEL: z = S·D⁻¹·r + P·Ac⁻¹·Pᵀ·r, the coarse term added after each pass forming r.
-  ImplicitCoarseSpace* coarse = coarse_level(adjacency, options, w, normals, parallel, reuse_coarse);
+  ImplicitCoarseSpace* coarse = coarse_level(adjacency, options, w, normals, passes.tbb(), reuse_coarse);
 
   // Δv₀ = the constrained components, or the previous answer with a warm start (zero otherwise),
   // so r₀ = S·(b − A·Δv₀).
   if (constrained) {
-    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+    passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
         const vfit_vec3 n = load3(normals, i);
         const float t = s.free[i] ? constraints->targets[i] : 0.0f;
@@ -650,14 +651,14 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   // keep row_times().)
   const bool product_start = warm && !constrained;
   if (product_start)
-    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+    passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
       direction_range(s, adjacency, normals, dv, 0.0f, p, q, b, e);
     });
   // r = S·(b − A·Δv₀), z = S·P⁻¹·r; partials: |S·b|², r·z; patches: each chunk's free
   // particles (turned into its bound below) and |r|².
   double* patch = w.patches.data();
   const auto initial_pass = [&] {
-    run_chunks(nv, parallel, [&](std::size_t c, std::size_t b, std::size_t e) {
+    passes.run(nv, [&](std::size_t c, std::size_t b, std::size_t e) {
       double bb = 0, rz = 0, rr_c = 0, free_c = 0;
       for (std::size_t i = b; i < e; ++i) {
         const vfit_vec3 bi = filter(i, load3(s.rhs.data(), i));
@@ -702,7 +703,7 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   }
   const double bb = chunk_sum(w.partials, chunks, 2, 0);
   double rz = chunk_sum(w.partials, chunks, 2, 1);
-  if (coarse != nullptr) rz += coarse_correct(*coarse, s, normals, r, z, parallel);
+  if (coarse != nullptr) rz += coarse_correct(*coarse, s, normals, r, z, passes.tbb());
   ImplicitSolveReport report;
   // The scale of the relative test: |S·b| (the impulse the free directions must balance; |b|
   // instead, which includes the weight the contacts carry, lets the 6,000-vertex tee drape
@@ -731,8 +732,8 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
   tbb::affinity_partitioner affinity;
   while (scale > 0 && report.iterations < options.max_iterations && !done) {
     // p = z + β·p, q = S·A·z + β·q; partial p·q.
-    run_chunks(
-        nv, parallel,
+    passes.run(
+        nv,
         [&](std::size_t c, std::size_t b, std::size_t e) {
           part[2 * c] = direction_range(s, adjacency, normals, z, beta, p, q, b, e);
         },
@@ -741,8 +742,8 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     if (!(pq > 0)) break; // A is positive definite on the free rows: only a zero p gets here
     const auto alpha = static_cast<float>(rz / pq);
     // Δv += α·p, r −= α·q, z = S·P⁻¹·r; partials r·r, r·z.
-    run_chunks(
-        nv, parallel,
+    passes.run(
+        nv,
         [&](std::size_t c, std::size_t b, std::size_t e) {
           double rr_c, rz_c;
           update_range(s, normals, alpha, p, q, dv, r, z, b, e, rr_c, rz_c);
@@ -756,14 +757,14 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     ++report.iterations;
     done = met();
     if (done) break;
-    if (coarse != nullptr) rz_next += coarse_correct(*coarse, s, normals, r, z, parallel);
+    if (coarse != nullptr) rz_next += coarse_correct(*coarse, s, normals, r, z, passes.tbb());
     beta = static_cast<float>(rz_next / rz);
     rz = rz_next;
   }
   if (constrained) {
     // The impulse each constraint applied: (A·Δv − b)·n.
     w.normal_impulses.assign(nv, 0.0f);
-    run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+    passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
         const vfit_vec3 n = load3(normals, i);
         if (!s.free[i] || vfit_v3_dot(n, n) == 0.0f) continue;
@@ -783,7 +784,7 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
 
 ImplicitSolveReport solve_implicit_system(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
                                           ImplicitWorkspace& w, bool parallel, const ImplicitConstraints* constraints) {
-  return solve_system(adjacency, options, w, parallel, constraints, false);
+  return solve_system(adjacency, options, w, ImplicitPasses{parallel, nullptr}, constraints, false);
 }
 
 void apply_implicit_preconditioner(const SpringAdjacency& adjacency, const ImplicitSolveOptions& options,
@@ -811,8 +812,8 @@ ImplicitSolveReport implicit_euler_step_serial(std::span<float> positions, std::
                                                float h, const ImplicitSolveOptions& options,
                                                ImplicitWorkspace& workspace, const ImplicitConstraints* constraints,
                                                const ImplicitContactSprings* contact_springs) {
-  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, false, constraints,
-                       contact_springs);
+  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, ImplicitPasses{},
+                       constraints, contact_springs);
 }
 
 ImplicitSolveReport implicit_euler_step_tbb(std::span<float> positions, std::span<float> velocities,
@@ -820,8 +821,18 @@ ImplicitSolveReport implicit_euler_step_tbb(std::span<float> positions, std::spa
                                             const ImplicitSolveOptions& options, ImplicitWorkspace& workspace,
                                             const ImplicitConstraints* constraints,
                                             const ImplicitContactSprings* contact_springs) {
-  return implicit_step(positions, velocities, adjacency, particles, h, options, workspace, true, constraints,
-                       contact_springs);
+  // The step's passes by a team held for the step (chunk_team.h) where more than one thread
+  // may run: the CG's two passes per iteration then need no TBB fork and join each.
+  const std::size_t lanes = ImplicitTeam::lanes_for(chunk_count(adjacency.particle_count()));
+  if (lanes < 2)
+    return implicit_step(positions, velocities, adjacency, particles, h, options, workspace,
+                         ImplicitPasses{true, nullptr}, constraints, contact_springs);
+  ImplicitSolveReport report;
+  ImplicitTeam::lead(lanes, [&](ImplicitTeam& team) {
+    report = implicit_step(positions, velocities, adjacency, particles, h, options, workspace,
+                           ImplicitPasses{true, &team}, constraints, contact_springs);
+  });
+  return report;
 }
 
 } // namespace vfit

@@ -174,16 +174,25 @@ void resize_system(ImplicitSystem& s, std::size_t nv, std::size_t entries, std::
 }
 } // namespace
 
+namespace cloth_detail {
 void assemble_implicit_system(std::span<const float> positions, std::span<const float> velocities,
                               const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
-                              ImplicitSystem& system, bool parallel, bool with_off_diagonal) {
+                              ImplicitSystem& system, const ImplicitPasses& passes, bool with_off_diagonal) {
   const std::size_t nv = adjacency.particle_count();
   assert(positions.size() == 3 * nv && velocities.size() == 3 * nv && "state and adjacency sizes differ");
   assert(particles.inverse_masses.size() == nv && "one inverse mass per particle");
   resize_system(system, nv, adjacency.neighbors.size(), adjacency.slice_neighbor_offsets.size(), with_off_diagonal);
-  run_chunks(nv, parallel, [&](std::size_t, std::size_t b, std::size_t e) {
+  passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
     assemble_range(positions.data(), velocities.data(), adjacency, particles, h, system, with_off_diagonal, b, e);
   });
+}
+} // namespace cloth_detail
+
+void assemble_implicit_system(std::span<const float> positions, std::span<const float> velocities,
+                              const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
+                              ImplicitSystem& system, bool parallel, bool with_off_diagonal) {
+  cloth_detail::assemble_implicit_system(positions, velocities, adjacency, particles, h, system,
+                                         cloth_detail::ImplicitPasses{parallel, nullptr}, with_off_diagonal);
 }
 
 } // namespace vfit

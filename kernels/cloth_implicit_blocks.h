@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
+#include "chunk_team.h"
 #include "cloth_gather.h"
 #include "cloth_implicit.h"
 #include "parallel.h"
@@ -93,4 +94,30 @@ void run_chunks(std::size_t n, bool parallel, const Kernel& kernel, tbb::affinit
         tbb::blocked_range<std::size_t>(0, chunks, 1),
         [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); }, *affinity);
 }
+// The team an implicit step holds for its passes (chunk_team.h), over the same fixed chunks.
+using ImplicitTeam = ChunkTeam<CLOTH_IMPLICIT_CHUNK>;
+
+// How the passes of an implicit step run: in order, by TBB pass by pass (`parallel`), or by a
+// team held for the step. Every way gives the same bits (fixed chunks, sums in chunk order).
+struct ImplicitPasses {
+  bool parallel = false;
+  ImplicitTeam* team = nullptr;
+
+  template <typename Kernel>
+  void run(std::size_t n, const Kernel& kernel, tbb::affinity_partitioner* affinity = nullptr) const {
+    if (team != nullptr)
+      team->run(n, kernel);
+    else
+      run_chunks(n, parallel, kernel, affinity);
+  }
+  // Whether other TBB loops (the coarse level's) may run in parallel: not while a team holds
+  // the threads, whose followers would leave them to the leader alone.
+  bool tbb() const { return parallel && team == nullptr; }
+};
+
+// assemble_implicit_system() with its passes run by `passes`.
+void assemble_implicit_system(std::span<const float> positions, std::span<const float> velocities,
+                              const SpringAdjacency& adjacency, const ClothParticles& particles, float h,
+                              ImplicitSystem& system, const ImplicitPasses& passes, bool with_off_diagonal);
+
 } // namespace vfit::cloth_detail
