@@ -16,6 +16,7 @@
 #include "kernels/error.h"
 #include "kernels/hole_caps.h"
 #include "kernels/opencl_context.h"
+#include "kernels/parallel.h"
 #include "kernels/proximity.h"
 #include "kernels/spatial_hash.h"
 #ifdef VFIT_WITH_OPENCL
@@ -46,6 +47,10 @@ constexpr int CONTACT_FULL_QUERY_PASSES = 32;
 // found closer than τ + this (m): those it pushed out to τ, and those left at τ up to the float
 // rounding of a distance (~1e-8 m at 5 cm).
 constexpr float RESTING_CONTACT_MARGIN = 1e-6f;
+
+// Particles per block of the per-step checks' sums (Impl::state_blocks): the divergence check's
+// kinetic energy and the step's mean displacement, summed per block in the caller's order.
+constexpr std::size_t STATE_SUM_BLOCK = 2048;
 
 // A vertex pinned to a body triangle (a, b, c): x = a + s·(b − a) + t·(c − a) + h·n̂.
 struct BodyAttachment {
@@ -347,19 +352,51 @@ struct ClothSim::Impl {
   // Attaches the internal particles `rows` to the body (see ClothSim::attach_to_body).
   void attach_rows(std::span<const std::int32_t> rows);
 
+  // Runs kernel(block, c0, c1) over fixed blocks of STATE_SUM_BLOCK particles in the caller's
+  // order, by TBB unless the backend is serial; a sum over them adds its blocks' partials in
+  // block order, so its bits depend on neither the backend nor the thread count.
+  template <typename Kernel> std::size_t state_blocks(const Kernel& kernel) const {
+    const std::size_t n = masses.size();
+    const std::size_t blocks = (n + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK;
+    const auto run = [&](std::size_t b0, std::size_t b1) {
+      for (std::size_t b = b0; b < b1; ++b)
+        kernel(b, b * STATE_SUM_BLOCK, std::min(n, (b + 1) * STATE_SUM_BLOCK));
+    };
+    if (options.backend == ClothBackend::SERIAL)
+      run(0, blocks);
+    else
+      parallel_for_range(blocks, 1, run);
+    return blocks;
+  }
+
   ClothStatus check() const {
-    double ke = 0;
-    for (std::size_t c = 0; c < masses.size(); ++c) { // in the caller's order: the sum as before
-      const auto i = static_cast<std::size_t>(rank[c]);
-      double v2 = 0;
-      for (int k = 0; k < 3; ++k) {
-        if (!std::isfinite(x[3 * i + k]) || !std::isfinite(v[3 * i + k])) return ClothStatus::DIVERGED_NON_FINITE;
-        v2 += double(v[3 * i + k]) * v[3 * i + k];
+    // Per block: 1 when a coordinate is not finite, and its kinetic energy.
+    std::vector<double> energy((masses.size() + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK, 0.0);
+    std::vector<unsigned char> non_finite(energy.size(), 0);
+    state_blocks([&](std::size_t b, std::size_t c0, std::size_t c1) {
+      double ke = 0;
+      for (std::size_t c = c0; c < c1; ++c) {
+        const auto i = static_cast<std::size_t>(rank[c]);
+        double v2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          if (!std::isfinite(x[3 * i + k]) || !std::isfinite(v[3 * i + k])) {
+            non_finite[b] = 1;
+            return;
+          }
+          v2 += double(v[3 * i + k]) * v[3 * i + k];
+        }
+        ke += 0.5 * masses[i] * v2;
       }
-      ke += 0.5 * masses[i] * v2;
+      energy[b] = ke;
+    });
+    double ke = 0;
+    for (std::size_t b = 0; b < energy.size(); ++b) {
+      if (non_finite[b]) return ClothStatus::DIVERGED_NON_FINITE;
+      ke += energy[b];
     }
     if (ke > 0.5 * total_mass * options.max_speed * options.max_speed) return ClothStatus::DIVERGED_ENERGY;
-    if (max_spring_stretch(x, springs, stretch_floor) > options.max_stretch) return ClothStatus::DIVERGED_STRETCH;
+    if (max_spring_stretch(x, springs, stretch_floor, options.backend != ClothBackend::SERIAL) > options.max_stretch)
+      return ClothStatus::DIVERGED_STRETCH;
     return ClothStatus::OK;
   }
 };
@@ -701,16 +738,23 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r, double dt) {
     }
   }
   m.state_changed();
-  double total = 0;
-  for (std::size_t c = 0; c < m.masses.size(); ++c) { // in the caller's order: the sum as before
-    const auto i = static_cast<std::size_t>(m.rank[c]);
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = double(m.x[3 * i + k]) - m.saved_x[3 * i + k];
-      d2 += d * d;
+  std::vector<double> moved((m.masses.size() + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK, 0.0);
+  m.state_blocks([&](std::size_t b, std::size_t c0, std::size_t c1) {
+    double sum = 0;
+    for (std::size_t c = c0; c < c1; ++c) { // in the caller's order
+      const auto i = static_cast<std::size_t>(m.rank[c]);
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double d = double(m.x[3 * i + k]) - m.saved_x[3 * i + k];
+        d2 += d * d;
+      }
+      sum += std::sqrt(d2);
     }
-    total += std::sqrt(d2);
-  }
+    moved[b] = sum;
+  });
+  double total = 0;
+  for (double sum : moved)
+    total += sum;
   r.mean_displacement = m.masses.empty() ? 0.0 : total / static_cast<double>(m.masses.size());
   return r;
 }

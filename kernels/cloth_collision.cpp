@@ -136,16 +136,20 @@ std::size_t body_contact_springs(std::span<const float> positions, std::span<con
   out.normals.assign(3 * n, 0.0f);
   out.gaps.assign(n, 0.0f);
   out.stiffness.assign(n, 0.0f);
+  parallel_for_range(n, CLOTH_CONTACT_GRAIN, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto c = resting_contact(i, positions, inverse_masses, hits, body_positions, body_triangles,
+                                     body_velocities, contact, margin, released);
+      if (!c) continue;
+      store3(out.normals.data(), i, c->normal);
+      out.gaps[i] = (c->d - contact.thickness) - h * vfit_v3_dot(c->body_velocity, c->normal);
+      out.stiffness[i] = stiffness_ratio / (inverse_masses[i] * h * h);
+    }
+  });
+  // The rows written: a resting contact's normal is nonzero.
   std::size_t count = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto c = resting_contact(i, positions, inverse_masses, hits, body_positions, body_triangles, body_velocities,
-                                   contact, margin, released);
-    if (!c) continue;
-    store3(out.normals.data(), i, c->normal);
-    out.gaps[i] = (c->d - contact.thickness) - h * vfit_v3_dot(c->body_velocity, c->normal);
-    out.stiffness[i] = stiffness_ratio / (inverse_masses[i] * h * h);
-    ++count;
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    count += (out.normals[3 * i] != 0.0f || out.normals[3 * i + 1] != 0.0f || out.normals[3 * i + 2] != 0.0f) ? 1 : 0;
   return count;
 }
 

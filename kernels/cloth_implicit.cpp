@@ -594,8 +594,14 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
          "one constraint row per particle");
   const float* normals = constrained ? constraints->normals.data() : nullptr;
   const bool warm = options.warm_start && w.dv.size() == 3 * nv && !constrained;
+  // r and z are written whole by the initial pass below; p, q and (unless warm) Δv start at
+  // zero, cleared chunk by chunk by the passes' own threads.
   for (auto* buf : {&w.dv, &w.r, &w.z, &w.p, &w.q})
-    if (!warm || buf != &w.dv) buf->assign(3 * nv, 0.0f);
+    buf->resize(3 * nv);
+  passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
+    for (auto* buf : {&w.dv, &w.p, &w.q})
+      if (!warm || buf != &w.dv) std::fill(buf->begin() + std::ptrdiff_t(3 * b), buf->begin() + std::ptrdiff_t(3 * e), 0.0f);
+  });
   vfit_vec3 translation{0.0f, 0.0f, 0.0f};
   bool pinned_neighbours = false;
   bool translated = options.translation_start && !warm && !constrained &&

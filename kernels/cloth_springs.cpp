@@ -258,9 +258,11 @@ double spring_energy(std::span<const float> positions, const ClothSprings& sprin
   return e;
 }
 
-double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs, float min_rest_length) {
-  double worst = springs.size() == 0 ? 0.0 : 1.0;
-  for (std::size_t s = 0; s < springs.size(); ++s) {
+namespace {
+// max_spring_stretch() over the springs [begin, end), from `worst`.
+double max_stretch_range(std::span<const float> positions, const ClothSprings& springs, float min_rest_length,
+                         std::size_t begin, std::size_t end, double worst) {
+  for (std::size_t s = begin; s < end; ++s) {
     const double L = std::max(springs.rest_lengths[s], min_rest_length);
     if (!(L > 0.0)) continue;
     const double l = distance(positions, springs.ends[2 * s], springs.ends[2 * s + 1]);
@@ -268,6 +270,24 @@ double max_spring_stretch(std::span<const float> positions, const ClothSprings& 
     if (!(l <= worst * L)) worst = std::isnan(l) ? std::numeric_limits<double>::infinity() : l / L;
   }
   return worst;
+}
+} // namespace
+
+double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs, float min_rest_length,
+                          bool parallel) {
+  if (springs.size() == 0) return 0.0;
+  if (!parallel || springs.size() <= SPRING_STRETCH_GRAIN)
+    return max_stretch_range(positions, springs, min_rest_length, 0, springs.size(), 1.0);
+  // A maximum per fixed block of springs, then theirs: the same value as the serial scan (a
+  // maximum does not depend on the order; a NaN anywhere reads as +∞ in its block).
+  const std::size_t blocks = (springs.size() + SPRING_STRETCH_GRAIN - 1) / SPRING_STRETCH_GRAIN;
+  std::vector<double> worst(blocks, 1.0);
+  parallel_for_range(blocks, 1, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t b = b0; b < b1; ++b)
+      worst[b] = max_stretch_range(positions, springs, min_rest_length, b * SPRING_STRETCH_GRAIN,
+                                   std::min(springs.size(), (b + 1) * SPRING_STRETCH_GRAIN), 1.0);
+  });
+  return *std::max_element(worst.begin(), worst.end());
 }
 
 } // namespace vfit

@@ -129,6 +129,11 @@ double spring_energy(std::span<const float> positions, const ClothSprings& sprin
 /// > 0, and at least 1 (1 at rest; 0 with no springs): the runaway-stretch measure of divergence detection.
 /// min_rest_length (m) keeps a sliver edge of a generated mesh (rest length of microns, whose
 /// tenfold stretch is a fraction of a millimetre) from reading as runaway; 0 uses L_s as is.
-double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs, float min_rest_length = 0.0f);
+/// `parallel`: by TBB over blocks of SPRING_STRETCH_GRAIN springs (the same value: a maximum).
+double max_spring_stretch(std::span<const float> positions, const ClothSprings& springs, float min_rest_length = 0.0f,
+                          bool parallel = false);
+
+/// Springs per block of max_spring_stretch()'s parallel scan.
+inline constexpr std::size_t SPRING_STRETCH_GRAIN = 8192;
 
 } // namespace vfit
