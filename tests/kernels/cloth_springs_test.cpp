@@ -179,6 +179,36 @@ TEST(ClothSprings, MaxStretchMeasuresAgainstTheRestLengthFloor) {
   EXPECT_TRUE(std::isinf(max_spring_stretch(x, s, 0.01f)));
 }
 
+// The parallel scan (blocks of SPRING_STRETCH_GRAIN springs) gives the serial maximum exactly,
+// wherever in the springs the worst one lies, and reads a NaN in any block as runaway.
+TEST(ClothSprings, ParallelMaxStretchEqualsTheSerialScan) {
+  const std::size_t n = 5 * SPRING_STRETCH_GRAIN + 123; // several blocks and a partial one
+  std::mt19937 rng(7u);
+  std::uniform_real_distribution<float> jitter(0.9f, 1.1f);
+  ClothSprings s;
+  std::vector<float> x(3 * (n + 1), 0.0f);
+  for (std::size_t k = 1; k <= n; ++k)
+    x[3 * k] = x[3 * (k - 1)] + 0.01f * jitter(rng); // a chain along x, each link within ±10 % of its rest
+  for (std::size_t k = 0; k < n; ++k) {
+    s.ends.push_back(std::int32_t(k));
+    s.ends.push_back(std::int32_t(k + 1));
+    s.rest_lengths.push_back(0.01f);
+    s.stiffness.push_back(1.0f);
+    s.damping.push_back(0.0f);
+    s.kinds.push_back(SpringKind::STRUCTURAL);
+  }
+  for (std::size_t worst : {std::size_t(0), SPRING_STRETCH_GRAIN - 1, 3 * SPRING_STRETCH_GRAIN + 5, n - 1}) {
+    std::vector<float> y = x;
+    for (std::size_t k = worst + 1; k <= n; ++k)
+      y[3 * k] += 0.05f; // link `worst` stretched by 5 cm: the runaway one
+    const double serial = max_spring_stretch(y, s, 0.0f, false);
+    EXPECT_GT(serial, 5.0); // 5.9-6.1: the stretched link, far above the others' ≤ 1.1
+    EXPECT_EQ(max_spring_stretch(y, s, 0.0f, true), serial) << "worst link " << worst;
+  }
+  x[3 * (4 * SPRING_STRETCH_GRAIN + 2) + 1] = NAN;
+  EXPECT_TRUE(std::isinf(max_spring_stretch(x, s, 0.0f, true)));
+}
+
 TEST(ClothSprings, GatherEqualsScatterBitForBit) {
   const Fixture f = jittered_cloth(17, 3u, true);
   const SpringAdjacency adj = build_spring_adjacency(f.springs, f.mesh.vertex_count());
