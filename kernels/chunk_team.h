@@ -53,7 +53,9 @@ public:
       ChunkTeam& team;
       tbb::task_group& followers;
       ~Dismiss() {
-        team.m_stop.store(true, std::memory_order_release);
+        team.m_stop.store(true, std::memory_order_seq_cst);
+        team.m_pass.value.fetch_add(1, std::memory_order_seq_cst); // wakes the followers to leave
+        team.m_pass.value.notify_all();
         followers.wait();
       }
     } dismiss{team, followers};
@@ -77,7 +79,9 @@ public:
       m_cursor[k].value.store(cursor(pass, share_begin(k + 1, chunks), share_begin(k, chunks)),
                               std::memory_order_relaxed);
     m_done.value.store(0, std::memory_order_relaxed);
-    m_pass.value.store(pass, std::memory_order_release);
+    m_pass.value.store(pass, std::memory_order_seq_cst);
+    // Seq-cst with the follower's count then check: it sees the pass or is counted here.
+    if (m_sleepers.load(std::memory_order_seq_cst) > 0) m_pass.value.notify_all();
     const std::size_t mine = work(0, pass);
     if (mine > 0) m_done.value.fetch_add(mine, std::memory_order_acq_rel);
     spin_until([&] { return m_done.value.load(std::memory_order_acquire) == chunks; });
@@ -101,18 +105,23 @@ private:
   }
   std::size_t share_begin(std::size_t k, std::size_t chunks) const { return k * chunks / m_lanes; }
 
-  // Spins (then yields) until done(): the lanes wait for each other microseconds at a time.
-  template <typename Done> static void spin_until(const Done& done) {
-    constexpr unsigned SPINS = 1u << 14; // ~0.1-0.5 ms of pauses before giving the core away
+  // Spins, then yields, until done(): the lanes wait for each other microseconds at a time.
+  // With `give_up`, returns false after that many yields instead (a follower then sleeps).
+  static constexpr unsigned SPINS = 1u << 10; // ~10-30 µs of pauses, a pass or two
+  static constexpr unsigned YIELDS = 64;
+  template <typename Done> static bool spin_until(const Done& done, bool give_up = false) {
     for (unsigned k = 0; !done(); ++k) {
       if (k < SPINS) {
 #if defined(__x86_64__) || defined(__i386__)
         __builtin_ia32_pause();
 #endif
+      } else if (give_up && k >= SPINS + YIELDS) {
+        return false;
       } else {
         std::this_thread::yield();
       }
     }
+    return true;
   }
 
   template <typename Kernel> static void trampoline(const void* kernel, std::size_t c, std::size_t n) {
@@ -148,15 +157,24 @@ private:
   }
 
   // A follower: joins each pass published after it started, until the leader dismisses it.
+  // It spins for the next pass, then yields, then sleeps on the pass counter (a busy machine, or
+  // a long serial stretch of the leader's: the core goes back to the system, and the leader
+  // wakes it with the next pass).
   void follow(std::size_t k) {
     std::uint64_t seen = 0;
     for (;;) {
       std::uint64_t pass = 0;
-      spin_until([&] {
-        pass = m_pass.value.load(std::memory_order_acquire);
-        return pass != seen || m_stop.load(std::memory_order_acquire);
-      });
-      if (pass == seen) return; // dismissed
+      const auto published = [&] {
+        pass = m_pass.value.load(std::memory_order_seq_cst);
+        return pass != seen;
+      };
+      if (!spin_until(published, true)) {
+        m_sleepers.fetch_add(1, std::memory_order_seq_cst);
+        while (!published())
+          m_pass.value.wait(seen, std::memory_order_seq_cst);
+        m_sleepers.fetch_sub(1, std::memory_order_seq_cst);
+      }
+      if (m_stop.load(std::memory_order_seq_cst)) return; // dismissed (no pass is left open then)
       seen = pass;
       const std::size_t ran = work(k, pass);
       if (ran > 0) m_done.value.fetch_add(ran, std::memory_order_acq_rel);
@@ -168,6 +186,7 @@ private:
   Slot m_pass;                      // the last pass published (0: none yet)
   Slot m_done;                      // chunks of the current pass finished
   std::atomic<bool> m_stop{false};
+  std::atomic<unsigned> m_sleepers{0}; // followers asleep on m_pass
   std::atomic<std::size_t> m_n{0};
   std::atomic<const void*> m_context{nullptr};
   std::atomic<void (*)(const void*, std::size_t, std::size_t)> m_trampoline{nullptr};

@@ -1,6 +1,10 @@
 // The implicit step's thread team (kernels/chunk_team.h): every chunk of every pass runs exactly
 // once, with its own bounds, whatever the lane count and however many followers ever start.
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <iostream>
+#include <thread>
 #include <cstddef>
 #include <stdexcept>
 #include <vector>
@@ -69,6 +73,35 @@ TEST(ChunkTeam, TheLeaderRunsEveryChunkWhenNoFollowerCanStart) {
   const std::vector<long> items = run_passes(4, 333, 50, bad, team_lanes);
   EXPECT_EQ(bad, 0u);
   EXPECT_EQ(items, expected_sums(333, 50));
+}
+
+TEST(ChunkTeam, FollowersAsleepBetweenDistantPassesWakeForTheNext) {
+  // Passes 3 ms apart: longer than a follower spins and yields (~0.1 ms), so it sleeps on the
+  // pass counter between them and must be woken by each. In every pass the leader's first chunk
+  // waits (up to 2 s) until a chunk of the follower's share has been run by another thread: a
+  // lost wake-up leaves the follower asleep and the wait runs out.
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs two cores for the follower to run";
+  tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+  const std::size_t n = 16 * 8; // 16 chunks: 0-7 the leader's share, 8-15 the follower's
+  int woken = 0;
+  Team::lead(2, [&](Team& team) {
+    const std::thread::id leader = std::this_thread::get_id();
+    for (int p = 0; p < 10; ++p) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(3));
+      std::atomic<bool> follower_ran{false};
+      bool seen = false;
+      team.run(n, [&](std::size_t c, std::size_t, std::size_t) {
+        if (c >= 8 && std::this_thread::get_id() != leader) follower_ran.store(true);
+        if (c != 0) return;
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+        while (!follower_ran.load() && std::chrono::steady_clock::now() < until)
+          std::this_thread::yield();
+        seen = follower_ran.load();
+      });
+      woken += seen ? 1 : 0;
+    }
+  });
+  EXPECT_EQ(woken, 10) << "passes in which the sleeping follower woke and ran its share";
 }
 
 TEST(ChunkTeam, LanesAreCappedByTheThreadsAndTheChunks) {
