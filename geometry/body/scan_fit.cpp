@@ -396,7 +396,8 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
   // from any A- or T-pose start, and ICP only finds the nearest minimum).
   t0 = StageClock{};
   {
-    const ScanPoseSearch found = search_scan_pose(f.tmpl, scan.positions, pose_of(s), s.shape[0], options.search);
+    const ScanPoseSearch found =
+        search_scan_pose(f.tmpl, scan.positions, pose_of(s), s.shape[0], options.search, f.scan_normals);
     for (int a = 0; a < 3; ++a) {
       s.global[static_cast<std::size_t>(a)] = found.pose.axis_angle(0, a);
       s.trans[static_cast<std::size_t>(a)] = found.pose.translation[a];

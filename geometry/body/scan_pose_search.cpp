@@ -23,7 +23,8 @@ class PointGrid {
 public:
   explicit PointGrid(float cell) : m_cell(cell) {}
 
-  void build(std::span<const float> xyz, std::span<const std::size_t> subset) {
+  void build(std::span<const float> xyz, std::span<const std::size_t> subset,
+             std::span<const Eigen::Vector3d> normals = {}) {
     const std::size_t n = subset.empty() ? xyz.size() / 3 : subset.size();
     auto point = [&](std::size_t i) {
       const std::size_t v = subset.empty() ? i : subset[i];
@@ -48,9 +49,39 @@ public:
     for (std::size_t c = 0; c < cells; ++c)
       m_start[c + 1] += m_start[c];
     m_points.resize(n);
+    m_normals.resize(normals.empty() ? 0 : n);
     std::vector<std::size_t> fill(m_start.begin(), m_start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-      m_points[fill[m_cell_of[i]]++] = point(i);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t k = fill[m_cell_of[i]]++;
+      m_points[k] = point(i);
+      if (!normals.empty()) m_normals[k] = normals[subset.empty() ? i : subset[i]].cast<float>();
+    }
+  }
+
+  // capped_distance(), with a point behind the nearest point's surface (built with normals)
+  // counted `inside_factor` times as far beyond `inside_slack` deep, within the cap.
+  float capped_distance_outside(const Vec3f& q, float inside_slack, float inside_factor) const {
+    if (m_normals.empty()) return capped_distance(q);
+    float best = m_cell * m_cell;
+    std::size_t arg = m_points.size();
+    std::array<int, 3> c{};
+    for (int a = 0; a < 3; ++a) {
+      c[a] = static_cast<int>(std::floor((q[a] - m_lo[a]) / m_cell));
+      if (c[a] < -1 || c[a] > m_dims[a]) return m_cell;
+    }
+    for (int x = std::max(c[0] - 1, 0); x <= std::min(c[0] + 1, m_dims[0] - 1); ++x)
+      for (int y = std::max(c[1] - 1, 0); y <= std::min(c[1] + 1, m_dims[1] - 1); ++y)
+        for (int z = std::max(c[2] - 1, 0); z <= std::min(c[2] + 1, m_dims[2] - 1); ++z) {
+          const std::size_t cell = flat(x, y, z);
+          for (std::size_t k = m_start[cell]; k < m_start[cell + 1]; ++k) {
+            const float d2 = (m_points[k] - q).squaredNorm();
+            if (d2 < best) best = d2, arg = k;
+          }
+        }
+    const float d = std::sqrt(best);
+    if (arg == m_points.size()) return d;
+    const float depth = -(q - m_points[arg]).dot(m_normals[arg]);
+    return depth > inside_slack ? std::min(m_cell, d + inside_factor * (depth - inside_slack)) : d;
   }
 
   // min(distance to the nearest point, cell size).
@@ -89,6 +120,7 @@ private:
   std::array<int, 3> m_dims{};
   std::vector<std::size_t> m_start, m_cell_of;
   std::vector<Vec3f> m_points;
+  std::vector<Vec3f> m_normals; // per point, when built with normals
 };
 
 // The rotation (axis-angle) taking `from` to `to` about their common normal, the shortest one.
@@ -102,13 +134,15 @@ Vec3 compose(const Vec3& a, const Vec3& b) { // rotation a after b
 
 class Scorer {
 public:
-  Scorer(const Body& tmpl, std::span<const float> scan, const ScanPoseSearchOptions& o)
+  Scorer(const Body& tmpl, std::span<const float> scan, std::span<const Eigen::Vector3d> normals,
+         const ScanPoseSearchOptions& o)
       : m_tmpl(tmpl), m_grid(static_cast<float>(o.cap)), m_tmpl_grid(static_cast<float>(o.cap)),
-        m_cap(static_cast<float>(o.cap)) {
+        m_cap(static_cast<float>(o.cap)), m_inside_slack(static_cast<float>(o.inside_slack)),
+        m_inside_factor(static_cast<float>(o.inside_factor)) {
     for (std::size_t v : spread_indices(scan.size() / 3, o.scan_samples))
       m_scan_samples.emplace_back(scan[3 * v], scan[3 * v + 1], scan[3 * v + 2]);
     const auto grid_points = spread_indices(scan.size() / 3, o.scan_grid_points);
-    m_grid.build(scan, grid_points);
+    m_grid.build(scan, grid_points, normals.size() == scan.size() / 3 ? normals : std::span<const Eigen::Vector3d>{});
     m_floor = INFINITY;
     for (std::size_t v = 0; v < scan.size() / 3; ++v)
       m_floor = std::min(m_floor, scan[3 * v + 1]);
@@ -140,11 +174,21 @@ public:
     for (const Vec3f& q : m_scan_samples)
       a += m_tmpl_grid.capped_distance(q);
     for (std::size_t v : m_tmpl_samples)
-      b += m_grid.capped_distance(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]));
+      b += m_grid.capped_distance_outside(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]), m_inside_slack,
+                                          m_inside_factor);
     return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
            b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
   }
   int evaluations() const { return m_evaluations; }
+
+  // The scan samples at least `distance` from every template vertex that begin_part()'s part
+  // does not move: the points that part has to explain.
+  std::vector<Vec3> unexplained(double distance) const {
+    std::vector<Vec3> out;
+    for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
+      if (m_still_distance[i] >= distance) out.push_back(m_scan_samples[i].cast<double>());
+    return out;
+  }
 
   // Prepares scoring of poses that differ from `base` only in the joints of `subtrees` (and
   // their descendants): the template's vertices they move are re-posed per candidate, the
@@ -178,7 +222,8 @@ public:
       if (is_moving[v])
         m_moving_samples.push_back(v);
       else
-        m_still_sum += m_grid.capped_distance(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]));
+        m_still_sum += m_grid.capped_distance_outside(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]),
+                                                      m_inside_slack, m_inside_factor);
     }
   }
 
@@ -205,7 +250,8 @@ public:
     for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
       a += std::min(m_still_distance[i], m_part_grid.capped_distance(m_scan_samples[i]));
     for (std::size_t v : m_moving_samples)
-      b += m_grid.capped_distance(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]));
+      b += m_grid.capped_distance_outside(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]), m_inside_slack,
+                                          m_inside_factor);
     return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
            b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
   }
@@ -213,7 +259,7 @@ public:
 private:
   const Body& m_tmpl;
   PointGrid m_grid, m_tmpl_grid;
-  float m_cap;
+  float m_cap, m_inside_slack, m_inside_factor;
   float m_floor = 0;
   std::vector<Vec3f> m_scan_samples;
   std::vector<std::size_t> m_tmpl_samples;
@@ -346,24 +392,93 @@ std::vector<Candidate> leg_candidates(double side) {
   return c;
 }
 
+Limb arm_limb(double side) {
+  return {side > 0 ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER, side > 0 ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW,
+          Vec3(side, 0, 0), Vec3(0, -side, 0), 140 * DEG};
+}
+
 // Upper arms: elevation e above horizontal and azimuth a forward (+Z) from the rest's straight
-// out to the side, and straight up and down.
-std::vector<Candidate> arm_candidates(double side) {
-  const Limb limb{side > 0 ? Joint::LEFT_SHOULDER : Joint::RIGHT_SHOULDER,
-                  side > 0 ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW, Vec3(side, 0, 0), Vec3(0, -side, 0), 140 * DEG};
+// out to the side, and straight up and down. Lowered arms also swung 60 and 90° back: an arm
+// hanging 70° down and swung 20° back about the shoulder's side axis points ~45° behind the
+// side, past -30°, and the nearest candidate put its elbow ~10 cm off (seed 11's random 2 left
+// it to the refinement's luck).
+std::vector<Vec3> arm_upper_directions(double side) {
   std::vector<Vec3> uppers = {Vec3(0, 1, 0), Vec3(0, -1, 0)};
   for (double e : {-70.0, -45.0, -20.0, 0.0, 25.0, 50.0, 75.0})
     for (double a : {-30.0, 0.0, 35.0, 70.0})
       uppers.emplace_back(side * std::cos(e * DEG) * std::cos(a * DEG), std::sin(e * DEG),
                           std::cos(e * DEG) * std::sin(a * DEG));
-  return limb_candidates(limb, uppers);
+  for (double e : {-70.0, -45.0, -20.0})
+    for (double a : {-60.0, -90.0})
+      uppers.emplace_back(side * std::cos(e * DEG) * std::cos(a * DEG), std::sin(e * DEG),
+                          std::cos(e * DEG) * std::sin(a * DEG));
+  return uppers;
+}
+
+std::vector<Candidate> arm_candidates(double side) {
+  return limb_candidates(arm_limb(side), arm_upper_directions(side));
+}
+
+// Forearms aimed at the scan: for each of arm_candidates()' upper arms, its elbow placed in
+// `base`, the forearm pointed at the scan points the rest of the body leaves unexplained
+// (`targets`) that lie a forearm to a forearm and hand away: the few directions most of them
+// share (greedily, each with the most targets within AIM_SPREAD, those then dropped). The
+// sphere's 26 forearm directions lie up to ~35° apart, which puts a 25 cm forearm's wrist up to
+// 15 cm off, past the score's cap: an arm hanging against the torso with its forearm held out
+// then scored no candidate near it, and a wrong arm covering part of the forearm won.
+std::vector<Candidate> aimed_arm_candidates(double side, const Body& tmpl, double log_scale, const Pose& base,
+                                            const std::vector<Vec3>& targets) {
+  constexpr double AIM_SPREAD = 15 * DEG; // the directions one candidate stands for
+  constexpr int AIMS_PER_UPPER = 3;
+  constexpr double REACH_LO = 0.5, REACH_HI = 1.6; // target distances from the elbow, in forearms
+  const Limb limb = arm_limb(side);
+  const int root = idx(limb.root), hinge = idx(limb.hinge),
+            end = idx(side > 0 ? Joint::LEFT_WRIST : Joint::RIGHT_WRIST);
+  const JointPositions J = std::exp(log_scale) * tmpl.joints;
+  const double upper_length = (J.row(hinge) - J.row(root)).norm(), fore_length = (J.row(end) - J.row(hinge)).norm();
+  const auto G = joint_world_transforms(J, base);
+  const Eigen::Matrix3d parent = G[static_cast<std::size_t>(joint_parent(root))].linear();
+  const Vec3 shoulder = G[static_cast<std::size_t>(root)].translation();
+  std::vector<Candidate> out;
+  std::vector<Vec3> aims;
+  std::vector<int> support;
+  std::vector<bool> taken;
+  for (const Vec3& u : arm_upper_directions(side)) {
+    const Vec3 elbow = shoulder + upper_length * (parent * u);
+    aims.clear();
+    for (const Vec3& q : targets) {
+      const Vec3 d = q - elbow;
+      const double r = d.norm();
+      if (r < REACH_LO * fore_length || r > REACH_HI * fore_length) continue;
+      const Vec3 l = parent.transpose() * (d / r);
+      if (std::acos(std::clamp(u.dot(l), -1.0, 1.0)) <= limb.max_bend) aims.push_back(l);
+    }
+    taken.assign(aims.size(), false);
+    const double near = std::cos(AIM_SPREAD);
+    for (int k = 0; k < AIMS_PER_UPPER; ++k) {
+      support.assign(aims.size(), 0);
+      int best = -1;
+      for (std::size_t a = 0; a < aims.size(); ++a) {
+        if (taken[a]) continue;
+        for (std::size_t b = 0; b < aims.size(); ++b)
+          if (!taken[b] && aims[a].dot(aims[b]) >= near) ++support[a];
+        if (best < 0 || support[a] > support[static_cast<std::size_t>(best)]) best = static_cast<int>(a);
+      }
+      if (best < 0) break;
+      const Vec3 l = aims[static_cast<std::size_t>(best)];
+      for (std::size_t b = 0; b < aims.size(); ++b)
+        if (aims[b].dot(l) >= near) taken[b] = true;
+      out.push_back(limb_candidate(limb, u, l));
+    }
+  }
+  return out;
 }
 
 } // namespace
 
 ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,
-                                const ScanPoseSearchOptions& options) {
-  Scorer scorer(tmpl, scan, options);
+                                const ScanPoseSearchOptions& options, std::span<const Eigen::Vector3d> scan_normals) {
+  Scorer scorer(tmpl, scan, scan_normals, options);
   ScanPoseSearch out;
   out.pose = start;
   out.log_scale = log_scale;
@@ -440,7 +555,21 @@ ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, c
       const bool limb = !part.subtrees.empty();
       if (limb) scorer.begin_part(base, base_scale, part.subtrees);
       scored.assign(1, {out.score, base});
-      for (const Candidate& apply : part.candidates) {
+      std::vector<Candidate> aimed;
+      // Aimed forearms in the last sweep only: before it the torso and the other limbs are still
+      // coarse, so the points they leave unexplained are not the arm's (aimed in every sweep, a
+      // forearm went to the torso the first sweep misplaced: seed 11's random 2, both elbows 32
+      // and 49 cm off).
+      if (part.arm && options.aimed_forearms && pass == std::max(1, options.passes) - 1)
+        aimed = aimed_arm_candidates(part.arm->at(0) == Joint::LEFT_SHOULDER ? 1.0 : -1.0, tmpl, base_scale, base,
+                                     scorer.unexplained(0.5 * options.cap));
+      std::vector<const Candidate*> all;
+      for (const Candidate& c : part.candidates)
+        all.push_back(&c);
+      for (const Candidate& c : aimed)
+        all.push_back(&c);
+      for (const Candidate* candidate : all) {
+        const Candidate& apply = *candidate;
         Pose p = base;
         double ls = base_scale;
         apply(p, ls);
