@@ -6,9 +6,10 @@
 // tens of microseconds on a 6,000-vertex garment. Run as two tbb::parallel_for calls per
 // iteration, a worker went to sleep between passes: waking it (a futex call) took ~11 % of
 // the calling thread's time in the tee drape, and the pass started before the worker did, so
-// the caller ran ~60 % of its chunks. A team's followers spin between passes instead, for the
-// solve only, and each lane starts on its own contiguous share of the chunks, the same share in
-// every pass, so its rows stay in its own cache.
+// the caller ran ~60 % of its chunks. A team's followers spin between passes instead (they
+// sleep only after a long gap, see follow()), for the step only, and each lane starts on its
+// own contiguous share of the chunks, the same share in every pass, so its rows stay in its
+// own cache.
 //
 // How: lead(lanes, body) runs body(team) on the calling thread (the leader) and enqueues
 // lanes − 1 follower tasks. team.run(n, kernel) publishes a pass; every lane that has started
