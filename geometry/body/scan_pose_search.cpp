@@ -62,12 +62,29 @@ public:
   // counted `inside_factor` times as far beyond `inside_slack` deep, within the cap.
   float capped_distance_outside(const Vec3f& q, float inside_slack, float inside_factor) const {
     if (m_normals.empty()) return capped_distance(q);
-    float best = m_cell * m_cell;
     std::size_t arg = m_points.size();
+    const float d = std::sqrt(nearest_squared(q, arg));
+    if (arg == m_points.size()) return d;
+    const float depth = -(q - m_points[arg]).dot(m_normals[arg]);
+    return depth > inside_slack ? std::min(m_cell, d + inside_factor * (depth - inside_slack)) : d;
+  }
+
+  // min(distance to the nearest point, cell size).
+  float capped_distance(const Vec3f& q) const {
+    std::size_t arg = m_points.size();
+    return std::sqrt(nearest_squared(q, arg));
+  }
+
+private:
+  // min(squared distance to the nearest point in the 27 cells around q, cell size²); `arg`
+  // is set to that point's index, left as it was when none is nearer than the cap (or q lies
+  // outside the grid, where the cap is returned).
+  float nearest_squared(const Vec3f& q, std::size_t& arg) const {
+    float best = m_cell * m_cell;
     std::array<int, 3> c{};
     for (int a = 0; a < 3; ++a) {
       c[a] = static_cast<int>(std::floor((q[a] - m_lo[a]) / m_cell));
-      if (c[a] < -1 || c[a] > m_dims[a]) return m_cell;
+      if (c[a] < -1 || c[a] > m_dims[a]) return best;
     }
     for (int x = std::max(c[0] - 1, 0); x <= std::min(c[0] + 1, m_dims[0] - 1); ++x)
       for (int y = std::max(c[1] - 1, 0); y <= std::min(c[1] + 1, m_dims[1] - 1); ++y)
@@ -78,31 +95,9 @@ public:
             if (d2 < best) best = d2, arg = k;
           }
         }
-    const float d = std::sqrt(best);
-    if (arg == m_points.size()) return d;
-    const float depth = -(q - m_points[arg]).dot(m_normals[arg]);
-    return depth > inside_slack ? std::min(m_cell, d + inside_factor * (depth - inside_slack)) : d;
+    return best;
   }
 
-  // min(distance to the nearest point, cell size).
-  float capped_distance(const Vec3f& q) const {
-    float best = m_cell * m_cell;
-    std::array<int, 3> c{};
-    for (int a = 0; a < 3; ++a) {
-      c[a] = static_cast<int>(std::floor((q[a] - m_lo[a]) / m_cell));
-      if (c[a] < -1 || c[a] > m_dims[a]) return m_cell;
-    }
-    for (int x = std::max(c[0] - 1, 0); x <= std::min(c[0] + 1, m_dims[0] - 1); ++x)
-      for (int y = std::max(c[1] - 1, 0); y <= std::min(c[1] + 1, m_dims[1] - 1); ++y)
-        for (int z = std::max(c[2] - 1, 0); z <= std::min(c[2] + 1, m_dims[2] - 1); ++z) {
-          const std::size_t cell = flat(x, y, z);
-          for (std::size_t k = m_start[cell]; k < m_start[cell + 1]; ++k)
-            best = std::min(best, (m_points[k] - q).squaredNorm());
-        }
-    return std::sqrt(best);
-  }
-
-private:
   std::size_t flat(int x, int y, int z) const {
     return (static_cast<std::size_t>(x) * static_cast<std::size_t>(m_dims[1]) + static_cast<std::size_t>(y)) *
                static_cast<std::size_t>(m_dims[2]) +
