@@ -355,9 +355,10 @@ struct ClothSim::Impl {
   // Runs kernel(block, c0, c1) over fixed blocks of STATE_SUM_BLOCK particles in the caller's
   // order, by TBB unless the backend is serial; a sum over them adds its blocks' partials in
   // block order, so its bits depend on neither the backend nor the thread count.
-  template <typename Kernel> std::size_t state_blocks(const Kernel& kernel) const {
+  std::size_t state_block_count() const { return (masses.size() + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK; }
+  template <typename Kernel> void state_blocks(const Kernel& kernel) const {
     const std::size_t n = masses.size();
-    const std::size_t blocks = (n + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK;
+    const std::size_t blocks = state_block_count();
     const auto run = [&](std::size_t b0, std::size_t b1) {
       for (std::size_t b = b0; b < b1; ++b)
         kernel(b, b * STATE_SUM_BLOCK, std::min(n, (b + 1) * STATE_SUM_BLOCK));
@@ -366,12 +367,11 @@ struct ClothSim::Impl {
       run(0, blocks);
     else
       parallel_for_range(blocks, 1, run);
-    return blocks;
   }
 
   ClothStatus check() const {
     // Per block: 1 when a coordinate is not finite, and its kinetic energy.
-    std::vector<double> energy((masses.size() + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK, 0.0);
+    std::vector<double> energy(state_block_count(), 0.0);
     std::vector<unsigned char> non_finite(energy.size(), 0);
     state_blocks([&](std::size_t b, std::size_t c0, std::size_t c1) {
       double ke = 0;
@@ -738,7 +738,7 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r, double dt) {
     }
   }
   m.state_changed();
-  std::vector<double> moved((m.masses.size() + STATE_SUM_BLOCK - 1) / STATE_SUM_BLOCK, 0.0);
+  std::vector<double> moved(m.state_block_count(), 0.0);
   m.state_blocks([&](std::size_t b, std::size_t c0, std::size_t c1) {
     double sum = 0;
     for (std::size_t c = c0; c < c1; ++c) { // in the caller's order

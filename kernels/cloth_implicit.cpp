@@ -600,7 +600,8 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     buf->resize(3 * nv);
   passes.run(nv, [&](std::size_t, std::size_t b, std::size_t e) {
     for (auto* buf : {&w.dv, &w.p, &w.q})
-      if (!warm || buf != &w.dv) std::fill(buf->begin() + std::ptrdiff_t(3 * b), buf->begin() + std::ptrdiff_t(3 * e), 0.0f);
+      if (!warm || buf != &w.dv)
+        std::fill(buf->begin() + std::ptrdiff_t(3 * b), buf->begin() + std::ptrdiff_t(3 * e), 0.0f);
   });
   vfit_vec3 translation{0.0f, 0.0f, 0.0f};
   bool pinned_neighbours = false;
