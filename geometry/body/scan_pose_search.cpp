@@ -7,6 +7,10 @@
 #include <optional>
 
 #include <Eigen/Geometry>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/task_arena.h>
+
+#include "kernels/parallel.h"
 
 namespace vfit {
 namespace {
@@ -131,9 +135,9 @@ class Scorer {
 public:
   Scorer(const Body& tmpl, std::span<const float> scan, std::span<const Eigen::Vector3d> normals,
          const ScanPoseSearchOptions& o)
-      : m_tmpl(tmpl), m_grid(static_cast<float>(o.cap)), m_tmpl_grid(static_cast<float>(o.cap)),
+      : m_tmpl(tmpl), m_grid(static_cast<float>(o.cap)), m_still_grid(static_cast<float>(o.cap)),
         m_cap(static_cast<float>(o.cap)), m_inside_slack(static_cast<float>(o.inside_slack)),
-        m_inside_factor(static_cast<float>(o.inside_factor)) {
+        m_inside_factor(static_cast<float>(o.inside_factor)), m_serial(m_cap), m_scratch(Scratch(m_cap)) {
     for (std::size_t v : spread_indices(scan.size() / 3, o.scan_samples))
       m_scan_samples.emplace_back(scan[3 * v], scan[3 * v + 1], scan[3 * v + 2]);
     const auto grid_points = spread_indices(scan.size() / 3, o.scan_grid_points);
@@ -148,33 +152,29 @@ public:
   // lowest vertex is level with the scan's (the translation is updated).
   double score(Pose& pose, double log_scale, bool level = false) {
     ++m_evaluations;
-    if (log_scale != m_shaped_log_scale || m_shaped.empty()) {
-      const auto s = static_cast<float>(std::exp(log_scale));
-      m_shaped.resize(m_tmpl.mesh.positions.size());
-      for (std::size_t i = 0; i < m_shaped.size(); ++i)
-        m_shaped[i] = s * m_tmpl.mesh.positions[i];
-      m_shaped_log_scale = log_scale;
-    }
-    const JointPositions J = std::exp(log_scale) * m_tmpl.joints;
-    linear_blend_skinning(m_shaped, m_tmpl.weights, skinning_transforms(J, pose), m_posed);
-    float lowest = INFINITY;
-    for (std::size_t v = 0; v < m_posed.size() / 3; ++v)
-      lowest = std::min(lowest, m_posed[3 * v + 1]);
-    const float dy = level ? m_floor - lowest : 0.f;
-    for (std::size_t v = 0; v < m_posed.size() / 3; ++v)
-      m_posed[3 * v + 1] += dy;
-    pose.translation.y() += dy;
-    m_tmpl_grid.build(m_posed, {});
-    double a = 0, b = 0;
-    for (const Vec3f& q : m_scan_samples)
-      a += m_tmpl_grid.capped_distance(q);
-    for (std::size_t v : m_tmpl_samples)
-      b += m_grid.capped_distance_outside(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]), m_inside_slack,
-                                          m_inside_factor);
-    return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
-           b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
+    return full_score(m_serial, pose, log_scale, level);
   }
   int evaluations() const { return m_evaluations; }
+
+  // score() of each pose at its scale (not levelled), or with `part` score_part() of each pose
+  // (log_scales unused), the poses scored side by side (TBB, SCORE_GRAIN). Every score is a
+  // function of its pose alone (and of begin_part()'s base), so the thread count changes no bit.
+  std::vector<double> score_all(const std::vector<Pose>& poses, const std::vector<double>& log_scales, bool part) {
+    std::vector<double> out(poses.size());
+    parallel_for_range(poses.size(), SCORE_GRAIN, [&](std::size_t begin, std::size_t end) {
+      // Isolated: a thread waiting on the skinning's nested loop must not start another range
+      // here, which would share its scratch.
+      tbb::this_task_arena::isolate([&] {
+        Scratch& s = m_scratch.local();
+        for (std::size_t i = begin; i < end; ++i) {
+          Pose p = poses[i];
+          out[i] = part ? part_score(s, p) : full_score(s, p, log_scales[i], false);
+        }
+      });
+    });
+    m_evaluations += static_cast<int>(poses.size());
+    return out;
+  }
 
   // The scan samples at least `distance` from every template vertex that begin_part()'s part
   // does not move: the points that part has to explain.
@@ -193,7 +193,9 @@ public:
     for (int j = 0; j < JOINT_COUNT; ++j)
       for (int a = j; a >= 0 && !moving[static_cast<std::size_t>(j)]; a = joint_parent(a))
         moving[static_cast<std::size_t>(j)] = std::find(subtrees.begin(), subtrees.end(), a) != subtrees.end();
-    score(base, log_scale); // m_posed and m_shaped at this pose and scale
+    score(base, log_scale); // m_serial's posed and shaped at this pose and scale
+    m_part_shaped = m_serial.shaped;
+    const std::vector<float>& posed = m_serial.posed;
     m_part_log_scale = log_scale;
     m_moving.clear();
     std::vector<std::size_t> still;
@@ -204,20 +206,20 @@ public:
         moves = moves || (w.weights[4 * v + k] > 0 && moving[static_cast<std::size_t>(w.joints[4 * v + k])]);
       (moves ? m_moving : still).push_back(v);
     }
-    m_tmpl_grid.build(m_posed, still);
+    m_still_grid.build(posed, still);
     m_still_distance.resize(m_scan_samples.size());
     for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
-      m_still_distance[i] = still.empty() ? m_cap : m_tmpl_grid.capped_distance(m_scan_samples[i]);
+      m_still_distance[i] = still.empty() ? m_cap : m_still_grid.capped_distance(m_scan_samples[i]);
     m_still_sum = 0;
     m_moving_samples.clear();
-    std::vector<bool> is_moving(w.vertex_count(), false);
-    for (std::size_t v : m_moving)
-      is_moving[v] = true;
+    std::vector<std::size_t> moving_index(w.vertex_count(), SIZE_MAX);
+    for (std::size_t i = 0; i < m_moving.size(); ++i)
+      moving_index[m_moving[i]] = i;
     for (std::size_t v : m_tmpl_samples) {
-      if (is_moving[v])
-        m_moving_samples.push_back(v);
+      if (moving_index[v] != SIZE_MAX)
+        m_moving_samples.push_back(moving_index[v]);
       else
-        m_still_sum += m_grid.capped_distance_outside(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]),
+        m_still_sum += m_grid.capped_distance_outside(Vec3f(posed[3 * v], posed[3 * v + 1], posed[3 * v + 2]),
                                                       m_inside_slack, m_inside_factor);
     }
   }
@@ -226,46 +228,92 @@ public:
   // begin_part()'s base only in that part; the translation is kept.
   double score_part(const Pose& pose) {
     ++m_evaluations;
-    const JointPositions J = std::exp(m_part_log_scale) * m_tmpl.joints;
-    const auto A = skinning_transforms(J, pose);
-    const SkinWeights& w = m_tmpl.weights;
-    m_part_points.resize(3 * m_moving.size());
-    for (std::size_t i = 0; i < m_moving.size(); ++i) {
-      const std::size_t v = m_moving[i];
-      const Eigen::Vector3d x(m_shaped[3 * v], m_shaped[3 * v + 1], m_shaped[3 * v + 2]);
-      Eigen::Vector3d y = Eigen::Vector3d::Zero();
-      for (int k = 0; k < 4; ++k)
-        if (w.weights[4 * v + k] > 0)
-          y += static_cast<double>(w.weights[4 * v + k]) * (A[static_cast<std::size_t>(w.joints[4 * v + k])] * x);
-      for (int a = 0; a < 3; ++a)
-        m_posed[3 * v + a] = m_part_points[3 * i + a] = static_cast<float>(y[a]);
+    return part_score(m_serial, pose);
+  }
+
+private:
+  // Candidates per TBB task in score_all() (a score is ~20-80 µs).
+  static constexpr std::size_t SCORE_GRAIN = 4;
+
+  // One thread's working memory.
+  struct Scratch {
+    explicit Scratch(float cap) : tmpl_grid(cap), part_grid(cap) {}
+    std::vector<float> shaped, posed, part_points;
+    double shaped_log_scale = 0;
+    PointGrid tmpl_grid, part_grid;
+  };
+
+  double full_score(Scratch& s, Pose& pose, double log_scale, bool level) const {
+    if (log_scale != s.shaped_log_scale || s.shaped.empty()) {
+      const auto k = static_cast<float>(std::exp(log_scale));
+      s.shaped.resize(m_tmpl.mesh.positions.size());
+      for (std::size_t i = 0; i < s.shaped.size(); ++i)
+        s.shaped[i] = k * m_tmpl.mesh.positions[i];
+      s.shaped_log_scale = log_scale;
     }
-    m_part_grid.build(m_part_points, {});
-    double a = 0, b = m_still_sum;
-    for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
-      a += std::min(m_still_distance[i], m_part_grid.capped_distance(m_scan_samples[i]));
-    for (std::size_t v : m_moving_samples)
-      b += m_grid.capped_distance_outside(Vec3f(m_posed[3 * v], m_posed[3 * v + 1], m_posed[3 * v + 2]), m_inside_slack,
+    const JointPositions J = std::exp(log_scale) * m_tmpl.joints;
+    std::vector<float>& posed = s.posed;
+    linear_blend_skinning(s.shaped, m_tmpl.weights, skinning_transforms(J, pose), posed);
+    float lowest = INFINITY;
+    for (std::size_t v = 0; v < posed.size() / 3; ++v)
+      lowest = std::min(lowest, posed[3 * v + 1]);
+    const float dy = level ? m_floor - lowest : 0.f;
+    for (std::size_t v = 0; v < posed.size() / 3; ++v)
+      posed[3 * v + 1] += dy;
+    pose.translation.y() += dy;
+    s.tmpl_grid.build(posed, {});
+    double a = 0, b = 0;
+    for (const Vec3f& q : m_scan_samples)
+      a += s.tmpl_grid.capped_distance(q);
+    for (std::size_t v : m_tmpl_samples)
+      b += m_grid.capped_distance_outside(Vec3f(posed[3 * v], posed[3 * v + 1], posed[3 * v + 2]), m_inside_slack,
                                           m_inside_factor);
     return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
            b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
   }
 
-private:
+  double part_score(Scratch& s, const Pose& pose) const {
+    const JointPositions J = std::exp(m_part_log_scale) * m_tmpl.joints;
+    const auto A = skinning_transforms(J, pose);
+    const SkinWeights& w = m_tmpl.weights;
+    std::vector<float>& points = s.part_points;
+    points.resize(3 * m_moving.size());
+    for (std::size_t i = 0; i < m_moving.size(); ++i) {
+      const std::size_t v = m_moving[i];
+      const Eigen::Vector3d x(m_part_shaped[3 * v], m_part_shaped[3 * v + 1], m_part_shaped[3 * v + 2]);
+      Eigen::Vector3d y = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 4; ++k)
+        if (w.weights[4 * v + k] > 0)
+          y += static_cast<double>(w.weights[4 * v + k]) * (A[static_cast<std::size_t>(w.joints[4 * v + k])] * x);
+      for (int a = 0; a < 3; ++a)
+        points[3 * i + a] = static_cast<float>(y[a]);
+    }
+    s.part_grid.build(points, {});
+    double a = 0, b = m_still_sum;
+    for (std::size_t i = 0; i < m_scan_samples.size(); ++i)
+      a += std::min(m_still_distance[i], s.part_grid.capped_distance(m_scan_samples[i]));
+    for (std::size_t i : m_moving_samples)
+      b += m_grid.capped_distance_outside(Vec3f(points[3 * i], points[3 * i + 1], points[3 * i + 2]), m_inside_slack,
+                                          m_inside_factor);
+    return a / static_cast<double>(std::max<std::size_t>(m_scan_samples.size(), 1)) +
+           b / static_cast<double>(std::max<std::size_t>(m_tmpl_samples.size(), 1));
+  }
+
   const Body& m_tmpl;
-  PointGrid m_grid, m_tmpl_grid;
+  PointGrid m_grid, m_still_grid;
   float m_cap, m_inside_slack, m_inside_factor;
   float m_floor = 0;
   std::vector<Vec3f> m_scan_samples;
   std::vector<std::size_t> m_tmpl_samples;
-  std::vector<float> m_shaped, m_posed;
-  double m_shaped_log_scale = 0;
   int m_evaluations = 0;
-  // begin_part() / score_part():
-  PointGrid m_part_grid{m_cap};
+  Scratch m_serial;                                   // score() and score_part()
+  tbb::enumerable_thread_specific<Scratch> m_scratch; // score_all()
+  // begin_part(), read by score_part() and score_all():
+  std::vector<float> m_part_shaped;
   double m_part_log_scale = 0, m_still_sum = 0;
-  std::vector<std::size_t> m_moving, m_moving_samples;
-  std::vector<float> m_still_distance, m_part_points;
+  std::vector<std::size_t> m_moving;         // the vertices the part moves
+  std::vector<std::size_t> m_moving_samples; // the template samples among them, as indices into m_moving
+  std::vector<float> m_still_distance;
 };
 
 // One candidate: a change to the current pose and scale.
@@ -563,17 +611,18 @@ ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, c
         all.push_back(&c);
       for (const Candidate& c : aimed)
         all.push_back(&c);
-      for (const Candidate* candidate : all) {
-        const Candidate& apply = *candidate;
-        Pose p = base;
-        double ls = base_scale;
-        apply(p, ls);
-        const double s = limb ? scorer.score_part(p) : scorer.score(p, ls);
-        if (part.arm) scored.push_back({s, p});
+      std::vector<Pose> poses(all.size(), base);
+      std::vector<double> scales(all.size(), base_scale);
+      for (std::size_t i = 0; i < poses.size(); ++i)
+        (*all[i])(poses[i], scales[i]);
+      const std::vector<double> scores = scorer.score_all(poses, scales, limb);
+      for (std::size_t i = 0; i < poses.size(); ++i) {
+        const double s = scores[i];
+        if (part.arm) scored.push_back({s, poses[i]});
         if (s < out.score) {
           out.score = s;
-          out.pose = p;
-          out.log_scale = ls;
+          out.pose = poses[i];
+          out.log_scale = scales[i];
         }
       }
       if (part.arm && options.limb_alternatives > 1) refine_alternatives(*part.arm, scored);
