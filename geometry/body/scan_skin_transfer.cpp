@@ -204,16 +204,16 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
     for (std::size_t v = begin; v < end; ++v) {
       const int c = chain[v];
       // The closest point of all where no sure vertex reaches the vertex, where its chain has
-      // no surface within CHAIN_RADIUS, or where the closest point lies on its chain or as
-      // close as its chain's (a vertex on the border of two chains; 0.1 mm: float rounding).
-      // A chain farther than the closest surface still gives the weights: a folded hand whose
-      // template hand lies 5 cm off, nearer the other forearm or the belly, keeps its own
-      // arm's (the nearest surface's tore 250 of the corpus body's hand vertices off their arm).
+      // no surface within CHAIN_RADIUS, or where the closest point lies on its chain. A chain
+      // farther than the closest surface still gives the weights: a folded hand whose template
+      // hand lies 5 cm off, nearer the other forearm or the belly, keeps its own arm's (the
+      // nearest surface's tore 250 of the corpus body's hand vertices off their arm), and so
+      // does a chain as near as another's (hands or an arm and the belly pressed into each
+      // other: until stop 24 a chain within 0.1 mm of the closest point counted as the closest,
+      // which handed elbows_bent's wrists the other hand's weights: re-posed 94 cm off).
       const int closest_chain = triangle_chain[static_cast<std::size_t>(closest.triangles[v])];
       const bool own_closest = c == UNSURE || hits[static_cast<std::size_t>(c)].triangles[v] < 0 ||
-                               closest_chain == c ||
-                               std::abs(hits[static_cast<std::size_t>(c)].signed_distances[v]) <=
-                                   std::abs(closest.signed_distances[v]) + 1e-4;
+                               closest_chain == c;
       if (own_closest)
         blend_at(source, source_weights, closest, v, out, v);
       else

@@ -33,9 +33,9 @@ int skin_chain_of_joint(int joint);
 /// passes on). A chain's vertices that are not connected (over `target`'s edges) to its
 /// largest connected piece lose their chain and take a neighbour's the same way: a limb is one
 /// piece. The weights are then those at the closest point of the vertex's chain (of all, where
-/// that lies on the same chain, is as close, or the chain has no surface within 15 cm; a chain
-/// farther than the closest surface still gives them, so a folded hand whose template hand lies
-/// a few cm off keeps its own arm's weights), blended
+/// that lies on the same chain or the chain has no surface within 15 cm; a chain farther than
+/// the closest surface, or as near as another chain pressed into it, still gives them, so a
+/// folded hand whose template hand lies a few cm off keeps its own arm's weights), blended
 /// barycentrically, the 4 largest kept and renormalised. On `source` itself this returns its
 /// weights except within `margin` of a chain border, where a vertex may take the neighbouring
 /// chain's border weights. A target without faces (a point cloud) takes the closest point's

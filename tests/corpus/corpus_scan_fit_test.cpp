@@ -199,10 +199,11 @@ struct CorpusScanFit : ::testing::TestWithParam<int> {
 };
 
 // What a fit of the rig posed by `c.scan` gets right: per-joint errors against the rig's joints
-// and the mean re-posing error against the rig's own posing by `c.repose`; printed per stage.
+// and the mean and worst re-posing error against the rig's own posing by `c.repose`; printed per stage.
 struct FitErrors {
   std::array<double, JOINT_COUNT> joint{}; ///< m
   double repose_mean = 0;                  ///< m
+  double repose_max = 0;                   ///< m, the vertex re-posed farthest off
 };
 
 FitErrors fit_and_measure(const Body& rig, const PoseCase& c) {
@@ -291,6 +292,7 @@ FitErrors fit_and_measure(const Body& rig, const PoseCase& c) {
     far = std::max(far, e);
   }
   out.repose_mean = sum / double(n);
+  out.repose_max = far;
   std::cout << "  re-posed rigged scan vs the rig's posing: mean " << 1000 * out.repose_mean << " mm, max "
             << 1000 * far << " mm\n";
   return out;
@@ -305,6 +307,11 @@ void expect_within_bars(const PoseCase& c, const FitErrors& e) {
     EXPECT_LT(e.joint[static_cast<std::size_t>(j)], limit) << c.name << ": " << joint_name(j);
   }
   EXPECT_LT(e.repose_mean, c.repose_limit) << c.name;
+  // No vertex torn off its limb: a vertex given another part's weights stays behind with that
+  // part, tens of cm off in these re-posings (elbows_bent's wrists, given the other hand's
+  // weights until stop 24: 94 cm). The worst vertex of the 26 poses is 8.7 cm off (weights
+  // blended a little differently from the rig's near the shoulders and hips).
+  EXPECT_LT(e.repose_max, 0.15) << c.name;
 }
 
 TEST_P(CorpusScanFit, RecoversTheRigJointsAndReposesLikeTheRig) {

@@ -417,6 +417,46 @@ TEST(ScanSkinTransfer, ArmsAgainstTheTorsoKeepTheArmsWeights) {
   EXPECT_LE(lost, lost_plain / 4);
 }
 
+// Two chains pressed into each other: a left hand's patch 3.00 mm under the target and a right
+// forearm and hand's patch 3.05 mm under it, the left one ending where the target's strip goes
+// on over the right one alone. The strip is the right arm's (its sure vertices are past the
+// left patch), so every vertex takes the right chain's weights, also where the left patch is
+// nearer by less than any margin (50 µm).
+TEST(ScanSkinTransfer, AChainPressedIntoAnotherKeepsItsOwnWeights) {
+  auto grid = [](Mesh& m, double x0, double x1, double y0, double y1, double z, int nx, int ny) {
+    const auto first = static_cast<std::int32_t>(m.vertex_count());
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= nx; ++i)
+        for (double c : {x0 + (x1 - x0) * i / nx, y0 + (y1 - y0) * j / ny, z})
+          m.positions.push_back(static_cast<float>(c));
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::int32_t a = first + j * (nx + 1) + i, b = a + 1, c = a + nx + 1, d = c + 1;
+        for (std::int32_t v : {a, b, d, a, d, c}) // counter-clockwise seen from +Z: normals +Z
+          m.triangles.push_back(v);
+      }
+  };
+  Mesh source;
+  grid(source, 0.0, 0.1, 0.0, 0.1, 0.0, 10, 10); // the left hand
+  const std::size_t left = source.vertex_count();
+  grid(source, 0.0, 0.3, 0.0, 0.1, -0.00005, 30, 10); // the right forearm and hand
+  SkinWeights w;
+  for (std::size_t v = 0; v < source.vertex_count(); ++v) {
+    w.joints.insert(w.joints.end(), {idx(v < left ? Joint::LEFT_HAND : Joint::RIGHT_HAND), 0, 0, 0});
+    w.weights.insert(w.weights.end(), {1.f, 0.f, 0.f, 0.f});
+  }
+  Mesh target;
+  grid(target, 0.005, 0.295, 0.005, 0.095, 0.003, 58, 18);
+  const SkinWeights got = transfer_skin_weights(source, w, target);
+  int other = 0, over_left = 0;
+  for (std::size_t v = 0; v < target.vertex_count(); ++v) {
+    other += dominant_chain(got, v) != 2;
+    over_left += target.positions[3 * v] < 0.1;
+  }
+  ASSERT_GT(over_left, 300); // the case is a real one: a third of the strip lies over both patches
+  EXPECT_EQ(other, 0);
+}
+
 TEST(ScanFitInput, RejectsTooFewPointsAndScansNotInMetres) {
   Mesh few;
   few.positions.assign(3 * 50, 0.f);
