@@ -1,8 +1,8 @@
 // Mass-spring cloth RK4 step throughput (seed 000 §6.3): serial, TBB (1 and 2 threads) and
 // OpenCL (PoCL on the CPU, or a GPU's ICD) on square grids of 10^4–10^6 particles, with a
-// STREAM-like triad measured right after each benchmark to express each step as a fraction of the memory
-// bandwidth bound. Counters: springs/s and particle-updates/s count every stage (4 per step);
-// model_GBps is the traffic the step must move at least (below) per wall second, and
+// STREAM-like triad measured right after each benchmark to express each step as a fraction of
+// the memory bandwidth bound. Counters: springs/s and particle-updates/s count every stage (4
+// per step); model_GBps is the traffic the step must move at least (below) per wall second, and
 // bw_fraction = model_GBps / triad_GBps.
 //
 // Traffic model: the bytes the step as implemented must move at least, neighbours' stage states

@@ -70,18 +70,20 @@ std::vector<std::size_t> spread_indices(std::size_t n, std::size_t count);
 /// scaled by exp(log_scale) that best covers `scan` (#P × 3, m; a mesh's vertices or a point
 /// cloud), starting from `start`. Score: mean over scan samples of min(d, cap) to the posed
 /// template's vertices plus the same from template samples to the scan's points, so a part is
-/// rewarded both for explaining scan points and for lying on the scan; with `scan_normals` (one
-/// per scan point, outward), a template point deep behind the scan's surface counts more
-/// (ScanPoseSearchOptions::inside_slack). Each part is tried in a fixed set of orientations
-/// (upper arms over 36 directions and 3 twists, elbows 0–120°,
-/// thighs over 24 directions, knees 0–100°, torso bend and twist, global yaw ±30°, x/z shifts,
-/// scale ±15 %), in the last sweep also forearms aimed at the scan points the rest of the body
-/// leaves unexplained, every candidate placed on the scan's floor (lowest points level); after each
-/// arm's sweep its options.limb_alternatives best distinct placements are refined and the best
-/// refined one kept; then, by options.refine_steps_deg in turn, the spine is leaned sideways
-/// (which the torso candidates do not try) and each limb joint turned about its parent's axes. A
-/// candidate replaces the current value only when it scores better, so the result never
-/// scores worse than `start`. Deterministic. Needs at least one scan point; never throws for finite input.
+/// rewarded both for explaining scan points and for lying on the scan; with `scan_normals` (#P
+/// unit outward normals, one per scan point; any other count is ignored), a template point deep
+/// behind the scan's surface counts more (ScanPoseSearchOptions::inside_slack). Each part is
+/// tried in a fixed set of orientations (upper arms over 36 directions and 3 twists, elbows
+/// 0–120°, thighs over 24 directions, knees 0–100°, torso bend and twist, global yaw ±30°, x/z
+/// shifts, scale ±15 %), in the last sweep also forearms aimed at the scan points the rest of
+/// the body leaves unexplained, every candidate placed on the scan's floor (lowest points
+/// level); after each arm's sweep its options.limb_alternatives best distinct placements are
+/// refined and the best refined one kept; then, by options.refine_steps_deg in turn, the spine
+/// is leaned sideways (which the torso candidates do not try) and each limb joint turned about
+/// its parent's axes. A candidate replaces the current value only when it scores better, so the
+/// result never scores worse than `start`. Deterministic, and the same at any thread count
+/// (each part's candidates are scored side by side, each score a function of its candidate
+/// alone). Needs at least one scan point; never throws for finite input.
 ScanPoseSearch search_scan_pose(const Body& tmpl, std::span<const float> scan, const Pose& start, double log_scale,
                                 const ScanPoseSearchOptions& options = {},
                                 std::span<const Eigen::Vector3d> scan_normals = {});
