@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue 6's drape bar against Blender on this host, in one run: for each round, Blender 3.4's
 # cloth on the drape's meshes (bench/blender/drape_baseline.py), then vfit's
-# BM_drape_tee_to_rest/2 with blender_x computed from that round's Blender time.
+# BM_drape_tee_to_rest/2 with blender_x and wall_s_at_reference_speed (the wall time scaled to
+# a host where Blender takes the issue's 1.6 s per frame) from that round's Blender time.
 #   bench/blender/run_drape_baseline.sh [BUILD_DIR (build/release)] [FRAMES (24)] [ROUNDS (2)]
 # Needs `blender` on the PATH (Debian 12: apt-get install blender, 3.4.1).
 set -euo pipefail
@@ -21,6 +22,6 @@ for r in $(seq "$rounds"); do
   echo "round $r: $line"
   s=$(sed 's/.*blender_s_per_frame=\([0-9.]*\).*/\1/' <<<"$line")
   VFIT_BLENDER_S_PER_FRAME="$s" "$bench" --benchmark_filter='BM_drape_tee_to_rest/2/' 2>/dev/null |
-    grep '^BM_' | grep -o 'blender_x=[0-9.]*\|cpu_s_to_rest=[0-9.]*\|sim_s_per_wall_s=[0-9.]*\|simulated_s=[0-9.]*\|wall_s_to_rest=[0-9.]*' |
+    grep '^BM_' | grep -o 'blender_x=[0-9.]*\|cpu_s_to_rest=[0-9.]*\|sim_s_per_wall_s=[0-9.]*\|simulated_s=[0-9.]*\|wall_s_to_rest=[0-9.]*\|wall_s_at_reference_speed=[0-9.]*' |
     paste -sd' ' | sed "s/^/round $r: vfit /"
 done
