@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
 #include <ceres/ceres.h>
 
 #include "body.h"
+#include "kernels/parallel.h"
 
 namespace vfit::scan_detail {
 
@@ -45,45 +47,138 @@ Eigen::Matrix3d right_jacobian(const Vec3& phi) {
 // j's subtree about the posed joint p_j, so ∂x/∂r_j = −[x_j − m_j p_j]× R_j J_r(r_j), with x_j,
 // m_j the point's skinned position and weight summed over that subtree. The 4 shape numbers
 // move the rest skeleton and vertices together and are differentiated by forward differences.
+//
+// The block hands Ceres the pairs' 3·#pairs residuals compressed to PARAMS + 1 numbers with the
+// same cost, gradient and Gauss–Newton matrix, so Levenberg–Marquardt takes the same steps
+// (to rounding): with H = JᵀJ = Pᵀ L D Lᵀ P (pivoted LDLᵀ), g = Jᵀr and c = rᵀr, the block's
+// Jacobian is J' = [√D Lᵀ P; 0] and its residual r' = [√D⁻¹ L⁻¹ P g; √(c − ‖√D⁻¹ L⁻¹ P g‖²)]:
+// J'ᵀJ' = H, J'ᵀr' = g, r'ᵀr' = c, and the model's cost ‖J'δ + r'‖² = ‖Jδ + r‖² for every step δ.
+// Without a Jacobian only the cost counts, so the residual is [0; √c]. Ceres then never holds
+// the 3·#pairs × PARAMS Jacobian (7,200 × 80 for 2,400 pairs): H is accumulated from small
+// fixed chunks of pairs, side by side and summed in chunk order (the same bits at any thread
+// count), the rest of the solve is on PARAMS rows.
 class DataCost final : public ceres::CostFunction {
 public:
-  DataCost(const ShapeModel& model, const std::vector<Pair>& pairs) : m_model(model), m_pairs(pairs) {
-    set_num_residuals(3 * static_cast<int>(pairs.size()));
+  static constexpr int PARAMS = 3 + BODY_POSE + 3 + SHAPE_PARAMS; ///< columns: global, body, translation, shape
+
+  DataCost(const ShapeModel& model, const std::vector<Pair>& pairs, int threads)
+      : m_model(model), m_pairs(pairs), m_threads(threads) {
+    set_num_residuals(PARAMS + 1);
     *mutable_parameter_block_sizes() = {3, BODY_POSE, 3, SHAPE_PARAMS};
   }
 
   bool Evaluate(double const* const* p, double* r, double** jac) const override {
-    const Pose pose = pose_of(p[0], p[1], p[2]);
-    const double s = std::exp(p[3][0]);
-    const JointPositions dJ = m_model.displacement(p[3]);
-    const JointPositions J = s * (m_model.mean + dJ);
-    const auto G = joint_world_transforms(J, pose);
-    std::array<Eigen::Isometry3d, JOINT_COUNT> A;
-    for (int j = 0; j < JOINT_COUNT; ++j)
-      A[static_cast<std::size_t>(j)] = G[static_cast<std::size_t>(j)] * Eigen::Translation3d(-J.row(j).transpose());
-    residuals(A, dJ, s, r);
-    if (!jac) return true;
-    if (jac[0] || jac[1] || jac[2]) pose_jacobians(p, G, A, dJ, s, jac);
-    if (jac[3]) {
-      // Forward differences: steps of 1e-6 on numbers of order 0.1–1 (log s, β in σ).
-      std::vector<double> shifted(static_cast<std::size_t>(num_residuals()));
-      for (int k = 0; k < SHAPE_PARAMS; ++k) {
-        std::array<double, SHAPE_PARAMS> shape{};
-        std::copy(p[3], p[3] + SHAPE_PARAMS, shape.begin());
-        const double h = 1e-6 * std::max(1.0, std::abs(shape[static_cast<std::size_t>(k)]));
-        shape[static_cast<std::size_t>(k)] += h;
-        const double s2 = std::exp(shape[0]);
-        const JointPositions dJ2 = m_model.displacement(shape.data());
-        const JointPositions J2 = s2 * (m_model.mean + dJ2);
-        residuals(skinning_transforms(J2, pose), dJ2, s2, shifted.data());
-        for (int i = 0; i < num_residuals(); ++i)
-          jac[3][i * SHAPE_PARAMS + k] = (shifted[static_cast<std::size_t>(i)] - r[i]) / h;
+    Kinematics k;
+    k.pose = pose_of(p[0], p[1], p[2]);
+    for (int b = 0; b <= SHAPE_PARAMS; ++b) {
+      // b = 0: at p; b > 0: shape number b − 1 stepped forward by h (steps of 1e-6 on numbers
+      // of order 0.1–1: log s, β in σ).
+      std::array<double, SHAPE_PARAMS> shape{};
+      std::copy(p[3], p[3] + SHAPE_PARAMS, shape.begin());
+      if (b > 0) {
+        const auto i = static_cast<std::size_t>(b - 1);
+        k.step[i] = 1e-6 * std::max(1.0, std::abs(shape[i]));
+        shape[i] += k.step[i];
       }
+      Shaped& sh = k.shaped[static_cast<std::size_t>(b)];
+      sh.s = std::exp(shape[0]);
+      sh.dJ = m_model.displacement(shape.data());
+      const JointPositions J = sh.s * (m_model.mean + sh.dJ);
+      if (b == 0) {
+        k.G = joint_world_transforms(J, k.pose);
+        for (int j = 0; j < JOINT_COUNT; ++j)
+          sh.A[static_cast<std::size_t>(j)] =
+              k.G[static_cast<std::size_t>(j)] * Eigen::Translation3d(-J.row(j).transpose());
+        if (!jac) break;
+      } else {
+        sh.A = skinning_transforms(J, k.pose);
+      }
+    }
+    for (int j = 0; j < JOINT_COUNT; ++j) {
+      const double* rj = j == 0 ? p[0] : p[1] + 3 * (j - 1);
+      k.B[static_cast<std::size_t>(j)] =
+          k.G[static_cast<std::size_t>(j)].linear() * right_jacobian(Vec3(rj[0], rj[1], rj[2]));
+    }
+
+    const std::size_t chunks = (m_pairs.size() + CHUNK - 1) / CHUNK;
+    std::vector<Normal> partial(chunks);
+    auto run = [&](std::size_t begin, std::size_t end) {
+      for (std::size_t c = begin; c < end; ++c)
+        accumulate(k, c * CHUNK, std::min(m_pairs.size(), (c + 1) * CHUNK), jac != nullptr, partial[c]);
+    };
+    if (m_threads > 1)
+      parallel_for_range(chunks, 1, run);
+    else
+      run(0, chunks);
+    Normal total;
+    for (const Normal& n : partial) {
+      total.c += n.c;
+      if (jac) {
+        total.H += n.H;
+        total.g += n.g;
+      }
+    }
+    std::fill(r, r + PARAMS, 0.0);
+    if (!jac) {
+      r[PARAMS] = std::sqrt(total.c);
+      return true;
+    }
+    // The compression (see the class comment). D's entries at or below this fraction of the
+    // largest are rank the pairs do not have (joints no pair is skinned to): zero rows.
+    constexpr double RANK_TOLERANCE = 1e-13;
+    const Eigen::Matrix<double, PARAMS, PARAMS> H = total.H.selfadjointView<Eigen::Lower>();
+    const Eigen::LDLT<Eigen::Matrix<double, PARAMS, PARAMS>> ldlt(H);
+    const Eigen::Matrix<double, PARAMS, 1> D = ldlt.vectorD();
+    const double floor = RANK_TOLERANCE * std::max(D.maxCoeff(), 0.0);
+    Eigen::Matrix<double, PARAMS, PARAMS> L = ldlt.matrixL();
+    Eigen::Matrix<double, PARAMS, 1> y = ldlt.transpositionsP() * total.g;
+    L.triangularView<Eigen::UnitLower>().solveInPlace(y);
+    // J' = √D Lᵀ P, i.e. J'ᵀ = Pᵀ L √D.
+    const Eigen::Matrix<double, PARAMS, PARAMS> Jt = ldlt.transpositionsP().transpose() * L;
+    double explained = 0;
+    std::array<double, PARAMS> root{};
+    for (int i = 0; i < PARAMS; ++i) {
+      if (D[i] <= floor) continue;
+      root[static_cast<std::size_t>(i)] = std::sqrt(D[i]);
+      r[i] = y[i] / root[static_cast<std::size_t>(i)];
+      explained += r[i] * r[i];
+    }
+    r[PARAMS] = std::sqrt(std::max(0.0, total.c - explained));
+    constexpr std::array<int, 4> WIDTH = {3, BODY_POSE, 3, SHAPE_PARAMS}, FIRST = {0, 3, 3 + BODY_POSE, 6 + BODY_POSE};
+    for (int b = 0; b < 4; ++b) {
+      double* block = jac[b];
+      if (!block) continue;
+      const int w = WIDTH[static_cast<std::size_t>(b)], first = FIRST[static_cast<std::size_t>(b)];
+      for (int i = 0; i <= PARAMS; ++i)
+        for (int a = 0; a < w; ++a)
+          block[i * w + a] = i < PARAMS ? root[static_cast<std::size_t>(i)] * Jt(first + a, i) : 0.0;
     }
     return true;
   }
 
 private:
+  static constexpr std::size_t CHUNK = 256; // pairs per chunk of the normal equations, summed in chunk order
+
+  struct Shaped {
+    double s = 1;
+    JointPositions dJ = JointPositions::Zero();
+    std::array<Eigen::Isometry3d, JOINT_COUNT> A;
+  };
+  // The skeleton at the evaluation point ([0]) and at each forward-differenced shape ([1..]).
+  struct Kinematics {
+    Pose pose;
+    std::array<Shaped, SHAPE_PARAMS + 1> shaped;
+    std::array<double, SHAPE_PARAMS> step{};
+    std::array<Eigen::Isometry3d, JOINT_COUNT> G;
+    std::array<Eigen::Matrix3d, JOINT_COUNT> B; // world rotation of each joint times its right Jacobian
+  };
+  // A chunk's share of the normal equations: JᵀJ (lower triangle), Jᵀr, rᵀr.
+  struct Normal {
+    Eigen::Matrix<double, PARAMS, PARAMS, Eigen::RowMajor> H = Eigen::Matrix<double, PARAMS, PARAMS, Eigen::RowMajor>::Zero();
+    Eigen::Matrix<double, PARAMS, 1> g = Eigen::Matrix<double, PARAMS, 1>::Zero();
+    double c = 0;
+  };
+
   Vec3 rest_of(const Pair& q, const JointPositions& dJ, double s) const {
     Vec3 offset = Vec3::Zero();
     for (int k = 0; k < 4; ++k)
@@ -94,72 +189,79 @@ private:
     const Eigen::Matrix3d nn = q.normal * q.normal.transpose();
     return q.sqrt_weight * (nn + q.tangential * (Eigen::Matrix3d::Identity() - nn));
   }
-
-  void residuals(const std::array<Eigen::Isometry3d, JOINT_COUNT>& A, const JointPositions& dJ, double s,
-                 double* r) const {
-    for (std::size_t i = 0; i < m_pairs.size(); ++i) {
-      const Pair& q = m_pairs[i];
-      const Vec3 rest = rest_of(q, dJ, s);
-      Vec3 x = Vec3::Zero();
-      for (int k = 0; k < 4; ++k)
-        if (q.weight[k] != 0.0) x += q.weight[k] * (A[static_cast<std::size_t>(q.joint[k])] * rest);
-      Eigen::Map<Vec3>(r + 3 * i) = projector(q) * (x - q.target);
-    }
+  Vec3 residual(const Pair& q, const Shaped& sh, const Eigen::Matrix3d& P) const {
+    const Vec3 rest = rest_of(q, sh.dJ, sh.s);
+    Vec3 x = Vec3::Zero();
+    for (int k = 0; k < 4; ++k)
+      if (q.weight[k] != 0.0) x += q.weight[k] * (sh.A[static_cast<std::size_t>(q.joint[k])] * rest);
+    return P * (x - q.target);
   }
 
-  void pose_jacobians(double const* const* p, const std::array<Eigen::Isometry3d, JOINT_COUNT>& G,
-                      const std::array<Eigen::Isometry3d, JOINT_COUNT>& A, const JointPositions& dJ, double s,
-                      double** jac) const {
-    std::array<Eigen::Matrix3d, JOINT_COUNT> B; // world rotation of each joint times its right Jacobian
-    for (int j = 0; j < JOINT_COUNT; ++j) {
-      const double* r = j == 0 ? p[0] : p[1] + 3 * (j - 1);
-      B[static_cast<std::size_t>(j)] = G[static_cast<std::size_t>(j)].linear() * right_jacobian(Vec3(r[0], r[1], r[2]));
-    }
-    const auto rows = static_cast<std::size_t>(num_residuals());
-    if (jac[0]) std::fill(jac[0], jac[0] + rows * 3, 0.0);
-    if (jac[1]) std::fill(jac[1], jac[1] + rows * BODY_POSE, 0.0);
-    if (jac[2]) std::fill(jac[2], jac[2] + rows * 3, 0.0);
+  // Pairs [begin, end): their residuals' squared norm and, `with_jacobian`, their JᵀJ (lower
+  // triangle) and Jᵀr. A pair's 3 Jacobian rows are non-zero only in the columns of the joints
+  // its influences hang from (and translation and shape): ~25 of PARAMS, so each pair's rows are
+  // kept compact and their products scattered into H, a tenth of a dense product's work.
+  void accumulate(const Kinematics& k, std::size_t begin, std::size_t end, bool with_jacobian, Normal& out) const {
+    const Shaped& at = k.shaped[0];
     std::array<Vec3, JOINT_COUNT> xs;
     std::array<double, JOINT_COUNT> ms;
     std::vector<int> touched;
-    for (std::size_t i = 0; i < m_pairs.size(); ++i) {
+    std::array<int, PARAMS> column{};               // the compact rows' columns in the full Jacobian
+    Eigen::Matrix<double, 3, PARAMS> rows;          // a pair's rows, compact (first `m` columns)
+    for (std::size_t i = begin; i < end; ++i) {
       const Pair& q = m_pairs[i];
-      const Vec3 rest = rest_of(q, dJ, s);
+      const Eigen::Matrix3d P = projector(q);
+      const Vec3 ri = residual(q, at, P);
+      out.c += ri.squaredNorm();
+      if (!with_jacobian) continue;
+      const Vec3 rest = rest_of(q, at.dJ, at.s);
       touched.clear();
-      for (int k = 0; k < 4; ++k) {
-        if (q.weight[k] == 0.0) continue;
-        const Vec3 y = A[static_cast<std::size_t>(q.joint[k])] * rest;
-        for (int a = q.joint[k]; a >= 0; a = joint_parent(a)) {
+      for (int w = 0; w < 4; ++w) {
+        if (q.weight[w] == 0.0) continue;
+        const Vec3 y = at.A[static_cast<std::size_t>(q.joint[w])] * rest;
+        for (int a = q.joint[w]; a >= 0; a = joint_parent(a)) {
           const auto u = static_cast<std::size_t>(a);
           if (std::find(touched.begin(), touched.end(), a) == touched.end()) {
             touched.push_back(a);
             xs[u].setZero();
             ms[u] = 0;
           }
-          xs[u] += q.weight[k] * y;
-          ms[u] += q.weight[k];
+          xs[u] += q.weight[w] * y;
+          ms[u] += q.weight[w];
         }
       }
-      const Eigen::Matrix3d P = projector(q);
+      int m = 0;
+      auto add_block = [&](int first, int width) {
+        for (int a = 0; a < width; ++a)
+          column[static_cast<std::size_t>(m + a)] = first + a;
+        m += width;
+      };
+      std::sort(touched.begin(), touched.end()); // columns ascending: H's lower triangle is b ≤ a below
       for (int j : touched) {
         const auto u = static_cast<std::size_t>(j);
-        const Eigen::Matrix3d D = P * (-skew(xs[u] - ms[u] * G[u].translation()) * B[u]);
-        double* block = j == 0 ? jac[0] : jac[1];
-        if (!block) continue;
-        const int width = j == 0 ? 3 : BODY_POSE, col = j == 0 ? 0 : 3 * (j - 1);
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            block[(3 * i + a) * width + col + b] = D(a, b);
+        rows.middleCols<3>(m) = P * (-skew(xs[u] - ms[u] * k.G[u].translation()) * k.B[u]);
+        add_block(3 * j, 3);
       }
-      if (jac[2])
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            jac[2][(3 * i + a) * 3 + b] = P(a, b);
+      rows.middleCols<3>(m) = P;
+      add_block(3 + BODY_POSE, 3);
+      for (int b = 0; b < SHAPE_PARAMS; ++b)
+        rows.col(m + b) =
+            (residual(q, k.shaped[static_cast<std::size_t>(b + 1)], P) - ri) / k.step[static_cast<std::size_t>(b)];
+      add_block(6 + BODY_POSE, SHAPE_PARAMS);
+      for (int a = 0; a < m; ++a) {
+        const double x = rows(0, a), y = rows(1, a), z = rows(2, a);
+        const int ca = column[static_cast<std::size_t>(a)];
+        out.g[ca] += x * ri[0] + y * ri[1] + z * ri[2];
+        double* h = out.H.data() + static_cast<std::ptrdiff_t>(ca) * PARAMS; // row ca (row-major)
+        for (int b = 0; b <= a; ++b)
+          h[column[static_cast<std::size_t>(b)]] += x * rows(0, b) + y * rows(1, b) + z * rows(2, b);
+      }
     }
   }
 
   const ShapeModel& m_model;
   const std::vector<Pair>& m_pairs;
+  int m_threads;
 };
 
 // Pose prior (T-pose-relative axis-angle; a knee bends about +X, the left elbow about −Y): a
@@ -230,16 +332,9 @@ struct ShapePrior {
 
 int solve(const ShapeModel& model, const std::vector<Pair>& pairs, State& s, int iterations, int threads) {
   ceres::Problem problem;
-  // The pairs in one block per thread, which Ceres evaluates side by side; each block runs the
-  // skeleton's forward kinematics once per evaluation.
-  const int blocks = std::clamp(threads, 1, 2);
-  std::vector<std::vector<Pair>> chunks(static_cast<std::size_t>(blocks));
-  for (std::size_t i = 0; i < pairs.size(); ++i)
-    chunks[i * static_cast<std::size_t>(blocks) / pairs.size()].push_back(pairs[i]);
-  for (const std::vector<Pair>& chunk : chunks)
-    if (!chunk.empty())
-      problem.AddResidualBlock(new DataCost(model, chunk), nullptr,
-                               std::vector<double*>{s.global.data(), s.body.data(), s.trans.data(), s.shape.data()});
+  if (!pairs.empty())
+    problem.AddResidualBlock(new DataCost(model, pairs, std::clamp(threads, 1, 2)), nullptr,
+                             std::vector<double*>{s.global.data(), s.body.data(), s.trans.data(), s.shape.data()});
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<PosePrior, ceres::DYNAMIC, BODY_POSE>(new PosePrior, PosePrior::residual_count()),
       nullptr, s.body.data());
@@ -252,7 +347,7 @@ int solve(const ShapeModel& model, const std::vector<Pair>& pairs, State& s, int
     problem.SetParameterUpperBound(s.shape.data(), k, SHAPE_LIMIT);
   }
   ceres::Solver::Options o;
-  // One dense block over 79 parameters: no structure to exploit, the 79 × 79 normal equations
+  // One dense block over 80 parameters: no structure to exploit, the 80 × 80 normal equations
   // are the cheapest solve.
   o.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   o.max_num_iterations = iterations;

@@ -78,7 +78,8 @@ JointPositions rest_joints_of(const ShapeModel& m, const double* shape);
 /// Levenberg–Marquardt over `s` (updated in place) for eq. 4's data term over `pairs` plus the
 /// pose prior (a weak pull toward the T-pose, stronger on twists and on the neck's sideways
 /// lean; one-sided hinge limits for elbows and knees) and the shape prior, at most `iterations`
-/// iterations, `threads` (1–2) residual blocks evaluated side by side. Returns the iterations taken. Empty `pairs`: only
+/// iterations, the data term's normal equations accumulated on `threads` (1–2) threads (the same bits for either).
+/// Returns the iterations taken. Empty `pairs`: only
 /// the priors move `s`.
 int solve(const ShapeModel& model, const std::vector<Pair>& pairs, State& s, int iterations, int threads);
 
