@@ -1,6 +1,7 @@
 #include "cloth_sim.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -217,6 +218,7 @@ struct ClothSim::Impl {
         cs = &contact_springs;
       }
     }
+    mark_step_start(0.0);
     const ImplicitSolveReport r =
         options.backend == ClothBackend::SERIAL
             ? implicit_euler_step_serial(x, v, adjacency, particles, hf, solve, implicit_workspace, c, cs)
@@ -322,9 +324,141 @@ struct ClothSim::Impl {
     }
   }
 
+  // Continuous contacts (ClothOptions::continuous_contacts): the positions at the start of the
+  // step being taken and, per particle, a lower bound of its distance to the body then (its
+  // hit row's distance less how far it moved since that query; the distance is 1-Lipschitz);
+  // start_body_time: for how long (s) body_velocities moved the body since (move_body()'s dt:
+  // the body is moved a frame at a time, before the frame's steps; 0 for an integrator step).
+  std::vector<float> step_start, start_bound;
+  bool step_start_valid = false;
+  double start_body_time = 0;
+  std::size_t crossings_undone = 0; // summed over the object's life; step() reports the change
+  std::vector<std::int32_t> ccd_rows, ccd_undone;
+  std::vector<float> ccd_from, ccd_to, ccd_points;
+  SegmentHits ccd_hits;
+  ClosestHits ccd_requery;
+
+  bool continuous() const { return options.continuous_contacts && body.has_value(); }
+
+  // Records the start of a step (before the integrator or move_body() moves x or the body).
+  // A start still pending (move_body()'s, not yet met by a contact pass) covers this step too.
+  void mark_step_start(double body_time) {
+    if (!continuous() || step_start_valid) return;
+    start_body_time = body_time;
+    const std::size_t n = masses.size();
+    step_start.assign(x.begin(), x.end());
+    start_bound.assign(n, 0.0f);
+    if (candidates_valid && hits.size() == n && query_positions.size() == 3 * n)
+      for (std::size_t i = 0; i < n; ++i) {
+        const float d = hits.triangles[i] < 0 ? options.contact_search_radius : hits.signed_distances[i];
+        float moved2 = 0.0f;
+        for (int k = 0; k < 3; ++k) {
+          const float e = x[3 * i + k] - query_positions[3 * i + k];
+          moved2 += e * e;
+        }
+        start_bound[i] = std::max(0.0f, d - std::sqrt(moved2));
+      }
+    step_start_valid = true;
+  }
+
+  // The body's velocity at hit row i of `h` (zero for a body at rest or no hit).
+  std::array<float, 3> body_velocity_at(const ClosestHits& h, std::size_t i) const {
+    if (body_velocities.empty() || h.triangles[i] < 0) return {0.0f, 0.0f, 0.0f};
+    const std::int32_t* t = body_triangles.data() + 3 * static_cast<std::size_t>(h.triangles[i]);
+    const float u = h.barycentrics[2 * i], w = h.barycentrics[2 * i + 1], c[3] = {1.0f - u - w, u, w};
+    float out[3] = {0.0f, 0.0f, 0.0f};
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < 3; ++k)
+        out[k] += c[a] * body_velocities[3 * static_cast<std::size_t>(t[a]) + k];
+    return {out[0], out[1], out[2]};
+  }
+
+  // After update_hits(): the particles whose path since mark_step_start() went into the body and
+  // now lie beyond it are put back where the path entered (ClothOptions::continuous_contacts),
+  // their hit rows queried again.
+  void undo_crossings() {
+    if (!step_start_valid) return;
+    step_start_valid = false;
+    const double h = start_body_time;
+    const std::size_t n = masses.size();
+    float body_speed = 0.0f; // the fastest body vertex: the most it moved towards a particle
+    for (std::size_t b = 0; b + 2 < body_velocities.size(); b += 3)
+      body_speed = std::max(body_speed, std::sqrt(body_velocities[b] * body_velocities[b] +
+                                                  body_velocities[b + 1] * body_velocities[b + 1] +
+                                                  body_velocities[b + 2] * body_velocities[b + 2]));
+    const float body_moved = body_speed * static_cast<float>(h);
+    const float min_path = 2.0f * options.contact_thickness;
+    ccd_rows.clear();
+    ccd_from.clear();
+    ccd_to.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (particles.inverse_masses[i] == 0.0f) continue;
+      float moved2 = 0.0f;
+      for (int k = 0; k < 3; ++k) {
+        const float e = x[3 * i + k] - step_start[3 * i + k];
+        moved2 += e * e;
+      }
+      // A path shorter than both its start's distance (it cannot reach the surface) and 2τ
+      // (from the surface it cannot pass the middle of a part thicker than 4τ, 1.2 cm by
+      // default: the discrete response pushes it back out on its own side) is not tested.
+      const float reach = std::sqrt(moved2) + body_moved;
+      if (reach < start_bound[i] || reach < min_path) continue;
+      // The path relative to the body: from where the start lies once the body has moved on.
+      const std::array<float, 3> vb = body_velocity_at(hits, i);
+      const float hf = static_cast<float>(h);
+      const float from[3] = {step_start[3 * i] + hf * vb[0], step_start[3 * i + 1] + hf * vb[1],
+                             step_start[3 * i + 2] + hf * vb[2]};
+      if (from[0] == x[3 * i] && from[1] == x[3 * i + 1] && from[2] == x[3 * i + 2]) continue; // no relative motion
+      ccd_rows.push_back(static_cast<std::int32_t>(i));
+      ccd_from.insert(ccd_from.end(), {from[0], from[1], from[2]});
+      ccd_to.insert(ccd_to.end(), {x[3 * i], x[3 * i + 1], x[3 * i + 2]});
+    }
+    if (ccd_rows.empty()) return;
+    body->first_hits(ccd_from, ccd_to, ccd_hits);
+    ccd_undone.clear();
+    ccd_points.clear();
+    const float gap = 0.5f * options.contact_thickness; // inside τ: the response lifts it to τ
+    for (std::size_t r = 0; r < ccd_rows.size(); ++r) {
+      if (ccd_hits.triangles[r] == -1) continue;
+      const float* nm = ccd_hits.normals.data() + 3 * r;
+      const float dir[3] = {ccd_to[3 * r] - ccd_from[3 * r], ccd_to[3 * r + 1] - ccd_from[3 * r + 1],
+                            ccd_to[3 * r + 2] - ccd_from[3 * r + 2]};
+      if (dir[0] * nm[0] + dir[1] * nm[1] + dir[2] * nm[2] >= 0.0f) continue; // met from inside
+      const auto i = static_cast<std::size_t>(ccd_rows[r]);
+      // Where the discrete response would push it: along the outward normal of its closest point.
+      const float d = hits.triangles[i] < 0 ? INFINITY : hits.signed_distances[i];
+      if (d < 0.0f) {
+        float out[3], len2 = 0.0f;
+        for (int k = 0; k < 3; ++k) {
+          out[k] = hits.points[3 * i + k] - x[3 * i + k]; // inside: towards the closest point
+          len2 += out[k] * out[k];
+        }
+        // A shallow entry, pushed back out on its own side: the discrete response is right.
+        if (len2 > 0.0f && out[0] * nm[0] + out[1] * nm[1] + out[2] * nm[2] >= 0.0f) continue;
+      }
+      const float t = ccd_hits.t[r];
+      for (int k = 0; k < 3; ++k) {
+        x[3 * i + k] = ccd_from[3 * r + k] + t * dir[k] + gap * nm[k];
+        ccd_points.push_back(x[3 * i + k]);
+      }
+      ccd_undone.push_back(static_cast<std::int32_t>(i));
+    }
+    if (ccd_undone.empty()) return;
+    crossings_undone += ccd_undone.size();
+    query_body(ccd_points, options.contact_search_radius, ccd_requery);
+    const float reach = contact_reach();
+    for (std::size_t r = 0; r < ccd_undone.size(); ++r) {
+      const auto i = static_cast<std::size_t>(ccd_undone[r]);
+      hits.copy_row(i, ccd_requery, r);
+      if (query_positions.size() == 3 * n) record_query(i, reach);
+    }
+    state_changed();
+  }
+
   std::size_t resolve_contacts() {
     if (!has_body()) return 0;
     update_hits();
+    undo_crossings();
     hits_valid = true;
     return resolve_body_contacts(x, v, particles.inverse_masses, hits, body_positions, body_triangles, body_velocities,
                                  contact_parameters());
@@ -568,6 +702,7 @@ void ClothSim::set_body(std::span<const float> positions, std::span<const std::i
   m.body_velocities.clear();
   m.hits_valid = false;
   m.candidates_valid = false;
+  m.step_start_valid = false; // a path is tested against the body it was taken beside
   m.body_closed = build_hole_caps(triangles, nb).loop_count() == 0;
   std::vector<std::int32_t> attach; // internal rows
   for (const BodyAttachment& a : m.attachments)
@@ -664,6 +799,10 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
     throw Error("body", 0,
                 "moved body has " + std::to_string(positions.size() / 3) + " vertices, expected " +
                     std::to_string(m.body_positions.size() / 3));
+  // The particles' paths relative to the body over this move are tested at the next contact
+  // pass (ClothOptions::continuous_contacts): the move carries a limb up to its whole frame's
+  // motion at once, through cloth in its way.
+  m.mark_step_start(dt > 0 ? dt : 0.0);
   m.body_velocities.resize(positions.size());
   for (std::size_t i = 0; i < positions.size(); ++i)
     m.body_velocities[i] = dt > 0 ? static_cast<float>((positions[i] - m.body_positions[i]) / dt) : 0.0f;
@@ -694,11 +833,13 @@ ClothStepReport ClothSim::step(double dt) {
   if (m.status != ClothStatus::OK || !(dt > 0)) return r;
   m.saved_x = m.x;
   m.saved_v = m.v;
+  const std::size_t undone_before = m.crossings_undone;
   if (m.options.integrator == ClothIntegrator::IMPLICIT_EULER) {
     const int steps = std::max(1, static_cast<int>(std::ceil(dt / m.substep - 1e-9)));
     for (int s = 0; s < steps; ++s)
       r.solver_iterations += m.implicit_step(dt / steps, r.contacts);
     r.substeps = steps;
+    r.crossings_undone = m.crossings_undone - undone_before;
     return m.finish_step(r, dt);
   }
   // Contact windows of at most contact_interval, each integrated in equal stable substeps.
@@ -707,10 +848,12 @@ ClothStepReport ClothSim::step(double dt) {
   const double window = dt / windows;
   const int substeps = std::max(1, static_cast<int>(std::ceil(window / m.substep - 1e-9)));
   for (int w = 0; w < windows; ++w) {
+    if (m.has_body()) m.mark_step_start(0.0);
     m.integrate(window / substeps, substeps);
     r.contacts += m.resolve_contacts();
   }
   r.substeps = windows * substeps;
+  r.crossings_undone = m.crossings_undone - undone_before;
   return m.finish_step(r, dt);
 }
 
@@ -723,6 +866,7 @@ ClothStepReport ClothSim::Impl::finish_step(ClothStepReport r, double dt) {
     m.v = m.saved_v;
     m.hits_valid = false;
     m.candidates_valid = false;
+    m.step_start_valid = false;
     m.state_changed();
     return r;
   }

@@ -316,6 +316,112 @@ std::string ProximityIndex::warning() const {
          (holes == 1 ? "it were" : "they were") + " closed";
 }
 
+void SegmentHits::resize(std::size_t segment_count) {
+  triangles.resize(segment_count);
+  t.resize(segment_count);
+  normals.resize(3 * segment_count);
+}
+
+namespace {
+void check_segments(std::span<const float> from, std::span<const float> to) {
+  if (from.size() != to.size() || from.size() % 3 != 0)
+    throw Error("proximity segments", 0,
+                "starts and ends must be rows of 3 of the same count, got " + std::to_string(from.size()) + " and " +
+                    std::to_string(to.size()) + " coordinates");
+  for (std::size_t i = 0; i < from.size(); ++i)
+    if (!std::isfinite(from[i]) || !std::isfinite(to[i]))
+      throw Error("proximity segments", 0,
+                  "segment " + std::to_string(i / 3) + " has a non-finite coordinate (NaN or infinity)");
+}
+
+// Row i of `hits` for face f of the capped mesh (mesh faces first, then caps) met at t.
+void write_segment_hit(const IndexData& m, std::size_t face, float t, std::size_t i, SegmentHits& hits) {
+  hits.triangles[i] = face < m.face_count ? static_cast<std::int32_t>(face) : -2;
+  hits.t[i] = t;
+  for (std::size_t k = 0; k < 3; ++k)
+    hits.normals[3 * i + k] = m.normals.faces[3 * face + k];
+}
+
+void write_segment_miss(std::size_t i, SegmentHits& hits) {
+  hits.triangles[i] = -1;
+  hits.t[i] = std::numeric_limits<float>::infinity();
+  for (std::size_t k = 0; k < 3; ++k)
+    hits.normals[3 * i + k] = 0.0f;
+}
+} // namespace
+
+void ProximityIndex::first_hits(std::span<const float> from, std::span<const float> to, SegmentHits& hits) const {
+  check_segments(from, to);
+  const std::size_t count = from.size() / 3;
+  hits.resize(count);
+  const Impl& m = *m_impl;
+  parallel_for_range(count, PROXIMITY_QUERY_GRAIN, [&](std::size_t b, std::size_t e) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    for (std::size_t i = b; i < e; ++i) {
+      RTCRayHit rh{};
+      rh.ray.org_x = from[3 * i];
+      rh.ray.org_y = from[3 * i + 1];
+      rh.ray.org_z = from[3 * i + 2];
+      rh.ray.dir_x = to[3 * i] - from[3 * i];
+      rh.ray.dir_y = to[3 * i + 1] - from[3 * i + 1];
+      rh.ray.dir_z = to[3 * i + 2] - from[3 * i + 2];
+      rh.ray.tnear = 0.0f;
+      rh.ray.tfar = 1.0f; // the direction is the segment itself: t ∈ [0, 1]
+      rh.ray.mask = 0xFFFFFFFFu;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      const bool empty = rh.ray.dir_x == 0.0f && rh.ray.dir_y == 0.0f && rh.ray.dir_z == 0.0f;
+      if (!empty && m.geometry) rtcIntersect1(m.scene.get(), &context, &rh);
+      if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+        write_segment_miss(i, hits);
+        continue;
+      }
+      // Geometry 0 holds the mesh's faces, geometry 1 the caps (attach_triangles' order).
+      const std::size_t face = rh.hit.geomID == 0 ? rh.hit.primID : m.face_count + rh.hit.primID;
+      write_segment_hit(m, face, rh.ray.tfar, i, hits);
+    }
+  });
+  embree::throw_if_failed(m_impl->errors, "rtcIntersect1");
+}
+
+void ProximityIndex::first_hits_brute_force(std::span<const float> from, std::span<const float> to,
+                                            SegmentHits& hits) const {
+  check_segments(from, to);
+  const std::size_t count = from.size() / 3;
+  hits.resize(count);
+  const Impl& m = *m_impl;
+  for (std::size_t i = 0; i < count; ++i) {
+    const double a[3] = {from[3 * i], from[3 * i + 1], from[3 * i + 2]};
+    const double d[3] = {to[3 * i] - a[0], to[3 * i + 1] - a[1], to[3 * i + 2] - a[2]};
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t best_face = 0;
+    for (std::size_t f = 0; f < m.capped_face_count; ++f) {
+      const float* p0 = m.positions.data() + 3 * static_cast<std::size_t>(m.triangles[3 * f]);
+      const float* p1 = m.positions.data() + 3 * static_cast<std::size_t>(m.triangles[3 * f + 1]);
+      const float* p2 = m.positions.data() + 3 * static_cast<std::size_t>(m.triangles[3 * f + 2]);
+      const double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
+      const double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
+      const double pv[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]};
+      const double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
+      if (det == 0.0) continue; // parallel to the plane (or a degenerate face)
+      const double tv[3] = {a[0] - p0[0], a[1] - p0[1], a[2] - p0[2]};
+      const double u = (tv[0] * pv[0] + tv[1] * pv[1] + tv[2] * pv[2]) / det;
+      if (u < 0.0 || u > 1.0) continue;
+      const double qv[3] = {tv[1] * e1[2] - tv[2] * e1[1], tv[2] * e1[0] - tv[0] * e1[2], tv[0] * e1[1] - tv[1] * e1[0]};
+      const double v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) / det;
+      if (v < 0.0 || u + v > 1.0) continue;
+      const double t = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
+      if (t < 0.0 || t > 1.0 || t >= best) continue;
+      best = t;
+      best_face = f;
+    }
+    if (best == std::numeric_limits<double>::infinity())
+      write_segment_miss(i, hits);
+    else
+      write_segment_hit(m, best_face, static_cast<float>(best), i, hits);
+  }
+}
+
 ProximitySideMesh ProximityIndex::side_mesh() const {
   const Impl& m = *m_impl;
   return ProximitySideMesh{std::span<const float>(m.positions.data(), 3 * m.capped_vertex_count),

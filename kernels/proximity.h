@@ -53,6 +53,21 @@ struct ClosestHits {
   void copy_row(std::size_t row, const ClosestHits& from, std::size_t from_row);
 };
 
+/// Answers for #S segments, one row per segment, in segment order: where each segment, from its
+/// start a to its end b, first meets the mesh (or, on a mesh with holes, a hole's cap). A
+/// segment that meets nothing has triangle −1, t = +∞ and a zero normal.
+struct SegmentHits {
+  /// #S mesh triangle first met, −1 for none, or −2 for a hole's cap (ProximityIndex's caps)
+  std::vector<std::int32_t> triangles;
+  std::vector<float> t;       ///< #S: the first meeting is at a + t·(b − a), t ∈ [0, 1]; +∞ for none
+  std::vector<float> normals; ///< #S × 3 unit outward normal of the face met (zero for none)
+
+  /// Number of segments answered (#S).
+  std::size_t size() const { return triangles.size(); }
+  /// Resizes every array for `segment_count` segments (contents unspecified until written).
+  void resize(std::size_t segment_count);
+};
+
 /// Queries per TBB task in ProximityIndex::closest_points (each query is ~1 µs of traversal).
 inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 
@@ -148,6 +163,19 @@ public:
   /// Brute-force reference for tests and benchmarks: every triangle is measured for every
   /// query (O(#Q·#F), serial), with the same per-triangle math and tie rule as the BVH path.
   void closest_points_brute_force(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
+
+  /// First meeting of each segment a_i → b_i (starts `from`, ends `to`: #S × 3 each, m) with the
+  /// mesh or, on a mesh with holes, its caps (so a segment through a hole meets the surface the
+  /// side test sees): Embree ray casts over the index's BVH, both faces counted (the normal tells
+  /// which side was met: (b − a)·n < 0 enters the closed mesh). TBB-parallel (grain
+  /// PROXIMITY_QUERY_GRAIN). Throws vfit::Error ("proximity segments: …") when the sizes differ
+  /// or are not multiples of 3, or naming the first segment with a non-finite coordinate. A
+  /// segment of zero length meets nothing.
+  void first_hits(std::span<const float> from, std::span<const float> to, SegmentHits& hits) const;
+
+  /// Brute-force reference of first_hits() for tests: every triangle (caps included) intersected
+  /// with every segment (Möller–Trumbore in double), the smallest t kept, ties to the lower face.
+  void first_hits_brute_force(std::span<const float> from, std::span<const float> to, SegmentHits& hits) const;
 
   /// #V and #F of the indexed mesh.
   std::size_t vertex_count() const;

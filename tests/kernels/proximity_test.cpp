@@ -621,6 +621,91 @@ TEST(ProximityOpenMesh, RefitMovesTheCaps) {
   EXPECT_EQ(after.signed_distances, expected.signed_distances);
 }
 
+// Segments against the BVH's ray casts and a brute-force Möller–Trumbore in double: random
+// segments around the mesh (1-60 cm long, so some cross it twice, some stop short, some start
+// inside) meet the same face at the same t; near a shared edge the two may pick either face
+// (Embree's watertight test against an interval test in double), which then meet at the same
+// point. t agrees to 1e-5 of the segment (float ray math on coordinates of order 1). A segment
+// entering the closed mesh has (b − a)·n < 0, one leaving it (b − a)·n > 0.
+void expect_same_segment_hits(const Mesh& m, std::uint32_t seed) {
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> box(-1.3f, 1.3f), length(0.01f, 0.6f);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  std::vector<float> from, to;
+  for (int i = 0; i < 3000; ++i) {
+    float d[3] = {gauss(rng), gauss(rng), gauss(rng)};
+    const float n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), l = length(rng);
+    for (int k = 0; k < 3; ++k) {
+      const float a = box(rng);
+      from.push_back(a);
+      to.push_back(a + l * d[k] / n);
+    }
+  }
+  SegmentHits got, ref;
+  index.first_hits(from, to, got);
+  index.first_hits_brute_force(from, to, ref);
+  ASSERT_EQ(got.size(), 3000u);
+  int met = 0, entering = 0, leaving = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    SCOPED_TRACE("segment " + std::to_string(i));
+    ASSERT_EQ(got.triangles[i] == -1, ref.triangles[i] == -1);
+    if (got.triangles[i] == -1) {
+      EXPECT_EQ(got.t[i], INFINITY);
+      continue;
+    }
+    ++met;
+    EXPECT_NEAR(got.t[i], ref.t[i], 1e-5f);
+    const float dir[3] = {to[3 * i] - from[3 * i], to[3 * i + 1] - from[3 * i + 1], to[3 * i + 2] - from[3 * i + 2]};
+    const float dn = dir[0] * got.normals[3 * i] + dir[1] * got.normals[3 * i + 1] + dir[2] * got.normals[3 * i + 2];
+    (dn < 0 ? entering : leaving) += 1;
+    if (got.triangles[i] == ref.triangles[i]) {
+      for (int k = 0; k < 3; ++k)
+        EXPECT_EQ(got.normals[3 * i + k], ref.normals[3 * i + k]);
+    }
+  }
+  EXPECT_GT(met, 300);
+  EXPECT_GT(entering, 100);
+  EXPECT_GT(leaving, 100);
+}
+
+TEST(ProximitySegments, FirstHitsEqualBruteForce) {
+  expect_same_segment_hits(sphere_mesh(), 11u);
+  expect_same_segment_hits(tetrahedron_mesh(), 12u);
+}
+
+// Into a closed sphere from outside: the face met is the near one, its normal against the
+// segment; from the centre outwards: the normal along it; a segment ending short of the
+// surface, or of zero length, meets nothing. Through a hole of an open mesh, the cap is met
+// (triangle −2), as the side test sees it.
+TEST(ProximitySegments, EntryExitMissAndCaps) {
+  const ProximityIndex closed(sphere_mesh().position_view(), sphere_mesh().triangle_view());
+  SegmentHits h;
+  closed.first_hits(std::vector<float>{0, 2, 0, 0, 0, 0, 0, 0.5f, 0, 0.3f, 0.3f, 0.3f},
+                    std::vector<float>{0, 0, 0, 0, 0, 2, 0, 0.9f, 0, 0.3f, 0.3f, 0.3f}, h);
+  ASSERT_EQ(h.size(), 4u);
+  EXPECT_GE(h.triangles[0], 0);
+  EXPECT_NEAR(h.t[0], 0.5f, 1e-3f); // y = 2 → 0 meets the unit sphere at y ≈ 1 (a polygon's pole: exact)
+  EXPECT_GT(h.normals[1], 0.99f);   // met from above: the outward normal points up, the segment down
+  EXPECT_GE(h.triangles[1], 0);
+  EXPECT_NEAR(h.t[1], 0.5f, 0.01f); // the facets sit within 1 % of the unit radius
+  EXPECT_GT(h.normals[5], 0.99f);   // leaving along +z
+  EXPECT_EQ(h.triangles[2], -1);    // ends at 0.9, inside
+  EXPECT_EQ(h.triangles[3], -1);    // zero length
+  EXPECT_EQ(h.t[3], INFINITY);
+  const Mesh& holed = holed_sphere_mesh();
+  const ProximityIndex open(holed.position_view(), holed.triangle_view());
+  const auto holes = sphere_holes();
+  ASSERT_FALSE(holes.empty());
+  const auto& c = holes[0].axis; // a hole's direction from the centre
+  SegmentHits through;
+  open.first_hits(std::vector<float>{0, 0, 0}, std::vector<float>{float(2 * c[0]), float(2 * c[1]), float(2 * c[2])},
+                  through);
+  EXPECT_EQ(through.triangles[0], -2) << "the cap of the hole";
+  EXPECT_THROW(open.first_hits(std::vector<float>{0, 0, 0}, std::vector<float>{0, 0}, through), Error);
+  EXPECT_THROW(open.first_hits(std::vector<float>{0, NAN, 0}, std::vector<float>{0, 0, 0}, through), Error);
+}
+
 TEST(ProximityBadInput, NonFiniteQueryIsAnError) {
   const ProximityIndex index(sphere_mesh().position_view(), sphere_mesh().triangle_view());
   ClosestHits h;
