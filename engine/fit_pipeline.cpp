@@ -17,6 +17,7 @@
 #include "engine/fit_feedback.h"
 #include "geometry/garment/skeleton_driving.h"
 #include "geometry/garment/thick_shell.h"
+#include "geometry/mesh/mesh_stats.h"
 #include "geometry/mesh/orient.h"
 #include "geometry/mesh/topology.h"
 #include "geometry/mesh/up_axis.h"
@@ -88,19 +89,12 @@ std::string penetration_note(const PenetrationStats& before, const PenetrationSt
 
 Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions& options) {
   if (options.garment_units) return *options.garment_units;
-  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  double max_abs = 0;
-  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
-    const float p = mesh.positions[i];
-    lo[i % 3] = std::min(lo[i % 3], p);
-    hi[i % 3] = std::max(hi[i % 3], p);
-    max_abs = std::max(max_abs, static_cast<double>(std::fabs(p)));
-  }
-  double extent = 0;
-  for (int c = 0; c < 3; ++c)
-    extent = std::max(extent, static_cast<double>(hi[c] - lo[c]));
-  const auto units = detect_mesh_units(extent, max_abs);
-  if (!units) throw Error(name, 0, "cannot detect the garment's length unit (largest extent " + std::to_string(extent) + ")");
+  // The surface's extent (mesh_stats): a stray vertex no face uses does not set the units.
+  const MeshStats stats = mesh_stats(mesh);
+  const auto units = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+  if (!units)
+    throw Error(name, 0, "cannot detect the garment's length unit (largest extent " +
+                             std::to_string(stats.largest_extent) + ")");
   return *units;
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 namespace vfit {
 
@@ -9,13 +11,19 @@ MeshStats mesh_stats(const Mesh& mesh) {
   MeshStats s;
   const std::size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   if (nv == 0) return s;
-  s.bbox_min = {mesh.positions[0], mesh.positions[1], mesh.positions[2]};
-  s.bbox_max = s.bbox_min;
+  // The surface's box: a vertex no face uses (an exporter's stray point, a deleted part's
+  // leftovers) would otherwise set the extent, and with it the detected units. A point cloud
+  // (no faces) is all vertices.
+  std::vector<char> counted(nv, nf == 0);
+  for (const std::int32_t v : mesh.triangles) counted[static_cast<std::size_t>(v)] = 1;
+  s.bbox_min = {INFINITY, INFINITY, INFINITY};
+  s.bbox_max = {-INFINITY, -INFINITY, -INFINITY};
   for (std::size_t v = 0; v < nv; ++v)
-    for (int k = 0; k < 3; ++k) {
-      s.bbox_min[k] = std::min(s.bbox_min[k], mesh.positions[3 * v + k]);
-      s.bbox_max[k] = std::max(s.bbox_max[k], mesh.positions[3 * v + k]);
-    }
+    if (counted[v])
+      for (int k = 0; k < 3; ++k) {
+        s.bbox_min[k] = std::min(s.bbox_min[k], mesh.positions[3 * v + k]);
+        s.bbox_max[k] = std::max(s.bbox_max[k], mesh.positions[3 * v + k]);
+      }
   for (int k = 0; k < 3; ++k) {
     s.largest_extent = std::max(s.largest_extent, s.bbox_max[k] - s.bbox_min[k]);
     s.max_abs_coordinate = std::max({s.max_abs_coordinate, std::abs(s.bbox_min[k]), std::abs(s.bbox_max[k])});

@@ -340,6 +340,21 @@ TEST(FitPipeline, ConvertsCentimetreGarmentsToMetres) {
   EXPECT_LE(r.report.garments[0].after.max_depth, MAX_INSIDE_DEPTH);
 }
 
+// A vertex no face uses, far away (an exporter's stray point): the units are the surface's.
+// Before, its 50 dm set the extent and the tee in decimetres was read in centimetres.
+TEST(FitPipeline, AStrayUnusedVertexDoesNotSetTheGarmentsUnits) {
+  std::vector<FitGarmentInput> in = {tee_and_trousers()[0]};
+  for (float& x : in[0].mesh.positions)
+    x *= 10.0f;
+  in[0].mesh.positions.insert(in[0].mesh.positions.end(), {50.0f, 40.0f, 30.0f});
+  FitOptions o;
+  o.simulate = false;
+  const FitResult r = fit_garments(mannequin(), in, o);
+  EXPECT_EQ(r.report.garments[0].units, Units::DM);
+  EXPECT_EQ(r.report.garments[0].type, GarmentType::TEE);
+  EXPECT_LE(r.report.garments[0].after.max_depth, MAX_INSIDE_DEPTH);
+}
+
 // A garment stored Z up (Blender's frame: the inverse of rotate_to_y_up(+Z), exact) is found
 // unrecognisable with Y up, recognised with Z up, said so, and fitted exactly like the original.
 TEST(FitPipeline, DetectsAZUpGarmentAndFitsItAsTheOriginal) {
