@@ -200,6 +200,8 @@ std::vector<const char*> chunk_starts(std::string_view bytes) {
 } // namespace
 
 ParsedMesh read_obj(std::string_view bytes, const std::string& path) {
+  // A UTF-8 byte-order mark (Windows editors, some exporters) would hide the first statement.
+  if (bytes.starts_with("\xEF\xBB\xBF")) bytes.remove_prefix(3);
   const auto starts = chunk_starts(bytes);
   const std::size_t nchunks = starts.size() - 1;
   std::vector<ObjChunk> chunks(nchunks);

@@ -563,6 +563,8 @@ template <class T> void append_text(std::string& out, T v, char separator) {
 } // namespace
 
 ParsedMesh read_ply(std::string_view bytes, const std::string& path, bool allow_point_cloud) {
+  // A UTF-8 byte-order mark before the 'ply' magic (a header saved by a text editor).
+  if (bytes.starts_with("\xEF\xBB\xBF")) bytes.remove_prefix(3);
   ParsedMesh out;
   Header h = parse_header(bytes, path, out.warnings);
   assign_roles(h, path);

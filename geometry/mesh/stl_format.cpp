@@ -250,8 +250,10 @@ ParsedMesh read_stl(std::string_view bytes, const std::string& path) {
   const std::uint64_t declared = bytes.size() >= HEADER_BYTES ? load_u32_le(bytes.data() + 80) : 0;
   const std::uint64_t binary_size = HEADER_BYTES + FACET_BYTES * declared;
   if (bytes.size() >= HEADER_BYTES && binary_size == bytes.size()) return read_binary(bytes, path);
-  const bool solid = starts_with_solid(bytes);
-  if (bytes.size() >= HEADER_BYTES && (!solid || looks_binary(bytes))) {
+  // Not binary by its size: a UTF-8 byte-order mark before an ASCII file's "solid" is skipped.
+  const std::string_view text = bytes.starts_with("\xEF\xBB\xBF") ? bytes.substr(3) : bytes;
+  const bool solid = starts_with_solid(text);
+  if (bytes.size() >= HEADER_BYTES && (!solid || looks_binary(text))) {
     // Without "solid" (or with binary bytes after it) only binary remains, and its size is wrong.
     const std::string sizes = "header declares " + std::to_string(declared) + " facets (" +
                               std::to_string(binary_size) + " bytes), file has " + std::to_string(bytes.size()) +
@@ -263,7 +265,7 @@ ParsedMesh read_stl(std::string_view bytes, const std::string& path) {
   ParsedMesh out;
   out.source.path = path;
   out.source.text = true;
-  AsciiParser(bytes, path, out).solids();
+  AsciiParser(text, path, out).solids();
   if (out.mesh.triangles.empty()) throw Error(path, 0, "no faces");
   return out;
 }

@@ -52,6 +52,16 @@ TEST(ObjFormat, AcceptsCrLfTabsPlusSignsAndExtraVertexColours) {
   EXPECT_EQ(p.mesh.positions[3], 1.0f);
 }
 
+// A UTF-8 byte-order mark (Notepad, some exporters): before, it hid the first vertex, and the
+// face then named vertex 3 of 2.
+TEST(ObjFormat, SkipsAUtf8ByteOrderMark) {
+  ParsedMesh p = read_obj("\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj");
+  EXPECT_EQ(p.mesh.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+  EXPECT_EQ(p.mesh.triangles, (std::vector<std::int32_t>{0, 1, 2}));
+  EXPECT_EQ(p.source.face_origin, (std::vector<std::int64_t>{4}));
+  EXPECT_TRUE(p.warnings.empty());
+}
+
 TEST(ObjFormat, RoundTripIsExact) {
   Mesh m = make_uv_sphere(7, 9, 0.123456789f);
   m.face_labels.assign(m.face_count(), 0);

@@ -195,6 +195,17 @@ TEST(PlyFormat, TriangulatesPolygonsAndRecordsTheirLines) {
   EXPECT_TRUE(out.source.text);
 }
 
+// A UTF-8 byte-order mark before the 'ply' magic: before, "not a PLY file".
+TEST(PlyFormat, SkipsAUtf8ByteOrderMark) {
+  const std::string text = "\xEF\xBB\xBFply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                           "property float y\nproperty float z\nelement face 1\n"
+                           "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  const ParsedMesh out = read_ply(text, "bom.ply");
+  EXPECT_EQ(out.mesh.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+  EXPECT_EQ(out.mesh.triangles, (std::vector<std::int32_t>{0, 1, 2}));
+  EXPECT_EQ(out.source.face_origin, (std::vector<std::int64_t>{13}));
+}
+
 TEST(PlyFormat, ReadsPerCornerTexcoordsAndPerVertexUvs) {
   const std::string corners =
       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"

@@ -112,6 +112,17 @@ TEST(StlFormat, AsciiWithMultipleSolidsWhitespaceAndCaseVariants) {
   EXPECT_TRUE(out.warnings.empty());
 }
 
+// A UTF-8 byte-order mark before "solid": before, read as a truncated binary STL.
+TEST(StlFormat, AsciiAfterAUtf8ByteOrderMark) {
+  std::string text = "\xEF\xBB\xBFsolid s\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n"
+                     "  vertex 0 1 0\n endloop\nendfacet\nendsolid s\n";
+  text += std::string(100, ' '); // past the 84 bytes of a binary header, as a real file is
+  const ParsedMesh out = read_stl(text, "a.stl");
+  EXPECT_TRUE(out.source.text);
+  EXPECT_EQ(out.mesh.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+  EXPECT_EQ(out.mesh.triangles, (std::vector<std::int32_t>{0, 1, 2}));
+}
+
 TEST(StlFormat, WeldsNegativeZeroWithZeroAndTriangulatesPolygonLoops) {
   const std::string text =
       "solid q\nfacet normal 0 0 1\nouter loop\nvertex -0 0 0\nvertex 1 0 0\nvertex 1 1 0\nvertex 0 1 -0.0\n"
