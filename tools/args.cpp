@@ -1,6 +1,8 @@
 #include "args.h"
 
 #include <charconv>
+#include <filesystem>
+#include <system_error>
 
 #include "kernels/error.h"
 
@@ -69,6 +71,17 @@ int Args::to_int(const std::string& option, const std::string& value, int min_va
                 "expected an integer in [" + std::to_string(min_value) + ", " + std::to_string(max_value) + "], got '" +
                     value + "'");
   return x;
+}
+
+void check_output_path(const std::string& path, std::string_view option, const std::vector<std::string>& inputs) {
+  const std::filesystem::path p(path);
+  const std::filesystem::path dir = p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec))
+    throw Error(path, 0, std::string(option) + ": the folder " + dir.string() + " does not exist");
+  for (const std::string& input : inputs)
+    if (input == path || std::filesystem::equivalent(input, path, ec))
+      throw Error(path, 0, std::string(option) + " would overwrite an input file; choose another output path");
 }
 
 } // namespace vfit::cli

@@ -33,4 +33,9 @@ private:
   std::string m_command;
 };
 
+/// Refuses, before any work is done, an output `path` (given with `option`, e.g. "--out") whose
+/// folder does not exist, or that names one of `inputs` (an input is never overwritten; inputs
+/// that are not files, such as "mannequin", never match): throws vfit::Error naming the path.
+void check_output_path(const std::string& path, std::string_view option, const std::vector<std::string>& inputs);
+
 } // namespace vfit::cli

@@ -64,6 +64,9 @@ int run_scan(Args& args, const std::string& path) {
   if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB)
     throw Error(*rigged, 0, "--rigged writes a .glb file");
   if (out) mesh_format_from_path(*out);
+  for (const auto& [file, option] :
+       {std::pair{out, "--out"}, {joints_out, "--joints"}, {rigged, "--rigged"}, {pose_out, "--pose-out"}})
+    if (file) check_output_path(*file, option, {path, pose_arg.value_or("")});
 
   ReadOptions read_options;
   read_options.allow_point_cloud = true; // a scanner's PLY of vertices only
@@ -147,6 +150,14 @@ int run_body(Args& args) {
   if (rigged && mesh_format_from_path(*rigged) != MeshFormat::GLB)
     throw Error(*rigged, 0, "--rigged writes a .glb file");
   if (out) mesh_format_from_path(*out);
+  {
+    std::vector<std::string> inputs = {source};
+    for (const auto& f : {keypoints_file, pose_arg, request.joints_file, request.rig_mapping_file})
+      if (f) inputs.push_back(*f);
+    for (const auto& [file, option] :
+         {std::pair{out, "--out"}, {joints_out, "--joints"}, {rigged, "--rigged"}, {pose_out, "--pose-out"}})
+      if (file) check_output_path(*file, option, inputs);
+  }
   // --image-size W H (two tokens), or WxH / W,H in one.
   finish_image_size(args, args.positionals(0, image_size_token ? 1 : 0), kp_options);
   std::optional<KeypointFit> fit;

@@ -324,6 +324,18 @@ int run_fit(Args& args) {
   if (report_file && lower_extension(*report_file) != ".json") throw Error(*report_file, 0, "--report writes a .json file");
   if (render_file && lower_extension(*render_file) != ".png") throw Error(*render_file, 0, "--render writes a .png file");
   if (options.simulate) (void)fabric_preset(options.fabric);
+  // Outputs are checked before the fit, so that none is written when another cannot be.
+  {
+    std::vector<std::string> inputs = garment_files;
+    inputs.insert(inputs.end(), sources.begin(), sources.end());
+    for (const auto& f : {keypoints_file, pose_arg, body_flags.joints_file, body_flags.rig_mapping_file})
+      if (f) inputs.push_back(*f);
+    const std::vector<std::string> tags = body_tags(sources);
+    for (const auto& [file, option] : {std::pair{out, "--out"}, {report_file, "--report"}, {render_file, "--render"}})
+      if (file)
+        for (const std::string& tag : tags)
+          check_output_path(per_body_path(*file, sources.size() > 1 ? tag : ""), option, inputs);
+  }
 
   // Read every garment before the (slower) body, so a missing file fails at once.
   std::vector<FitGarmentInput> garments;

@@ -107,6 +107,24 @@ TEST(BodyCli, ScanOfAWalkingPointCloudGivesItsJoints) {
   EXPECT_LE(mean_joint_distance(truth, fitted), 0.03) << "mean joint distance (m); issue 8's bar for scans is 3 cm";
 }
 
+// Before, `vfit body --from b.obj --out b.obj` replaced the body file it read (exit 0).
+TEST(BodyCli, AnOutputOverTheInputOrInAMissingFolderExits2) {
+  test::TempDir tmp;
+  const auto body = tmp / "b.obj";
+  auto r = test::run_cli({"body", "--vertices", "2000", "--out", body.string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string before = test::read_file(body);
+  for (const char* mode : {"--from", "--scan"}) {
+    r = test::run_cli({"body", mode, body.string(), "--out", body.string(), "--quiet"});
+    EXPECT_EQ(r.exit_code, 2) << mode << ": " << r.err;
+    EXPECT_NE(r.err.find("overwrite an input"), std::string::npos) << r.err;
+    EXPECT_TRUE(test::read_file(body) == before) << mode << ": the body file was overwritten";
+  }
+  r = test::run_cli({"body", "--vertices", "2000", "--out", (tmp / "no" / "b.obj").string(), "--quiet"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+}
+
 TEST(GarmentCli, WritesTheGarmentAndItsLabels) {
   test::TempDir tmp;
   const auto out = tmp / "pants.ply";

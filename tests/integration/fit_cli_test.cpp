@@ -144,6 +144,32 @@ TEST(FitCli, AMissingGarmentExits2AndWritesNothing) {
   EXPECT_EQ(file_count(dir.path()), 0u);
 }
 
+// Outputs are checked before the fit: before, --out over the garment's own file overwrote it
+// (exit 0), and a --render into a missing folder failed only after the mesh and the report
+// had been written.
+TEST(FitCli, AnOutputOverAnInputOrInAMissingFolderExits2AndWritesNothing) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const std::string tee = test::read_file(dir / "tee.obj");
+  const std::vector<std::string> base = {"fit",        "--body",   "mannequin", "--vertices", "3000",
+                                         "--garment",  (dir / "tee.obj").string(), "--no-simulation", "--quiet"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = base;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  auto r = test::run_cli(with({"--out", (dir / "tee.obj").string()}));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("overwrite an input"), std::string::npos) << r.err;
+  EXPECT_TRUE(test::read_file(dir / "tee.obj") == tee) << "the garment file was overwritten";
+  r = test::run_cli(with({"--out", (dir / "fit.obj").string(), "--report", (dir / "r.json").string(), "--render",
+                          (dir / "missing" / "r.png").string()}));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_EQ(file_count(dir.path()), 1u) << "only the garment";
+}
+
 // A facing that is not one of +z, -z, +x, -x is refused before anything is read or written.
 TEST(FitCli, AnUnknownGarmentFacingExits2) {
   test::TempDir dir;
