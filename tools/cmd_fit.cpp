@@ -111,8 +111,11 @@ nlohmann::ordered_json timings_json(const FitStageTimes& t) {
   return j;
 }
 
+// `read_warnings`: per garment file, what reading it said (repairs); a garment's report entry is
+// named by its file, or "file#k" for the k-th garment of an outfit file.
 std::string report_json(const FitReport& report, const LoadedBody& loaded, const Body& body, double body_ms,
-                        double render_ms, const FitOptions& options) {
+                        double render_ms, const FitOptions& options,
+                        const std::map<std::string, std::vector<std::string>>& read_warnings) {
   nlohmann::ordered_json j;
   nlohmann::ordered_json timings = timings_json(report.timings);
   timings["body"] = body_ms;
@@ -127,7 +130,8 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
   j["body"] = {{"source", body.source},
                {"kind", loaded.kind},
                {"vertices", report.body_vertices},
-               {"faces", report.body_faces}};
+               {"faces", report.body_faces},
+               {"warnings", loaded.warnings}};
   j["options"] = {{"simulate", options.simulate},
                   {"fabric", options.fabric},
                   {"clearance_m", options.clearance},
@@ -186,7 +190,11 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
       if (r.girth_ease_estimated) rj["girth_ease_estimated"] = true;
       gj["regions"].push_back(rj);
     }
-    gj["warnings"] = g.warnings;
+    std::vector<std::string> warnings;
+    for (const auto& [file, notes] : read_warnings)
+      if (g.name == file || g.name.starts_with(file + "#")) warnings = notes;
+    warnings.insert(warnings.end(), g.warnings.begin(), g.warnings.end());
+    gj["warnings"] = warnings;
     j["garments"].push_back(gj);
   }
   return j.dump(2) + "\n";
@@ -341,11 +349,13 @@ int run_fit(Args& args) {
   std::vector<FitGarmentInput> garments;
   ReadOptions read_options;
   read_options.repair = body_flags.repair; // --repair, read with the body's flags
+  std::map<std::string, std::vector<std::string>> read_warnings; // for the report
   for (const std::string& f : garment_files) {
     ParsedMesh parsed = read_mesh(f, read_options);
     if (!quiet)
       for (const auto& w : parsed.warnings)
         std::cerr << "vfit: warning: " << w << "\n";
+    read_warnings[f] = parsed.warnings;
     garments.push_back({f, std::move(parsed.mesh)});
   }
 
@@ -425,7 +435,7 @@ int run_fit(Args& args) {
     }
     if (report_file)
       write_file_atomically(per_body_path(*report_file, tag),
-                            report_json(result.report, loaded[b], body, body_ms[b], render_ms, options));
+                            report_json(result.report, loaded[b], body, body_ms[b], render_ms, options, read_warnings));
     if (picture) write_png(per_body_path(*render_file, tag), *picture);
     if (!quiet) {
       if (!tag.empty()) std::printf("%sbody %s (%s)\n", b > 0 ? "\n" : "", tag.c_str(), sources[b].c_str());

@@ -246,6 +246,32 @@ TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
   EXPECT_NE(repaired.err.find("degenerate"), std::string::npos) << repaired.err;
   EXPECT_NE(repaired.err.find("duplicate"), std::string::npos) << repaired.err;
   EXPECT_EQ(read_mesh(dir / "fitted.obj").mesh.vertex_count(), 2000u);
+  // The report says so too (before, only stderr did, and --quiet lost it).
+  args.insert(args.end(), {"--quiet", "--report", (dir / "r.json").string()});
+  ASSERT_EQ(test::run_cli(args).exit_code, 0);
+  const nlohmann::json report = nlohmann::json::parse(test::read_file(dir / "r.json"));
+  const std::string warnings = report["garments"][0]["warnings"].dump();
+  EXPECT_NE(warnings.find("dropped 1 degenerate face and 1 duplicate face"), std::string::npos) << warnings;
+}
+
+// The body's warnings (its units converted, ...) are in the report (before, only on stderr).
+TEST(FitCli, ReportCarriesTheBodysWarnings) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  ASSERT_EQ(test::run_cli({"body", "--pose-rest", "apose", "--vertices", "3000", "--out", (dir / "b.obj").string(),
+                           "--quiet"})
+                .exit_code,
+            0);
+  Mesh body = read_mesh(dir / "b.obj").mesh;
+  for (float& x : body.positions)
+    x *= 100.0f; // centimetres
+  write_mesh(dir / "b_cm.obj", body);
+  const auto r = test::run_cli({"fit", "--body", (dir / "b_cm.obj").string(), "--garment", (dir / "tee.obj").string(),
+                                "--no-simulation", "--quiet", "--report", (dir / "r.json").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(test::read_file(dir / "r.json"));
+  const std::string warnings = report["body"]["warnings"].dump();
+  EXPECT_NE(warnings.find("units detected as cm; converted to metres"), std::string::npos) << warnings;
 }
 
 TEST(FitCli, AMeshThatIsNotAGarmentExits2AndWritesNothing) {
