@@ -146,6 +146,12 @@ TEST(JointEstimation, ToleratesHolesAtTheSolesAndScalp) {
 TEST(JointEstimation, RejectsWhatIsNotAnUprightBodyInAOrTPose) {
   const Mesh& body = mannequin(AVERAGE_A).mesh;
   EXPECT_NE(error_of(make_uv_sphere(24, 48, 0.9f)).find("not an upright body"), std::string::npos);
+  // Which test failed is said: a body that stands Y up may sit (too deep) or lie on its side (too wide).
+  EXPECT_NE(error_of(make_uv_sphere(24, 48, 0.9f)).find("deeper than half its height"), std::string::npos);
+  const Mesh wide = transformed(make_uv_sphere(24, 48, 1.0f), [](const Eigen::Vector3d& p) {
+    return Eigen::Vector3d(0.9 * p.x(), 0.6 * p.y(), 0.1 * p.z());
+  });
+  EXPECT_NE(error_of(wide).find("wider than 4/3 of its height"), std::string::npos) << error_of(wide);
   // A pillar as tall as a person: upright, but no legs.
   const Mesh pillar = transformed(make_uv_sphere(48, 48, 1.0f), [](const Eigen::Vector3d& p) {
     return Eigen::Vector3d(0.2 * p.x(), 0.85 * p.y(), 0.15 * p.z());
