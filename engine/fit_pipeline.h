@@ -98,7 +98,8 @@ struct FitOptions {
   /// The garments' length unit; detected per garment from its size and position when absent.
   std::optional<Units> garment_units;
   /// The garments' up axis in their files (rotate_to_y_up() brings them into our frame). Absent:
-  /// detected per garment, +Y or +Z (segment_upright()), with a warning when it is not +Y.
+  /// detected per garment, +Y or +Z, or upside down (-Y, -Z) when neither is recognised
+  /// (segment_upright()), with a warning when it is not +Y.
   std::optional<UpAxis> garment_up;
   /// Where the garments' fronts face once upright (rotate_to_face_z() turns them to +Z).
   /// Absent: detected per garment (segment_upright(): a left–right axis along Z, a top stored

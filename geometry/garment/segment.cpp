@@ -298,6 +298,10 @@ UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::op
   std::vector<UpAxis> tries = {UpAxis::POS_Y, UpAxis::POS_Z};
   if (up) tries = {*up};
   else if (detect_up_axis(mesh.positions, mesh.triangles) == UpAxis::POS_Z) tries = {UpAxis::POS_Z, UpAxis::POS_Y};
+  // The surface gives the up axis but not its sign (detect_up_axis()): a garment recognised
+  // neither way is tried upside down along the axis tried first (trousers stored upside down
+  // read as a top with two armholes and no hem).
+  if (!up) tries.push_back(tries[0] == UpAxis::POS_Z ? UpAxis::NEG_Z : UpAxis::NEG_Y);
   const std::vector<float> as_given = mesh.positions;
   std::string first_error;
   for (UpAxis axis : tries) {
@@ -334,7 +338,9 @@ UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::op
   mesh.positions = as_given;
   throw Error(name, 0,
               "not a recognisable garment: " + first_error +
-                  (tries.size() > 1 ? " (tried with +y and +z up)" : ""));
+                  (tries.size() > 1 ? " (tried with " + up_axis_name(tries[0]) + ", " + up_axis_name(tries[1]) +
+                                          " and " + up_axis_name(tries[2]) + " up)"
+                                    : std::string()));
 }
 
 } // namespace vfit

@@ -113,11 +113,12 @@ struct UprightSegmentation {
 /// Segments `mesh` (#V × 3 positions in metres) after rotating it from its file's up axis to
 /// +Y (rotate_to_y_up()): `up` when given; else the axis detect_up_axis() reads from the
 /// surface (+Y when it cannot tell), and the other of +Y and +Z when the segmentation does not
-/// recognise the garment so. (The segmentation alone cannot choose: it recognises some
-/// garments lying on their side, e.g. trousers as a long-sleeve top.) On return `mesh` is
-/// rotated into our frame. Throws vfit::Error naming `name` with the segmentation's error for
-/// the first axis tried ("not a recognisable garment: ...") when neither is recognised, leaving
-/// `mesh` as given. Once upright, the garment is turned about +Y to face +Z: `facing` when
+/// recognise the garment so, and last the first axis tried turned upside down (−Y or −Z: the
+/// surface does not give the sign). (The segmentation alone cannot choose: it recognises some
+/// garments lying on their side, e.g. trousers as a long-sleeve top, and an upside-down tee as
+/// a sleeveless top.) On return `mesh` is rotated into our frame. Throws vfit::Error naming
+/// `name` with the segmentation's error for the first axis tried ("not a recognisable
+/// garment: ...") when none is recognised, leaving `mesh` as given. Once upright, the garment is turned about +Y to face +Z: `facing` when
 /// given; else a garment whose left–right axis is Z (lateral_axis_is_z()) is turned a quarter,
 /// its front taken to be away from its top edge's lean along X (top_edge_lean()), and a
 /// garment segmented as a top with sleeves whose top edge leans forward (toward +Z, by 0.04 of

@@ -209,6 +209,26 @@ TEST(Facing, SegmentUprightTurnsGarmentsStoredFacingAnotherWay) {
   }
 }
 
+// The surface gives the up axis, not its sign: bottoms stored upside down (a half turn about Z)
+// are recognised neither +Y nor +Z up, and are then found -Y up, with the labels and positions
+// of the upright garment. Before, they were refused ("two armholes but no hem").
+TEST(UpAxis, SegmentUprightFindsBottomsStoredUpsideDown) {
+  for (GarmentType type : {GarmentType::TROUSERS, GarmentType::SHORTS}) {
+    const Mesh& m = catalogue_mesh(type, RestPose::APOSE, "M");
+    const std::string name = garment_type_name(type);
+    SCOPED_TRACE(name);
+    Mesh as_made = m;
+    const UprightSegmentation truth = segment_upright(name, as_made);
+    Mesh stored = m;
+    rotate_to_y_up(stored.positions, UpAxis::NEG_Y); // a half turn undoes itself
+    const UprightSegmentation s = segment_upright(name, stored);
+    EXPECT_EQ(up_axis_name(s.up), "-y");
+    EXPECT_EQ(garment_type_name(s.segmentation.type), garment_type_name(truth.segmentation.type));
+    EXPECT_EQ(s.segmentation.vertex_parts, truth.segmentation.vertex_parts);
+    EXPECT_EQ(stored.positions, m.positions);
+  }
+}
+
 TEST(UpAxis, ParsesNamesAndRejectsOthers) {
   for (UpAxis up : UP_AXES)
     EXPECT_EQ(parse_up_axis(up_axis_name(up)), up);
