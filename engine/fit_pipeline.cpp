@@ -370,6 +370,20 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
     scale_positions(mesh.positions, metres_per_unit(report.units));
     report.warnings.push_back("garment in " + units_name(report.units) + ", converted to metres");
   }
+  {
+    // Far outside any garment's size (a collar is 0.15 m, a tall body's arm span 2.6 m): a
+    // wrong unit, stated or read, would be fitted as a speck or a tent and judged as such.
+    constexpr double SMALLEST = 0.05, LARGEST = 10.0; // m
+    const double extent = mesh_stats(mesh).largest_extent;
+    if (!(extent >= SMALLEST && extent <= LARGEST)) {
+      char line[200];
+      std::snprintf(line, sizeof line,
+                    "%.4g m across in %s (%s): not a garment's size (%.2g-%.2g m); state its unit with --garment-units",
+                    extent, units_name(report.units).c_str(), options.garment_units ? "as stated" : "as detected",
+                    SMALLEST, LARGEST);
+      throw Error(input.name, 0, line);
+    }
+  }
   // Pattern pieces exported with their own copies of the seams' vertices: one surface again.
   const WeldReport weld = weld_coincident_vertices(mesh);
   if (weld.changed()) {

@@ -340,6 +340,31 @@ TEST(FitPipeline, ConvertsCentimetreGarmentsToMetres) {
   EXPECT_LE(r.report.garments[0].after.max_depth, MAX_INSIDE_DEPTH);
 }
 
+// A unit stated wrongly makes a speck or a tent of the garment: refused, naming the unit. Before,
+// the tee stated in mm (0.6 mm across) was fitted and judged "good".
+TEST(FitPipeline, AGarmentOfNoGarmentsSizeInItsUnitIsRefused) {
+  for (Units stated : {Units::MM, Units::CM}) {
+    FitOptions o;
+    o.simulate = false;
+    o.garment_units = stated;
+    std::vector<FitGarmentInput> in = {tee_and_trousers()[0]}; // in metres
+    try {
+      (void)fit_garments(mannequin(), in, o);
+      ADD_FAILURE() << units_name(stated) << ": accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("--garment-units"), std::string::npos) << e.what();
+    }
+  }
+  // 100 m across, stated in metres (a garment in centimetres): refused too.
+  std::vector<FitGarmentInput> in = {tee_and_trousers()[0]};
+  for (float& x : in[0].mesh.positions)
+    x *= 100.0f;
+  FitOptions o;
+  o.simulate = false;
+  o.garment_units = Units::M;
+  EXPECT_THROW((void)fit_garments(mannequin(), in, o), Error);
+}
+
 // A vertex no face uses, far away (an exporter's stray point): the units are the surface's.
 // Before, its 50 dm set the extent and the tee in decimetres was read in centimetres.
 TEST(FitPipeline, AStrayUnusedVertexDoesNotSetTheGarmentsUnits) {
