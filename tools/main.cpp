@@ -206,7 +206,7 @@ bottoms turned a quarter, front and back are not told apart (see the report's wa
   --layer-order R   auto (default): read from the garments' geometry as given where they
                     overlap in one frame, bottoms before tops elsewhere; type: bottoms before
                     tops; given: the --garment order (and an outfit file's order), innermost first
-  --cloth-proxy M   auto (default): garments of more than 50,000 vertices are simulated on a
+  --cloth-proxy M   auto (default): garments of more than 25,000 vertices are simulated on a
                     coarse proxy of --proxy-vertices (seed 004: the fine garment is rebuilt
                     from the simulated proxy, then its penetration removed); on: every garment;
                     off: every garment at its own resolution
