@@ -131,7 +131,7 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
       continue;
     }
     Mesh m = input.mesh;
-    weld_coincident_vertices(m);
+    weld_seams(m);
     const std::size_t nv = m.vertex_count(), nf = m.face_count();
     const std::vector<std::int32_t> piece_of = vertex_piece_labels(m.triangles, nv);
     std::vector<std::size_t> size(nv, 0); // by piece root: referenced vertices
@@ -384,8 +384,9 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
       throw Error(input.name, 0, line);
     }
   }
-  // Pattern pieces exported with their own copies of the seams' vertices: one surface again.
-  const WeldReport weld = weld_coincident_vertices(mesh);
+  // Pattern pieces exported with their own copies of the seams' vertices (bit-identical, or
+  // rounded a few µm apart): one surface again.
+  const WeldReport weld = weld_seams(mesh);
   if (weld.changed()) {
     report.warnings.push_back("welded " + std::to_string(weld.welded) + " vertices shared by pieces (seams), dropped " +
                               std::to_string(weld.unreferenced) + " unused vertices and " +

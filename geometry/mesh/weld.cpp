@@ -1,7 +1,10 @@
 #include "weld.h"
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 namespace vfit {
@@ -91,6 +94,76 @@ WeldReport weld_coincident_vertices(Mesh& mesh) {
   if (mesh.has_normals()) mesh.normal_triangles.resize(3 * out);
   if (mesh.has_labels()) mesh.face_labels.resize(out);
   mesh.positions = std::move(positions);
+  return report;
+}
+
+WeldReport weld_seams(Mesh& mesh, float relative_tolerance) {
+  WeldReport report = weld_coincident_vertices(mesh);
+  const std::size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  if (nf == 0) return report;
+  // Boundary vertices: those of edges one triangle uses.
+  std::unordered_map<std::uint64_t, int> edge_uses;
+  edge_uses.reserve(3 * nf);
+  auto edge_key = [](std::int32_t a, std::int32_t b) {
+    const auto lo = std::uint64_t(std::uint32_t(std::min(a, b))), hi = std::uint64_t(std::uint32_t(std::max(a, b)));
+    return lo << 32 | hi;
+  };
+  for (std::size_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k)
+      ++edge_uses[edge_key(mesh.triangles[3 * f + std::size_t(k)], mesh.triangles[3 * f + std::size_t((k + 1) % 3)])];
+  std::vector<char> boundary(nv, 0);
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (const auto& [key, uses] : edge_uses)
+    if (uses == 1) boundary[std::size_t(key >> 32)] = boundary[std::size_t(key & 0xffffffffu)] = 1;
+  for (std::int32_t v : mesh.triangles)
+    for (std::size_t c = 0; c < 3; ++c) {
+      lo[c] = std::min(lo[c], mesh.positions[3 * std::size_t(v) + c]);
+      hi[c] = std::max(hi[c], mesh.positions[3 * std::size_t(v) + c]);
+    }
+  const double diagonal = std::sqrt(double(hi[0] - lo[0]) * (hi[0] - lo[0]) + double(hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                    double(hi[2] - lo[2]) * (hi[2] - lo[2]));
+  const double tol = double(relative_tolerance) * diagonal;
+  if (!(tol > 0)) return report;
+  // A grid of cells of the tolerance: a vertex's earlier neighbours within it lie in the 27
+  // cells around its own.
+  auto cell = [&](std::size_t v, int c) { return std::int64_t(std::floor(double(mesh.positions[3 * v + std::size_t(c)]) / tol)); };
+  auto cell_key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return std::uint64_t(x) * 0x9e3779b97f4a7c15ull ^ std::uint64_t(y) * 0xc2b2ae3d27d4eb4full ^
+           std::uint64_t(z) * 0x165667b19e3779f9ull;
+  };
+  std::unordered_map<std::uint64_t, std::vector<std::int32_t>> grid;
+  std::size_t snapped = 0;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!boundary[v]) continue;
+    const std::int64_t cx = cell(v, 0), cy = cell(v, 1), cz = cell(v, 2);
+    std::int32_t target = -1;
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find(cell_key(cx + dx, cy + dy, cz + dz));
+          if (it == grid.end()) continue;
+          for (std::int32_t u : it->second) { // earlier, in index order
+            double d2 = 0;
+            for (std::size_t c = 0; c < 3; ++c) {
+              const double e = double(mesh.positions[3 * v + c]) - mesh.positions[3 * std::size_t(u) + c];
+              d2 += e * e;
+            }
+            if (d2 <= tol * tol && (target < 0 || u < target)) target = u;
+          }
+        }
+    if (target >= 0) {
+      for (std::size_t c = 0; c < 3; ++c)
+        mesh.positions[3 * v + c] = mesh.positions[3 * std::size_t(target) + c];
+      ++snapped;
+    } else {
+      grid[cell_key(cx, cy, cz)].push_back(std::int32_t(v));
+    }
+  }
+  if (snapped == 0) return report;
+  const WeldReport more = weld_coincident_vertices(mesh);
+  report.welded += more.welded;
+  report.unreferenced += more.unreferenced;
+  report.collapsed += more.collapsed;
   return report;
 }
 

@@ -98,5 +98,43 @@ TEST(Weld, LeavesACleanMeshUntouchedAndDropsCollapsedTriangles) {
   EXPECT_EQ(m.vertex_count(), 3u);
 }
 
+// Seam copies an exporter rounded apart: the right piece's copies moved by up to 2e-6 of the
+// grid's diagonal (a few µm on a garment) stay apart under the exact weld and are joined by
+// weld_seams() into one piece; a second sheet 1 mm off (a lining: 7e-4 of the diagonal) and an
+// interior vertex nudged by as little are left alone.
+TEST(Weld, SeamsRoundedApartAreJoinedAndLiningsAndInteriorsAreNot) {
+  const Mesh grid = make_grid(9, 9, 1.0f, 1.0f); // diagonal ≈ 1.41
+  std::size_t copies = 0, seam = 0;
+  Mesh m = two_pieces(grid, copies, seam);
+  const std::size_t originals = grid.vertex_count();
+  for (std::size_t v = originals; v + 1 < m.vertex_count(); ++v) // the copies, not the stray
+    for (std::size_t c = 0; c < 3; ++c)
+      m.positions[3 * v + c] += 2.5e-6f * float(1 + (v + c) % 3) * (c == 1 ? -1.0f : 1.0f) / 3.0f;
+  Mesh exact = m;
+  EXPECT_EQ(weld_coincident_vertices(exact).welded, 0u);
+  EXPECT_EQ(analyse_topology(exact.triangle_view(), exact.vertex_count()).components, 2u);
+  const WeldReport r = weld_seams(m);
+  EXPECT_EQ(r.welded, seam);
+  EXPECT_EQ(r.collapsed, 0u);
+  EXPECT_EQ(m.vertex_count(), grid.vertex_count());
+  EXPECT_EQ(analyse_topology(m.triangle_view(), m.vertex_count()).components, 1u);
+
+  // A lining: the grid and a copy of it 1 mm above, two open sheets whose boundaries lie 1 mm
+  // apart. And an interior vertex of the grid moved 2e-6 towards its neighbour: no boundary.
+  Mesh two = grid;
+  const auto n = std::int32_t(grid.vertex_count());
+  for (std::size_t v = 0; v < grid.vertex_count(); ++v)
+    two.positions.insert(two.positions.end(), {grid.positions[3 * v], grid.positions[3 * v + 1] + 1e-3f,
+                                                grid.positions[3 * v + 2]});
+  for (std::int32_t t : grid.triangles)
+    two.triangles.push_back(t + n);
+  const std::size_t interior = 4 * 9 + 4; // the middle of the 9 × 9 grid
+  two.positions[3 * interior] += 2e-6f;
+  const Mesh before = two;
+  EXPECT_FALSE(weld_seams(two).changed());
+  EXPECT_EQ(two.positions, before.positions);
+  EXPECT_EQ(two.triangles, before.triangles);
+}
+
 } // namespace
 } // namespace vfit
