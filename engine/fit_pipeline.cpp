@@ -15,6 +15,9 @@
 #include "engine/fabric.h"
 #include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
+#include "engine/layer_order.h"
+#include "engine/layering.h"
+#include "geometry/body/measurements.h"
 #include "geometry/garment/skeleton_driving.h"
 #include "geometry/garment/thick_shell.h"
 #include "geometry/mesh/mesh_stats.h"
@@ -22,8 +25,6 @@
 #include "geometry/mesh/topology.h"
 #include "geometry/mesh/up_axis.h"
 #include "geometry/mesh/weld.h"
-#include "engine/layer_order.h"
-#include "engine/layering.h"
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
 #include "kernels/hole_caps.h"
@@ -87,14 +88,38 @@ std::string penetration_note(const PenetrationStats& before, const PenetrationSt
   return line;
 }
 
-Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions& options) {
-  if (options.garment_units) return *options.garment_units;
+// The garment's unit: as stated, or detected against the body it is fitted on (its torso's depth
+// in m, torso_depth(); 0 for none). `note`, when not null, receives how it was decided.
+Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions& options, double body_torso_depth,
+                    std::string* note = nullptr, bool* differs_alone = nullptr) {
+  if (options.garment_units) {
+    if (note) *note = "as stated";
+    return *options.garment_units;
+  }
   // The surface's extent (mesh_stats): a stray vertex no face uses does not set the units.
   const MeshStats stats = mesh_stats(mesh);
-  const auto units = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+  float smallest = stats.largest_extent;
+  for (int a = 0; a < 3; ++a)
+    smallest = std::min(smallest, stats.bbox_max[a] - stats.bbox_min[a]);
+  const auto units = detect_garment_units(stats.largest_extent, smallest, stats.max_abs_coordinate, body_torso_depth);
   if (!units)
     throw Error(name, 0, "cannot detect the garment's length unit (largest extent " +
                              std::to_string(stats.largest_extent) + ")");
+  if (note) {
+    char line[240];
+    const double depth = smallest * metres_per_unit(*units);
+    std::snprintf(line, sizeof line, "detected: %.3g m across, %.3g m deep around a torso %.3g m deep",
+                  stats.largest_extent * metres_per_unit(*units), depth, body_torso_depth);
+    *note = line;
+    // Read without the body, the unit would differ: say what that would have made of it.
+    const auto alone = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+    if (alone && *alone != *units) {
+      if (differs_alone) *differs_alone = true;
+      std::snprintf(line, sizeof line, "; in %s it would be %.3g m across", units_name(*alone).c_str(),
+                    stats.largest_extent * metres_per_unit(*alone));
+      *note += line;
+    }
+  }
   return *units;
 }
 
@@ -119,7 +144,8 @@ bool one_piece(const Mesh& m) {
   return true;
 }
 
-SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitOptions& options) {
+SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitOptions& options,
+                          double body_torso_depth) {
   SplitInputs out;
   for (const FitGarmentInput& input : inputs) {
     // The usual garment is one piece as given: no copy, no weld (read_garment() welds it).
@@ -148,7 +174,7 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     bool thick = false;
     if (big.size() >= 2) {
       Mesh metres = m;
-      scale_positions(metres.positions, metres_per_unit(garment_units(m, input.name, options)));
+      scale_positions(metres.positions, metres_per_unit(garment_units(m, input.name, options, body_torso_depth)));
       thick = find_thick_shell(metres).has_value();
     }
     if (big.size() < 2 || thick) {
@@ -356,7 +382,8 @@ struct ShellGarment {
 // `as_given`, when not null, receives the garment in metres, welded and wound consistently, still
 // in its file's frame (before the shell's sheet replaces it and segmentation turns it upright).
 void read_garment(const FitGarmentInput& input, const FitOptions& options, const StageSink& sink, FittedGarment& out,
-                  GarmentFitReport& report, std::optional<ShellGarment>& shell, Mesh* as_given) {
+                  GarmentFitReport& report, std::optional<ShellGarment>& shell, Mesh* as_given,
+                  double body_torso_depth) {
   report.name = input.name;
   out.name = input.name;
   out.mesh = input.mesh;
@@ -365,10 +392,13 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   report.faces = mesh.face_count();
 
   auto t0 = Clock::now();
-  report.units = garment_units(mesh, input.name, options);
-  if (report.units != Units::M) {
+  std::string units_note;
+  bool by_body = false; // the body, not the garment's size alone, decided its unit
+  report.units = garment_units(mesh, input.name, options, body_torso_depth, &units_note, &by_body);
+  if (report.units != Units::M || by_body) {
     scale_positions(mesh.positions, metres_per_unit(report.units));
-    report.warnings.push_back("garment in " + units_name(report.units) + ", converted to metres");
+    report.warnings.push_back("garment in " + units_name(report.units) + " (" + units_note + "), converted to metres" +
+                              (options.garment_units ? "" : "; state its unit with --garment-units"));
   }
   {
     // Far outside any garment's size (a collar is 0.15 m, a tall body's arm span 2.6 m): a
@@ -799,7 +829,9 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
     if (!bodies[b]) throw Error("body " + std::to_string(b), 0, "null body");
   if (bodies.size() > 1 && !options.debug_dir.empty())
     throw Error(options.debug_dir, 0, "debug output takes one body, not " + std::to_string(bodies.size()));
-  const SplitInputs split = split_outfits(inputs, options);
+  // The garments are read once for all the bodies: their units are detected against the first.
+  const double body_torso_depth = bodies.empty() ? 0.0 : torso_depth(bodies[0]->mesh, bodies[0]->joints);
+  const SplitInputs split = split_outfits(inputs, options, body_torso_depth);
   const std::vector<FitGarmentInput>& garments = split.garments;
   if (options.simulate) (void)fabric_preset(options.fabric); // unknown fabric: fail before any work
   std::vector<FitResult> results(bodies.size());
@@ -827,7 +859,7 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
   std::vector<Mesh> as_given(by_geometry ? garments.size() : 0);
   for (std::size_t i = 0; i < garments.size(); ++i) {
     read_garment(garments[i], options, sinks[i], read[i], read_reports[i], shells[i],
-                 by_geometry ? &as_given[i] : nullptr);
+                 by_geometry ? &as_given[i] : nullptr, body_torso_depth);
     if (!split.notes[i].empty()) read_reports[i].warnings.insert(read_reports[i].warnings.begin(), split.notes[i]);
   }
   // Debug output starts once every garment is known to be one, so a mesh that is not a

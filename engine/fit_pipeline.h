@@ -99,7 +99,11 @@ struct FitOptions {
   /// the catalogue tee (0.58 m² of cloth), below the scale of a fold on the body, while its
   /// simulation (to rest or 3 simulated s) took 15–54 s of wall time on a loaded 2-core machine.
   std::size_t cloth_proxy_vertices = 15000;
-  /// The garments' length unit; detected per garment from its size and position when absent.
+  /// The garments' length unit. Absent: detected per garment against the body it is fitted on
+  /// (detect_garment_units(): the unit, inches included, in which the garment's box wraps the
+  /// body's torso, torso_depth()), else from its size and position (detect_mesh_units()), with
+  /// a warning naming the unit and --garment-units when it is not metres or the body decided it.
+  /// fit_garments_onto_bodies() reads the garments once, against its first body.
   std::optional<Units> garment_units;
   /// The garments' up axis in their files (rotate_to_y_up() brings them into our frame). Absent:
   /// detected per garment, +Y or +Z, or upside down (-Y, -Z) when neither is recognised
@@ -271,7 +275,10 @@ FitResult fit_garments(const Body& body, const std::vector<FitGarmentInput>& gar
 /// part skeletons extracted and its skeleton driver set up (the band Laplacian factored, seed
 /// 000 §5.4) once, on the first body; every body then gets its own driving, penetration removal,
 /// layering, simulation and feedback. Result k is what fit_garments(*bodies[k], garments,
-/// options) returns, bit for bit (the shared stages do not depend on the body); the shared
+/// options) returns, bit for bit (the shared stages do not depend on the body, but for a
+/// garment unit left to detection, which is read against the first body's torso: bodies whose
+/// torsos differ so much that the garment wraps one in another unit are fitted, as the first,
+/// in the first's; state FitOptions::garment_units to be free of it); the shared
 /// stages' times are reported with the first body, as 0 ms for the others (whose driving line
 /// says "shared"), so the reports' totals add up to the whole call. At 10^5–10^6 garment
 /// vertices the skeletons and the driver's setup are most of a fit without simulation, and each

@@ -74,10 +74,10 @@ int run_scan(Args& args, const std::string& path) {
   std::optional<Units> units = units_arg ? std::optional<Units>(parse_units(*units_arg)) : std::nullopt;
   if (!units) {
     const MeshStats stats = mesh_stats(parsed.mesh);
-    units = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+    units = detect_body_units(stats.largest_extent, stats.max_abs_coordinate);
     if (!units) throw Error(path, 0, "cannot detect the scan's units; state them with --units");
-    if (*units != Units::M)
-      parsed.warnings.push_back(path + ": units detected as " + units_name(*units) + "; converted to metres");
+    if (const std::string w = body_units_warning(stats.largest_extent, stats.max_abs_coordinate, *units); !w.empty())
+      parsed.warnings.push_back(path + ": " + w);
   }
   scale_positions(parsed.mesh.positions, metres_per_unit(*units));
   UpAxis up = up_arg ? parse_up_axis(*up_arg) : UpAxis::POS_Y;

@@ -91,11 +91,11 @@ LoadedBody load_body(const BodyRequest& r) {
   if (r.units) {
     units = *r.units;
   } else {
-    const auto detected = detect_mesh_units(stats.largest_extent, stats.max_abs_coordinate);
+    const auto detected = detect_body_units(stats.largest_extent, stats.max_abs_coordinate);
     if (!detected) throw Error(path.string(), 0, "cannot detect the body's units; state them with --units");
     units = *detected;
-    if (units != Units::M)
-      out.warnings.push_back(path.string() + ": units detected as " + units_name(units) + "; converted to metres");
+    if (const std::string w = body_units_warning(stats.largest_extent, stats.max_abs_coordinate, units); !w.empty())
+      out.warnings.push_back(path.string() + ": " + w);
   }
   scale_positions(parsed.mesh.positions, metres_per_unit(units));
   if (const WeldReport weld = weld_coincident_vertices(parsed.mesh); weld.changed())

@@ -213,13 +213,13 @@ void add_primitive_weights(GltfDocument& doc, const gltf::PrimitiveVertices& pri
   }
 }
 
-// Scales a body stored in dm, cm or mm to metres.
+// Scales a body stored in dm, cm, mm or inches to metres.
 void convert_to_metres(Body& body, const std::string& path, std::vector<std::string>& warnings) {
   const auto p = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>>(
       body.mesh.positions.data(), static_cast<Eigen::Index>(body.mesh.vertex_count()), 3);
   const double extent = (p.colwise().maxCoeff() - p.colwise().minCoeff()).maxCoeff();
   const double reach = p.cwiseAbs().maxCoeff();
-  const std::optional<Units> units = detect_mesh_units(extent, reach);
+  const std::optional<Units> units = detect_body_units(extent, reach);
   if (!units) throw Error(path, 0, "cannot infer the units of a body " + std::to_string(extent) + " units tall");
   if (*units == Units::M) return;
   const double factor = metres_per_unit(*units);
@@ -227,6 +227,8 @@ void convert_to_metres(Body& body, const std::string& path, std::vector<std::str
   body.joints *= factor;
   warnings.push_back(path + ": the body's largest extent is " + std::to_string(extent) + ", read as " +
                      units_name(*units) + " and scaled to metres");
+  if (const std::string w = body_units_warning(extent, reach, *units); w.find(" it would be ") != std::string::npos)
+    warnings.push_back(path + ": " + w);
 }
 
 } // namespace

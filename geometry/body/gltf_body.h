@@ -40,7 +40,7 @@ RestPose classify_rest_pose(const JointPositions& joints);
 /// largest kept and renormalised to sum 1. A welded vertex takes the weights of its first
 /// POSITION element.
 ///
-/// Units: when detect_mesh_units() reads the mesh as dm, cm or mm, the mesh and joints are
+/// Units: when detect_body_units() reads the mesh as dm, cm, mm or inches, the mesh and joints are
 /// scaled to metres and a warning says so. The rest pose comes from classify_rest_pose().
 /// `warnings` (optional) receives the mesh reader's warnings, the unit conversion and the rig
 /// mapping used. body.source = `path`.

@@ -217,4 +217,21 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
   return out;
 }
 
+double torso_depth(const Mesh& mesh, const JointPositions& joints) {
+  const double hip_y = 0.5 * (joints(idx(Joint::LEFT_HIP), 1) + joints(idx(Joint::RIGHT_HIP), 1));
+  const double shoulder_y = 0.5 * (joints(idx(Joint::LEFT_SHOULDER), 1) + joints(idx(Joint::RIGHT_SHOULDER), 1));
+  const double centre_x = 0.5 * (joints(idx(Joint::LEFT_SHOULDER), 0) + joints(idx(Joint::RIGHT_SHOULDER), 0));
+  const double half_span = 0.5 * std::abs(joints(idx(Joint::LEFT_SHOULDER), 0) - joints(idx(Joint::RIGHT_SHOULDER), 0));
+  double z_min = INFINITY, z_max = -INFINITY;
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    const float* p = &mesh.positions[3 * v];
+    if (p[1] < std::min(hip_y, shoulder_y) || p[1] > std::max(hip_y, shoulder_y) ||
+        std::abs(p[0] - centre_x) > half_span)
+      continue;
+    z_min = std::min(z_min, double(p[2]));
+    z_max = std::max(z_max, double(p[2]));
+  }
+  return z_max >= z_min ? z_max - z_min : 0.0;
+}
+
 } // namespace vfit

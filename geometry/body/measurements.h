@@ -69,4 +69,12 @@ struct MeasuredBody {
 /// Throws vfit::Error when a landmark's section is missing (e.g. a mesh that is not a body).
 MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints);
 
+/// Depth of the torso, front to back (m): the Z extent of the vertices of an upright body (Y
+/// up, facing +Z, metres) between the hip joints' height and the shoulder joints' height and
+/// within the shoulder joints' span in X (so arms in A- or T-pose are left out): the chest,
+/// belly and seat. What every garment the pipeline fits (garment.h's types) wraps, which makes
+/// it the body's reference for a garment's unit (detect_garment_units()). 0 when no vertex is
+/// in that box (joints that are not a body's).
+double torso_depth(const Mesh& mesh, const JointPositions& joints);
+
 } // namespace vfit

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "kernels/error.h"
@@ -68,6 +69,45 @@ std::optional<Units> detect_mesh_units(double largest_extent, double max_abs_coo
   if (plausible.empty() || !by_position) return by_position;
   if (std::find(plausible.begin(), plausible.end(), *by_position) != plausible.end()) return by_position;
   return plausible.front();
+}
+
+std::optional<Units> detect_body_units(double largest_extent, double max_abs_coordinate) {
+  constexpr double SHORTEST = 1.2, TALLEST = 2.3; // m: an adult's height (check_measurements())
+  if (std::isfinite(largest_extent) && std::isfinite(max_abs_coordinate))
+    for (Units u : {Units::M, Units::DM, Units::CM, Units::MM, Units::IN}) {
+      const double metres = largest_extent * metres_per_unit(u);
+      if (metres >= SHORTEST && metres <= TALLEST) return u;
+    }
+  return detect_mesh_units(largest_extent, max_abs_coordinate);
+}
+
+std::string body_units_warning(double largest_extent, double max_abs_coordinate, Units units) {
+  const std::optional<Units> alone = detect_mesh_units(largest_extent, max_abs_coordinate);
+  if (units == Units::M && (!alone || *alone == Units::M)) return "";
+  std::string w = "units detected as " + units_name(units);
+  if (alone && *alone != units) {
+    char line[200];
+    std::snprintf(line, sizeof line,
+                  " (%.3g m tall, an adult's height; in %s it would be %.3g m: state --units %s if so)",
+                  largest_extent * metres_per_unit(units), units_name(*alone).c_str(),
+                  largest_extent * metres_per_unit(*alone), units_name(*alone).c_str());
+    w += line;
+  }
+  return w + "; converted to metres";
+}
+
+std::optional<Units> detect_garment_units(double largest_extent, double smallest_extent, double max_abs_coordinate,
+                                          double torso_depth) {
+  constexpr double SMALLEST = 0.15, LARGEST = 2.6; // m: as detect_mesh_units()
+  constexpr double TIGHTEST = 0.77, LOOSEST = 1.93; // garment's smallest extent / torso depth (units.h)
+  if (std::isfinite(largest_extent) && std::isfinite(smallest_extent) && std::isfinite(max_abs_coordinate) &&
+      std::isfinite(torso_depth) && torso_depth > 0.0)
+    for (Units u : {Units::M, Units::DM, Units::CM, Units::MM, Units::IN}) {
+      const double metres = largest_extent * metres_per_unit(u);
+      const double wrap = smallest_extent * metres_per_unit(u) / torso_depth;
+      if (metres >= SMALLEST && metres <= LARGEST && wrap >= TIGHTEST && wrap <= LOOSEST) return u;
+    }
+  return detect_mesh_units(largest_extent, max_abs_coordinate);
 }
 
 void scale_positions(std::span<float> positions, double factor) {

@@ -9,8 +9,10 @@
 
 namespace vfit {
 
-/// IN (inches, 0.0254 m: US garment CAD) is never detected, only stated: a garment's inches
-/// fall in the ranges of decimetres and centimetres.
+/// IN (inches, 0.0254 m: US garment CAD) is detected only against what a size means: a body's
+/// adult height (detect_body_units()) or the body a garment is fitted on
+/// (detect_garment_units()); detect_units() and detect_mesh_units() never give it (a lone
+/// mesh's inches fall in the ranges of decimetres and centimetres).
 enum class Units { M, DM, CM, MM, IN };
 
 /// "m" | "dm" | "cm" | "mm" | "in".
@@ -38,6 +40,40 @@ std::optional<Units> detect_units(double largest_extent);
 /// garment placed metres from the origin stays in metres. nullopt as detect_units(), or for a
 /// non-finite argument.
 std::optional<Units> detect_mesh_units(double largest_extent, double max_abs_coordinate);
+
+/// Units of a whole body from its largest extent (its height, or a T-pose's arm span) and its
+/// largest absolute coordinate: the unit, inches included, in which the extent is an adult's
+/// height, 1.2-2.3 m (check_measurements()' range), when one is; no two units can both be
+/// (2.3 / 1.2 < 2.54, the nearest ratio of two units). Otherwise (a child, a T-pose's span past
+/// 2.3 m) detect_mesh_units(). So a body 65.6 units tall is read as 1.67 m in inches, not as a
+/// 0.66 m child in cm: its shape cannot tell the two apart, and the caller's warning names the
+/// alternative (detect_mesh_units()'s unit when it differs) and --units. nullopt as
+/// detect_mesh_units().
+std::optional<Units> detect_body_units(double largest_extent, double max_abs_coordinate);
+
+/// The warning for a body whose units detect_body_units() gave as `units`: "" for metres read as
+/// metres alone; "units detected as cm; converted to metres" otherwise, and, when
+/// detect_mesh_units() would have read it otherwise (an adult 65.6 units tall: 1.67 m in inches or
+/// 0.66 m in cm), the height in both units and --units.
+std::string body_units_warning(double largest_extent, double max_abs_coordinate, Units units);
+
+/// Units of a garment fitted onto a body whose torso is `torso_depth` m deep (torso_depth() in
+/// geometry/body/measurements.h), from the garment's box in file units: its largest and smallest
+/// extents and its largest absolute coordinate. Every garment the pipeline fits (a top, a dress,
+/// trousers, shorts, a skirt) wraps the torso or the hips, so its box's smallest extent (its
+/// depth, or a pair of shorts' height) is near the torso's depth: measured 0.85 × (MakeHuman's
+/// shorts on hm08, their height) to 1.74 × (the catalogue's XXL dress on the mannequin) over the
+/// corpus's 21 garments and the catalogue's 6 types in sizes XS-XXL. The band accepted,
+/// 0.77-1.93 ×, is that range with about 10 % either side: 2.5 × wide, under the 2.54 × between
+/// the nearest two units, so at most one unit falls in it. Among the units, inches included, in
+/// which the largest extent is a garment's size (0.15-2.6 m, as detect_mesh_units()), the one
+/// whose smallest extent falls in the band; when none does (a flat pattern, a piece smaller than
+/// the torso, no body: `torso_depth` ≤ 0 or not finite) detect_mesh_units(), which never gives
+/// inches. A garment outside the band in its true unit can fall in it in the next unit (shorts
+/// in cm 0.3 × the torso's depth read as inches): the caller's warning names the unit chosen and
+/// --garment-units. nullopt as detect_mesh_units().
+std::optional<Units> detect_garment_units(double largest_extent, double smallest_extent, double max_abs_coordinate,
+                                          double torso_depth);
 
 /// Multiplies every coordinate in `positions` (#V × 3) by `factor`.
 void scale_positions(std::span<float> positions, double factor);

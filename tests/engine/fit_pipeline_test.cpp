@@ -340,6 +340,36 @@ TEST(FitPipeline, ConvertsCentimetreGarmentsToMetres) {
   EXPECT_LE(r.report.garments[0].after.max_depth, MAX_INSIDE_DEPTH);
 }
 
+// Garments in inches, read against the body's torso (torso_depth()). Before, the tee in inches
+// was read as decimetres (a 2.5 m tent) and the trousers too; centimetres stay centimetres.
+TEST(FitPipeline, DetectsInchGarmentsAgainstTheBody) {
+  for (int g = 0; g < 2; ++g) {
+    for (Units u : {Units::IN, Units::CM, Units::DM}) {
+      std::vector<FitGarmentInput> in = {tee_and_trousers()[std::size_t(g)]};
+      for (float& x : in[0].mesh.positions)
+        x = static_cast<float>(x / metres_per_unit(u));
+      FitOptions o;
+      o.simulate = false;
+      const FitResult r = fit_garments(mannequin(), in, o);
+      const GarmentFitReport& gr = r.report.garments[0];
+      EXPECT_EQ(gr.units, u) << g << " " << units_name(u);
+      EXPECT_EQ(gr.type, g == 0 ? GarmentType::TEE : GarmentType::TROUSERS) << units_name(u);
+      EXPECT_LE(gr.after.max_depth, MAX_INSIDE_DEPTH) << units_name(u);
+      // The warning names the unit and the flag that overrides it.
+      EXPECT_NE(std::find_if(gr.warnings.begin(), gr.warnings.end(),
+                             [&](const std::string& w) {
+                               return w.find("garment in " + units_name(u)) != std::string::npos &&
+                                      w.find("--garment-units") != std::string::npos;
+                             }),
+                gr.warnings.end())
+          << units_name(u);
+      // Stated, the unit wins over the detection.
+      o.garment_units = u == Units::IN ? Units::CM : Units::IN;
+      EXPECT_EQ(fit_garments(mannequin(), in, o).report.garments[0].units, *o.garment_units);
+    }
+  }
+}
+
 // A unit stated wrongly makes a speck or a tent of the garment: refused, naming the unit. Before,
 // the tee stated in mm (0.6 mm across) was fitted and judged "good".
 TEST(FitPipeline, AGarmentOfNoGarmentsSizeInItsUnitIsRefused) {

@@ -274,6 +274,52 @@ TEST(FitCli, ReportCarriesTheBodysWarnings) {
   EXPECT_NE(warnings.find("units detected as cm; converted to metres"), std::string::npos) << warnings;
 }
 
+// A body and a tee in inches (US CAD): the body read at its adult height, the tee against it.
+// Before, the body was read as cm (a 0.6 m child) and the tee as dm (a tent). --units and
+// --garment-units still win.
+TEST(FitCli, ABodyAndATeeInInchesAreReadAsInches) {
+  test::TempDir dir;
+  ASSERT_EQ(test::run_cli(
+                {"body", "--pose-rest", "apose", "--vertices", "3000", "--out", (dir / "b.obj").string(), "--quiet"})
+                .exit_code,
+            0);
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  for (const char* name : {"b", "tee"}) {
+    Mesh m = read_mesh(dir / (std::string(name) + ".obj")).mesh;
+    for (float& x : m.positions)
+      x = static_cast<float>(x / 0.0254);
+    write_mesh(dir / (std::string(name) + "_in.obj"), m);
+  }
+  auto r = test::run_cli({"measure", (dir / "b.obj").string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const double height = nlohmann::json::parse(r.out)["measurements_m"]["height"].get<double>();
+  r = test::run_cli({"measure", (dir / "b_in.obj").string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Float coordinates in inches: the same height within a micrometre's rounding.
+  const nlohmann::json measured = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(measured["measurements_m"]["height"].get<double>(), height, 1e-5);
+  const std::string warnings = measured["warnings"].dump();
+  EXPECT_NE(warnings.find("units detected as in"), std::string::npos) << warnings;
+  EXPECT_NE(warnings.find("--units cm"), std::string::npos) << warnings;
+
+  r = test::run_cli({"fit", "--body", (dir / "b_in.obj").string(), "--garment", (dir / "tee_in.obj").string(),
+                     "--no-simulation", "--quiet", "--report", (dir / "r.json").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  nlohmann::json report = nlohmann::json::parse(test::read_file(dir / "r.json"));
+  EXPECT_EQ(report["garments"][0]["units"], "in");
+  EXPECT_EQ(report["garments"][0]["type"], "tee");
+  EXPECT_NE(report["garments"][0]["warnings"].dump().find("--garment-units"), std::string::npos);
+  // Stated units win over the detection: the tee stated in cm, the body stated in cm.
+  r = test::run_cli({"fit", "--body", (dir / "b_in.obj").string(), "--garment", (dir / "tee_in.obj").string(),
+                     "--garment-units", "cm", "--no-simulation", "--quiet", "--report", (dir / "r2.json").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  report = nlohmann::json::parse(test::read_file(dir / "r2.json"));
+  EXPECT_EQ(report["garments"][0]["units"], "cm");
+  r = test::run_cli({"measure", (dir / "b_in.obj").string(), "--units", "cm", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NEAR(nlohmann::json::parse(r.out)["measurements_m"]["height"].get<double>(), height * 0.01 / 0.0254, 1e-5);
+}
+
 TEST(FitCli, AMeshThatIsNotAGarmentExits2AndWritesNothing) {
   test::TempDir dir;
   write_mesh(dir / "ball.obj", make_uv_sphere(8, 16, 0.3f));

@@ -72,3 +72,66 @@ TEST(Units, SmallPiecesWornAwayFromTheOriginUseTheirPosition) {
 
 } // namespace
 } // namespace vfit
+
+namespace vfit {
+namespace {
+
+// An adult 1.67 m tall (the corpus's MakeHuman body), stored in each unit, inches included.
+// Before, detect_mesh_units() read its 65.6 inches as 0.656 m in centimetres.
+TEST(Units, ABodyIsReadAtAnAdultsHeightInEveryUnitInchesIncluded) {
+  const double height = 1.6659;
+  for (Units u : {Units::M, Units::DM, Units::CM, Units::MM, Units::IN}) {
+    const double extent = height / metres_per_unit(u);
+    EXPECT_EQ(detect_body_units(extent, 0.5 * extent), u) << units_name(u);
+    EXPECT_EQ(detect_body_units(extent, extent), u) << units_name(u);
+  }
+  // In inches, the alternative is named with the flag that overrides it.
+  const std::string w = body_units_warning(height / 0.0254, height / 0.0254, Units::IN);
+  EXPECT_NE(w.find("units detected as in"), std::string::npos) << w;
+  EXPECT_NE(w.find("in cm it would be 0.656 m"), std::string::npos) << w;
+  EXPECT_NE(w.find("--units cm"), std::string::npos) << w;
+  // The other units keep the plain warning (its text is matched by the CLI's tests).
+  EXPECT_EQ(body_units_warning(166.59, 166.59, Units::CM), "units detected as cm; converted to metres");
+  EXPECT_EQ(body_units_warning(1.6659, 1.6659, Units::M), "");
+}
+
+TEST(Units, ABodyOfNoAdultsHeightKeepsTheUnitOfItsSize) {
+  // A child 1.1 m tall in cm (2.8 m in inches, 0.11 m in dm: no unit gives an adult) and a
+  // T-pose's 2.5 m arm span in mm: read as before.
+  EXPECT_EQ(detect_body_units(110.0, 110.0), Units::CM);
+  EXPECT_EQ(detect_body_units(2500.0, 2500.0), Units::MM);
+  EXPECT_EQ(detect_body_units(1.1, 1.1), Units::M);
+  // A toddler 0.8 m tall in cm is 2.03 m in inches: the adult wins, and the warning says
+  // what it would be in cm (the shape cannot tell; --units can).
+  EXPECT_EQ(detect_body_units(80.0, 80.0), Units::IN);
+  EXPECT_NE(body_units_warning(80.0, 80.0, Units::IN).find("in cm it would be 0.8 m"), std::string::npos);
+  EXPECT_FALSE(detect_body_units(0.0, 0.0).has_value());
+  EXPECT_FALSE(detect_body_units(1e9, 1e9).has_value());
+  EXPECT_FALSE(detect_body_units(std::numeric_limits<double>::quiet_NaN(), 1.0).has_value());
+}
+
+// The corpus's male_casualsuit04 tee: 0.534 m across, 0.282 m deep, on hm08 (torso 0.264 m
+// deep), stored in each unit. Before, in inches (21 across) it was read as 2.1 m in dm.
+TEST(Units, AGarmentIsReadInTheUnitThatWrapsTheBodysTorso) {
+  const double across = 0.534, deep = 0.282, torso = 0.264;
+  for (Units u : {Units::M, Units::DM, Units::CM, Units::MM, Units::IN}) {
+    const double k = 1.0 / metres_per_unit(u);
+    for (double reach : {0.5 * across, 3.0}) // at the origin, or worn 3 m up in the file's frame
+      EXPECT_EQ(detect_garment_units(across * k, deep * k, reach * k, torso), u) << units_name(u) << " " << reach;
+  }
+  // Loose (the catalogue's XXL dress, 1.74 × the torso's depth) and tight (0.85 ×, the corpus's
+  // shorts, by their height): still in their unit, in cm and in inches.
+  for (double wrap : {0.85, 1.74}) {
+    EXPECT_EQ(detect_garment_units(60.0, wrap * torso * 100.0, 60.0, torso), Units::CM) << wrap;
+    EXPECT_EQ(detect_garment_units(60.0 / 2.54, wrap * torso / 0.0254, 60.0 / 2.54, torso), Units::IN) << wrap;
+  }
+  // No body, or a garment that wraps nothing (flat: no depth): detect_mesh_units() as before.
+  EXPECT_EQ(detect_garment_units(across / 0.0254, deep / 0.0254, across / 0.0254, 0.0),
+            detect_mesh_units(across / 0.0254, across / 0.0254));
+  EXPECT_EQ(detect_garment_units(53.4, 0.0, 53.4, torso), Units::CM);
+  EXPECT_EQ(detect_garment_units(53.4, 28.2, 53.4, std::numeric_limits<double>::quiet_NaN()), Units::CM);
+  EXPECT_FALSE(detect_garment_units(1e9, 1e8, 1e9, torso).has_value());
+}
+
+} // namespace
+} // namespace vfit
