@@ -456,6 +456,14 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   if (report.up != UpAxis::POS_Y && !options.garment_up)
     report.warnings.push_back("garment stored with " + up_axis_name(report.up) +
                               " up (detected), rotated to +y up (force with --garment-up)");
+  if (upright.tilt.changed()) {
+    char line[240];
+    std::snprintf(line, sizeof line,
+                  "garment stood %.1f deg off upright (its left-right axis %.1f deg off, from its symmetry; leaning "
+                  "%.1f deg, from its openings): straightened",
+                  upright.tilt.degrees, upright.tilt.side_degrees, upright.tilt.pitch_degrees);
+    report.warnings.push_back(line);
+  }
   if (report.facing != Facing::POS_Z && !options.garment_facing)
     report.warnings.push_back("garment faced " + facing_name(report.facing) + " (detected" +
                               (upright.front_known ? "" : "; its front and back could not be told apart") +

@@ -307,33 +307,45 @@ UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::op
   for (UpAxis axis : tries) {
     mesh.positions = as_given;
     rotate_to_y_up(mesh.positions, axis);
-    UprightSegmentation out;
-    out.up = axis;
-    if (facing) {
-      out.facing = *facing;
-    } else if (lateral_axis_is_z(mesh.positions, mesh.triangles)) {
-      out.facing = top_edge_lean(mesh.positions, 0) <= 0 ? Facing::POS_X : Facing::NEG_X;
-      out.front_known = false;
-    }
-    rotate_to_face_z(mesh.positions, out.facing);
-    try {
-      out.segmentation = segment_garment(mesh, options);
-    } catch (const Error& e) {
-      if (first_error.empty()) first_error = e.what();
-      continue;
-    }
-    const bool sleeved = out.segmentation.type == GarmentType::TEE || out.segmentation.type == GarmentType::LONG_SLEEVE;
-    if (!facing && sleeved) {
-      const double lean = top_edge_lean(mesh.positions, 2);
-      if (lean >= FORWARD_LEAN) {
-        // Stored back to front: turned round, its sleeves swap sides.
-        rotate_to_face_z(mesh.positions, Facing::NEG_Z);
-        out.facing = compose_facing(out.facing, Facing::NEG_Z);
-        out.segmentation = segment_garment(mesh, options);
+    const std::vector<float> turned = mesh.positions;
+    const GarmentTilt tilt = estimate_tilt(mesh);
+    // Straightened first; as it stood when the straightened garment is not recognised.
+    for (const bool straighten : {true, false}) {
+      if (straighten && !tilt.changed()) continue;
+      mesh.positions = turned;
+      UprightSegmentation out;
+      out.up = axis;
+      if (straighten) {
+        apply_tilt(mesh.positions, tilt);
+        out.tilt = tilt;
       }
-      if (std::abs(lean) >= FORWARD_LEAN) out.front_known = true;
+      if (facing) {
+        out.facing = *facing;
+      } else if (lateral_axis_is_z(mesh.positions, mesh.triangles)) {
+        out.facing = top_edge_lean(mesh.positions, 0) <= 0 ? Facing::POS_X : Facing::NEG_X;
+        out.front_known = false;
+      }
+      rotate_to_face_z(mesh.positions, out.facing);
+      try {
+        out.segmentation = segment_garment(mesh, options);
+      } catch (const Error& e) {
+        if (first_error.empty()) first_error = e.what();
+        continue;
+      }
+      const bool sleeved =
+          out.segmentation.type == GarmentType::TEE || out.segmentation.type == GarmentType::LONG_SLEEVE;
+      if (!facing && sleeved) {
+        const double lean = top_edge_lean(mesh.positions, 2);
+        if (lean >= FORWARD_LEAN) {
+          // Stored back to front: turned round, its sleeves swap sides.
+          rotate_to_face_z(mesh.positions, Facing::NEG_Z);
+          out.facing = compose_facing(out.facing, Facing::NEG_Z);
+          out.segmentation = segment_garment(mesh, options);
+        }
+        if (std::abs(lean) >= FORWARD_LEAN) out.front_known = true;
+      }
+      return out;
     }
-    return out;
   }
   mesh.positions = as_given;
   throw Error(name, 0,

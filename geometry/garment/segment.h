@@ -28,6 +28,7 @@
 #include <Eigen/Core>
 
 #include "garment.h"
+#include "geometry/garment/straighten.h"
 #include "geometry/mesh/mesh.h"
 #include "geometry/mesh/up_axis.h"
 #include "reeb_graph.h"
@@ -107,6 +108,10 @@ struct UprightSegmentation {
   /// False when the garment was turned a quarter (its left–right axis was Z) and nothing told
   /// its front from its back (bottoms, sleeveless tops): its front is then taken to face +X.
   bool front_known = true;
+  /// The small rotation that straightened it once turned to +Y, before its facing was read
+  /// (estimate_tilt()); identity for a garment stored upright or when the straightened
+  /// garment was not recognised (it is then segmented as it stood).
+  GarmentTilt tilt;
   GarmentSegmentation segmentation;
 };
 
@@ -118,7 +123,11 @@ struct UprightSegmentation {
 /// garments lying on their side, e.g. trousers as a long-sleeve top, and an upside-down tee as
 /// a sleeveless top.) On return `mesh` is rotated into our frame. Throws vfit::Error naming
 /// `name` with the segmentation's error for the first axis tried ("not a recognisable
-/// garment: ...") when none is recognised, leaving `mesh` as given. Once upright, the garment is turned about +Y to face +Z: `facing` when
+/// garment: ...") when none is recognised, leaving `mesh` as given. Once turned to +Y, a garment
+/// standing a little off upright (leaning, rolled, or turned about +Y by under 45°) is
+/// straightened about its bounding box's middle (estimate_tilt(), apply_tilt()); when the
+/// straightened garment is not recognised, it is segmented as it stood. Once upright, the
+/// garment is turned about +Y to face +Z: `facing` when
 /// given; else a garment whose left–right axis is Z (lateral_axis_is_z()) is turned a quarter,
 /// its front taken to be away from its top edge's lean along X (top_edge_lean()), and a
 /// garment segmented as a top with sleeves whose top edge leans forward (toward +Z, by 0.04 of

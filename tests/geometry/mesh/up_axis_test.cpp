@@ -1,5 +1,6 @@
 #include "geometry/mesh/up_axis.h"
 
+#include <cstdio>
 #include <map>
 #include <string>
 #include <vector>
@@ -226,6 +227,63 @@ TEST(UpAxis, SegmentUprightFindsBottomsStoredUpsideDown) {
     EXPECT_EQ(garment_type_name(s.segmentation.type), garment_type_name(truth.segmentation.type));
     EXPECT_EQ(s.segmentation.vertex_parts, truth.segmentation.vertex_parts);
     EXPECT_EQ(stored.positions, m.positions);
+  }
+}
+
+// A garment stored leaning 15° forward or back (about its bounding box's middle) is straightened
+// before it is segmented:
+// the same type, nearly the same labels as the upright garment, and within 1 % of its size of
+// the upright positions once their centroids agree. (A catalogue garment is mirror-symmetric
+// and its openings level: the principal axis across it and its opening cues are exact but for
+// the mesh's discretisation; measured off by 0.41 % or less. The smallest rotation tried, 15°,
+// left alone is off by 10 % and more.) Catalogue garments spread about as much across as up or
+// as deep (their principal axes are not distinct), so their turns and rolls are not found
+// (CorpusUpAxis tries those on corpus garments). Before, the tee leaning forward was turned
+// back to front and the others were segmented as they stood.
+TEST(UpAxis, SegmentUprightStraightensAGarmentStoredALittleOffUpright) {
+  struct Turn {
+    Eigen::Vector3f axis;
+    float degrees;
+  };
+  const std::vector<Turn> lean = {{{1, 0, 0}, 15}, {{1, 0, 0}, -15}};
+  for (GarmentType type : {GarmentType::TEE, GarmentType::TROUSERS, GarmentType::DRESS}) {
+    const Mesh& m = catalogue_mesh(type, RestPose::APOSE, "M");
+    const std::string name = garment_type_name(type);
+    Mesh as_made = m;
+    const UprightSegmentation truth = segment_upright(name, as_made);
+    ASSERT_FALSE(truth.tilt.changed()) << name; // upright: left exactly as given
+    const auto points = [](const std::vector<float>& p) {
+      return Eigen::Map<const Eigen::Matrix<float, 3, Eigen::Dynamic>>(p.data(), 3, Eigen::Index(p.size() / 3));
+    };
+    const Eigen::Vector3f lo = points(m.positions).rowwise().minCoeff(), hi = points(m.positions).rowwise().maxCoeff();
+    const Eigen::Vector3f middle = 0.5f * (lo + hi);
+    const float extent = (hi - lo).maxCoeff();
+    for (const Turn& t : lean) {
+      SCOPED_TRACE(name + " turned " + std::to_string(t.degrees) + " deg about (" + std::to_string(t.axis.x()) + ", " +
+                   std::to_string(t.axis.y()) + ", " + std::to_string(t.axis.z()) + ")");
+      const Eigen::Matrix3f r = Eigen::AngleAxisf(t.degrees * float(EIGEN_PI) / 180, t.axis).toRotationMatrix();
+      Mesh stored = m;
+      for (std::size_t i = 0; i < stored.positions.size(); i += 3) {
+        const Eigen::Vector3f p = middle + r * (Eigen::Vector3f::Map(&m.positions[i]) - middle);
+        Eigen::Vector3f::Map(&stored.positions[i]) = p;
+      }
+      const UprightSegmentation s = segment_upright(name, stored);
+      EXPECT_TRUE(s.tilt.changed());
+      EXPECT_EQ(up_axis_name(s.up), "+y");
+      EXPECT_EQ(facing_name(s.facing), "+z");
+      EXPECT_EQ(garment_type_name(s.segmentation.type), garment_type_name(truth.segmentation.type));
+      std::size_t same = 0;
+      for (std::size_t v = 0; v < m.vertex_count(); ++v)
+        same += s.segmentation.vertex_parts[v] == truth.segmentation.vertex_parts[v];
+      // Part borders (level sets of the geodesic distance) may move by a vertex row.
+      EXPECT_GE(double(same), 0.98 * double(m.vertex_count()));
+      const auto got = points(stored.positions), want = points(m.positions);
+      const Eigen::Vector3f shift = want.rowwise().mean() - got.rowwise().mean();
+      const float off = ((got.colwise() + shift) - want).colwise().norm().maxCoeff();
+      EXPECT_LE(off, 0.01f * extent);
+      std::printf("%-9s about (%.0f %.0f %.0f) by %+3.0f deg: straightened %.1f deg, off by %.2f %% of the size\n",
+                  name.c_str(), t.axis.x(), t.axis.y(), t.axis.z(), t.degrees, s.tilt.degrees, 100 * off / extent);
+    }
   }
 }
 
