@@ -30,15 +30,17 @@ struct GarmentTilt {
 ///    which it is most mirror-symmetric (mirror_asymmetry() in that frame, by 0.02 over the
 ///    next), taken when its spread differs from the others' by 0.1 of the total or more. Turned
 ///    onto the nearest of ±X, ±Z when 4° or more away from it (and less than 45°). Upright
-///    corpus and catalogue garments read 0.0-3.5° (their own asymmetry).
+///    corpus and catalogue garments read 0.0-3.5° (their own asymmetry). A garment as wide as
+///    it is tall or deep (the catalogue's, a round skirt: spreads within 0.1) is not turned.
 /// 2. Its lean about that axis, from two cues that do not rely on each other: the line from its
 ///    highest opening's centre to the centre of its lowest openings (a top's neck to its hem,
 ///    a bottom's waist to its leg hems), and the normal of its largest flat opening within 40°
 ///    of +Y (flat: its vertices within 0.12 of its radius, rms, of a plane). Upright garments
 ///    read up to 9.3° on one cue and 20° on the other, from their cut (a skirt hangs back over
-///    the seat, a neckline dips at the front), never both past 9° the same way; so the lean is
+///    the seat, a neckline dips at the front), never both past 8.2° the same way; so the lean is
 ///    corrected only when both cues lean 9° or more the same way, by the smaller (under 45°).
-///    A garment without both cues (an open-front jacket's single loop) keeps its lean.
+///    A garment without both cues (an open-front jacket's single loop) keeps its lean, and so
+///    does one leaning less than 9° (a cue's own reading of up to 9.3° cannot be told from it).
 /// Axis-aligned garments stay exactly as given. Linear in the mesh size.
 GarmentTilt estimate_tilt(const Mesh& mesh);
 
