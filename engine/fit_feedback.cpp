@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -328,6 +329,45 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   }
   out.reason = reason.str();
   return out;
+}
+
+// The elongation (m) past which an edge stretched to twice its length is torn (see the header).
+constexpr double TORN_ELONGATION = 0.02;
+
+std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modelled) {
+  std::vector<std::pair<std::int32_t, std::int32_t>> edges;
+  edges.reserve(fitted.triangles.size());
+  for (std::size_t f = 0; f < fitted.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = fitted.triangles[3 * f + std::size_t(k)], b = fitted.triangles[3 * f + std::size_t((k + 1) % 3)];
+      edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::size_t torn = 0;
+  double worst = 0;
+  auto length = [](std::span<const float> p, std::int32_t a, std::int32_t b) {
+    double d2 = 0;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double d = double(p[3 * std::size_t(a) + c]) - p[3 * std::size_t(b) + c];
+      d2 += d * d;
+    }
+    return std::sqrt(d2);
+  };
+  for (const auto& [a, b] : edges) {
+    const double rest = length(modelled, a, b), now = length(fitted.positions, a, b);
+    if (now > 2 * rest && now - rest > TORN_ELONGATION) {
+      ++torn;
+      worst = std::max(worst, now - rest);
+    }
+  }
+  if (torn == 0) return "";
+  char line[260];
+  std::snprintf(line, sizeof line,
+                "%zu edges stretched to over twice their modelled length, by up to %.0f mm: the cloth was pulled "
+                "through or around something (a limb lying on it?); check the fit before trusting it",
+                torn, 1000 * worst);
+  return line;
 }
 
 } // namespace vfit

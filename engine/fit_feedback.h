@@ -96,4 +96,13 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
                          const Body& body, const ProximityIndex& body_index,
                          std::span<const float> before_simulation = {}, const FitFeedbackOptions& options = {});
 
+/// A warning naming the garment's torn edges, or "" when there is none: edges of `fitted`
+/// (positions in metres) longer than twice their length in `modelled` (#V × 3, m, the same
+/// vertices as modelled) and by more than 2 cm. Cloth does not stretch so: such edges were pulled
+/// through or around something the size verdict cannot see (a tee's front pushed out through
+/// forearms lying on it, elbows_bent; a collar point drawn out 44 cm, a corpus shirt on
+/// arms_down: stop 25). The absolute part leaves out the slivers of a model (an edge of 0.1 mm
+/// at twice its length).
+std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modelled);
+
 } // namespace vfit

@@ -792,6 +792,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   report.verdict = out.feedback.verdict;
   report.verdict_reason = out.feedback.reason;
   report.regions = out.feedback.regions;
+  if (std::string torn = torn_cloth_warning(mesh, as_modelled); !torn.empty()) report.warnings.push_back(torn);
   report.timings.feedback_ms = ms_since(t0);
   sink.done(out.name, "feedback", report.timings.feedback_ms, size_verdict_name(report.verdict));
   report.timings.total_ms = report.timings.units_ms + report.timings.segmentation_ms + ms_since(t_dress) +

@@ -10,6 +10,7 @@
 
 #include "geometry/body/mannequin.h"
 #include "geometry/garment/catalogue.h"
+#include "geometry/mesh/primitives.h"
 #include "kernels/error.h"
 
 namespace vfit {
@@ -97,6 +98,28 @@ TEST(FitFeedback, MismatchedInputsAreErrors) {
   EXPECT_THROW(fit_feedback(g.mesh, other, g.vertex_parts, GarmentType::TEE, body()), Error);
   const std::vector<float> short_before(6, 0.0f);
   EXPECT_THROW(fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TEE, body(), short_before), Error);
+}
+
+// A cloth grid of 2 cm edges: uniformly stretched by 20 % nothing is torn; one vertex drawn 5 cm
+// out of its plane tears its edges (over twice their 2 cm, by over 2 cm); a sliver edge of
+// 0.1 mm stretched to 3× (0.2 mm longer) is no tear.
+TEST(FitFeedback, TornClothIsWarnedAboutAndStretchOrSliversAreNot) {
+  const Mesh grid = make_grid(11, 11, 0.2f, 0.2f); // edges 2 cm
+  Mesh stretched = grid;
+  for (float& x : stretched.positions)
+    x *= 1.2f;
+  EXPECT_EQ(torn_cloth_warning(stretched, grid.positions), "");
+  Mesh pulled = grid;
+  pulled.positions[3 * (5 * 11 + 5) + 1] += 0.05f; // the middle vertex, 5 cm up
+  const std::string w = torn_cloth_warning(pulled, grid.positions);
+  EXPECT_NE(w.find("edges stretched to over twice their modelled length"), std::string::npos) << w;
+  EXPECT_EQ(w.substr(0, 2), "6 ") << w; // the middle vertex's 6 edges (the grid's triangulation)
+  Mesh sliver;
+  sliver.positions = {0, 0, 0, 1e-4f, 0, 0, 0, 0.02f, 0};
+  sliver.triangles = {0, 1, 2};
+  Mesh drawn = sliver;
+  drawn.positions[3] = 3e-4f;
+  EXPECT_EQ(torn_cloth_warning(drawn, sliver.positions), "");
 }
 
 } // namespace
