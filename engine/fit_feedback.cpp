@@ -13,6 +13,7 @@
 #include "geometry/garment/surface_graph.h"
 #include "kernels/error.h"
 #include "kernels/proximity.h"
+#include "kernels/pseudo_normals.h"
 
 namespace vfit {
 namespace {
@@ -335,15 +336,8 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
 constexpr double TORN_ELONGATION = 0.02;
 
 std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modelled) {
-  std::vector<std::pair<std::int32_t, std::int32_t>> edges;
-  edges.reserve(fitted.triangles.size());
-  for (std::size_t f = 0; f < fitted.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = fitted.triangles[3 * f + std::size_t(k)], b = fitted.triangles[3 * f + std::size_t((k + 1) % 3)];
-      edges.emplace_back(std::min(a, b), std::max(a, b));
-    }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  const MeshEdges edges = build_mesh_edges(fitted.triangles, fitted.vertex_count());
+  std::vector<char> seen(edges.edge_count(), 0);
   std::size_t torn = 0;
   double worst = 0;
   auto length = [](std::span<const float> p, std::int32_t a, std::int32_t b) {
@@ -354,13 +348,18 @@ std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modell
     }
     return std::sqrt(d2);
   };
-  for (const auto& [a, b] : edges) {
-    const double rest = length(modelled, a, b), now = length(fitted.positions, a, b);
-    if (now > 2 * rest && now - rest > TORN_ELONGATION) {
-      ++torn;
-      worst = std::max(worst, now - rest);
+  for (std::size_t f = 0; f < fitted.face_count(); ++f)
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto e = std::size_t(edges.triangle_edges[3 * f + k]);
+      if (seen[e]) continue;
+      seen[e] = 1;
+      const std::int32_t a = fitted.triangles[3 * f + k], b = fitted.triangles[3 * f + (k + 1) % 3];
+      const double rest = length(modelled, a, b), now = length(fitted.positions, a, b);
+      if (now > 2 * rest && now - rest > TORN_ELONGATION) {
+        ++torn;
+        worst = std::max(worst, now - rest);
+      }
     }
-  }
   if (torn == 0) return "";
   char line[260];
   std::snprintf(line, sizeof line,

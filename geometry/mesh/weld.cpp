@@ -7,6 +7,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "kernels/pseudo_normals.h"
+
 namespace vfit {
 
 namespace {
@@ -102,19 +104,16 @@ WeldReport weld_seams(Mesh& mesh, float relative_tolerance) {
   const std::size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   if (nf == 0) return report;
   // Boundary vertices: those of edges one triangle uses.
-  std::unordered_map<std::uint64_t, int> edge_uses;
-  edge_uses.reserve(3 * nf);
-  auto edge_key = [](std::int32_t a, std::int32_t b) {
-    const auto lo = std::uint64_t(std::uint32_t(std::min(a, b))), hi = std::uint64_t(std::uint32_t(std::max(a, b)));
-    return lo << 32 | hi;
-  };
-  for (std::size_t f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k)
-      ++edge_uses[edge_key(mesh.triangles[3 * f + std::size_t(k)], mesh.triangles[3 * f + std::size_t((k + 1) % 3)])];
+  const MeshEdges edges = build_mesh_edges(mesh.triangles, nv);
   std::vector<char> boundary(nv, 0);
+  for (std::size_t f = 0; f < nf; ++f)
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto e = std::size_t(edges.triangle_edges[3 * f + k]);
+      if (edges.offsets[e + 1] - edges.offsets[e] != 1) continue;
+      boundary[std::size_t(mesh.triangles[3 * f + k])] = 1;
+      boundary[std::size_t(mesh.triangles[3 * f + (k + 1) % 3])] = 1;
+    }
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (const auto& [key, uses] : edge_uses)
-    if (uses == 1) boundary[std::size_t(key >> 32)] = boundary[std::size_t(key & 0xffffffffu)] = 1;
   for (std::int32_t v : mesh.triangles)
     for (std::size_t c = 0; c < 3; ++c) {
       lo[c] = std::min(lo[c], mesh.positions[3 * std::size_t(v) + c]);
