@@ -615,7 +615,7 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   auto t0 = Clock::now();
   if (rig.driver) {
     try {
-      const SkeletonDriving d = rig.driver->drive(body.joints);
+      const SkeletonDriving d = rig.driver->drive(body.joints, options.contact_placement ? &body_index : nullptr);
       mesh.positions = d.positions;
       driven = true;
       char line[160];

@@ -115,6 +115,18 @@ struct FitOptions {
   std::optional<Facing> garment_facing;
   SegmentOptions segmentation;
   SkeletonDrivingOptions driving;
+  /// Place each driven garment's torso by its contact with the body (SkeletonDriver::drive()
+  /// with the body's surface: contact_translation(), and for bottoms the crotch and pocket
+  /// search) after the key-joint placement of eq. 16–17. The key joints are estimates from the
+  /// garment's cut: a shirt modelled on hm08_body itself was placed 61 mm in front of where it
+  /// was modelled (its collar's back 49 mm inside the neck), a jacket 53 mm and a suit jacket
+  /// 55 mm; by contact the shirt 1–3 mm (the jackets 10–13 mm: CorpusDriving). Measured with
+  /// `vfit fit` (its own rig of hm08_body.obj) on the 63 corpus fits of arms_down, arms_raised
+  /// and knee_bent (stop 26): edges torn (over twice their modelled length and by over 2 cm)
+  /// 1,128 → 841, the worst 457 → 256 mm, edges through the body after the fit 12 → 0; driving
+  /// 91 → 437 ms over the 63. Some fits tear more (the arms_raised tees' underarms, 2–12 →
+  /// 18–37 edges; bottoms at the bent knee, 13 → 15), but none as far. false: eq. 16–17 alone.
+  bool contact_placement = true;
   PartSkeletonOptions skeletons;
   int penetration_iterations = 25; ///< PenetrationOptions::max_iterations; 0: detection only (no direct rounds either)
   double smoothness = 1.0;         ///< PenetrationOptions::smoothness (λ2/λ1)

@@ -131,8 +131,12 @@ struct PenetrationOptions {
   /// vertex is deeper than `tolerance`: each crossing edge's ends (and any vertex inside) move
   /// by their pushes as they are, without the Laplacian solve that spreads a push over the
   /// neighbours (there a push that a fan of edges shares can be undone by its neighbours' pull
-  /// round after round). The best state is kept; they stop after 2 × stall_rounds rounds in
-  /// a row that did not improve on it. 0: none.
+  /// round after round). A crossing edge's push is cut short where it would stretch an edge at
+  /// its vertex past 1.5 times its length where the direct rounds began (or by κ, when that is
+  /// more): such an edge is left crossing, for the simulation, rather than torn out (unlimited,
+  /// a sleeve vertex squeezed between arm and torso was walked 25 cm out in front). The best
+  /// state is kept; they stop after 2 × stall_rounds rounds in a row that did not improve on
+  /// it. 0: none.
   int direct_rounds = 64;
   PenetrationMethod method = PenetrationMethod::SEED_000;
   double seed004_smoothing = 6.0; ///< ω_s (seed 004 §3.2.2)

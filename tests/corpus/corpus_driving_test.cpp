@@ -81,9 +81,10 @@ constexpr double MAX_NEWLY_INSIDE = 0.30;
 // Deepest vertex inside the body: at most 41.6 mm (the blazer; suit trousers 40.1 mm) but for
 // the long-sleeve tops of KNOWN_SUNK; the overalls were 61 mm deep before.
 constexpr double MAX_INSIDE_DEPTH = 0.045;
-// Known defect (not fixed): the long-sleeve tops are placed 29-42 mm forward by their sleeve
-// boundary planes' key joints (the tops' rule, eq. 16), which sinks their back into the body.
-// With the body surface (RestPoseLeavesTheGarmentInPlace) the contact translation corrects it.
+// Known defect of the joints alone: the long-sleeve tops are placed 29-42 mm forward by their
+// sleeve boundary planes' key joints (the tops' rule, eq. 16), which sinks their back into the
+// body. With the body surface (RestPoseLeavesTheGarmentInPlace) the contact translation
+// corrects it; the pipeline drives with the surface since stop 26 (FitOptions::contact_placement).
 const std::map<std::string, std::string> KNOWN_SUNK = {
     {"male_casualsuit02__longsleeve_tshirt", "29 mm forward, 45.2 mm deep"},
     {"male_casualsuit03__longsleeve_shirt", "33 mm forward, 64.9 mm deep"},
@@ -112,7 +113,7 @@ protected:
   }
 
   // A MakeHuman garment (decimetres) in metres, segmented, and driven onto the rigged hm08
-  // body in its own rest pose: by the joints alone (surface null, the pipeline's path) or with
+  // body in its own rest pose: by the joints alone (surface null: FitOptions::contact_placement off) or with
   // the body surface.
   struct InPlaceDrive {
     Mesh garment;
@@ -183,7 +184,7 @@ TEST_P(CorpusDriving, RestPoseLeavesTheGarmentInPlace) {
   EXPECT_LE(torso_mean, MAX_TORSO_DISPLACEMENT);
 }
 
-// The pipeline's path (engine/fit_pipeline.cpp drives with the joints alone, no body surface):
+// The joints-alone path (engine/fit_pipeline.cpp with FitOptions::contact_placement off):
 // a garment modelled on this very body must not be shifted sideways or sunk into it by the key
 // joints' placement (seed 000 eq. 16–17) and the limbs' driving. Before the legs' key joints
 // were taken from their tubes (PartSkeleton::tube_start) and the hips' height from the legs'

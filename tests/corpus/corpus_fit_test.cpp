@@ -149,6 +149,8 @@ TEST_P(CorpusFit, MeetsIssue7sBars) {
               g.after_removal.inside_count, g.after_removal.max_depth * 1e3, g.timings.segmentation_ms,
               g.timings.skeletons_ms, g.timings.driving_ms, g.timings.penetration_ms, g.timings.simulation_ms,
               g.simulation_status.c_str(), g.timings.total_ms);
+  for (const std::string& w : g.warnings)
+    if (w.find("stretched to over twice") != std::string::npos) std::printf("    torn: %s\n", w.c_str());
   // The report describes the returned mesh.
   EXPECT_EQ(now.inside_count, g.after.inside_count);
   EXPECT_EQ(now.crossing_edges, g.after.crossing_edges);
@@ -156,6 +158,68 @@ TEST_P(CorpusFit, MeetsIssue7sBars) {
 
   EXPECT_LE(now.max_depth, MAX_INSIDE_DEPTH);
   EXPECT_EQ(now.crossing_edges, 0u);
+}
+
+// Edges of `after` longer than twice their length in `before` and by more than 2 cm (the
+// torn-cloth rule of torn_cloth_warning()), and the largest such elongation (m).
+std::pair<std::size_t, double> torn_edges(const Mesh& before, const Mesh& after) {
+  std::size_t torn = 0;
+  double worst = 0;
+  auto length = [](const Mesh& m, std::int32_t a, std::int32_t b) {
+    double d2 = 0;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double d = double(m.positions[3 * std::size_t(a) + c]) - m.positions[3 * std::size_t(b) + c];
+      d2 += d * d;
+    }
+    return std::sqrt(d2);
+  };
+  for (std::size_t f = 0; f < after.face_count(); ++f)
+    for (std::size_t k = 0; k < 3; ++k) { // an inner edge is seen twice: counts compare, they are not reported
+      const std::int32_t a = after.triangles[3 * f + k], b = after.triangles[3 * f + (k + 1) % 3];
+      const double was = length(before, a, b), now = length(after, a, b);
+      if (now > 2 * was && now - was > 0.02) {
+        ++torn;
+        worst = std::max(worst, now - was);
+      }
+    }
+  return {torn, worst};
+}
+
+// Penetration removal must not draw the garment far out: no edge of the garment after removal
+// is longer than twice its length after driving by more than MAX_REMOVAL_ELONGATION. Before the
+// direct rounds' pushes were limited (limit_stretch(), engine/penetration.cpp; stop 26) they
+// carried a sleeve vertex squeezed between arm and torso 25 cm out in front (the worksuit's tee
+// on arms_down: edges up to 317 mm longer), a skirt's hem on knee_bent 280 mm, a long-sleeve
+// shirt 146 mm and the casual jacket 140 mm. Without the simulation, so the stage is seen alone;
+// driving is the same fit with the removal's rounds set to 0 (detection only).
+// 0.12 m: the solved rounds still stretch edges where they push vertices deep inside out (the
+// skirt's hem off the bent thigh 105 mm, the blazer 96 mm, the jacket 68 mm), a known defect
+// this bar does not hide; the direct rounds' spikes lay above it.
+constexpr double MAX_REMOVAL_ELONGATION = 0.12;
+
+TEST_P(CorpusFit, PenetrationRemovalDrawsNoEdgeFarOut) {
+  const std::string pose = std::get<0>(GetParam());
+  const std::string name = std::get<1>(GetParam());
+  const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
+  if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
+  if (!expected_type(name)) GTEST_SKIP() << name << " is not a garment on its own (MeetsIssue7sBars checks it is refused)";
+  Mesh garment = read_mesh(path).mesh;
+  scale_positions(garment.positions, 0.1); // MakeHuman files are in decimetres
+  const PosedBody& body = posed(pose);
+  FitOptions options;
+  options.garment_units = Units::M;
+  options.simulate = false;
+  options.penetration_iterations = 0;
+  const FitResult driven = fit_garments(body.body, {{name, garment}}, options);
+  options.penetration_iterations = FitOptions{}.penetration_iterations;
+  const FitResult removed = fit_garments(body.body, {{name, garment}}, options);
+  ASSERT_EQ(driven.garments.size(), 1u);
+  ASSERT_EQ(removed.garments.size(), 1u);
+  const auto [torn, worst] = torn_edges(driven.garments[0].mesh, removed.garments[0].mesh);
+  std::printf("%-11s %-38s removal: %zu edge sides torn, by up to %.0f mm; after removal inside %zu, crossing %zu\n",
+              pose.c_str(), name.c_str(), torn, 1e3 * worst, removed.report.garments[0].after.inside_count,
+              removed.report.garments[0].after.crossing_edges);
+  EXPECT_LE(worst, MAX_REMOVAL_ELONGATION) << torn << " edge sides over twice their driven length";
 }
 
 INSTANTIATE_TEST_SUITE_P(PosesAndGarments, CorpusFit,
