@@ -591,6 +591,27 @@ LimbRig rig_limbs(const FitOptions& options, const StageSink& sink, const Fitted
   return rig;
 }
 
+// A warning when the fitted garment still offends the body or its inner layers (vertices
+// inside, edges through), or "" when it does not: removal leaves an edge crossing where clearing
+// it would tear the cloth (its direct rounds' pushes are limited) or when its rounds run out (a tee's front between forearms folded onto the belly, elbows_bent:
+// 27 edges through the forearms), and a caller looking only at the verdict would not know.
+// `removed`: removal ran (FitOptions::penetration_iterations > 0).
+std::string penetration_left_warning(const PenetrationStats& after, bool removed) {
+  if (after.inside_count == 0 && after.crossing_edges == 0 && after.layer_inside_count == 0 &&
+      after.layer_crossing_edges == 0)
+    return "";
+  char line[400];
+  std::snprintf(line, sizeof line,
+                "after the fit %zu vertices are inside the body (up to %.1f mm) and %zu edges pass through it; %zu "
+                "vertices are inside the garments under it and %zu of their edges through it%s",
+                after.inside_count, 1e3 * after.max_depth, after.crossing_edges, after.layer_inside_count,
+                after.layer_crossing_edges,
+                removed ? ": removal could not clear them without tearing the cloth or ran out of rounds (check the "
+                          "fit where the body's limbs press on it)"
+                        : " (penetration removal was off)");
+  return line;
+}
+
 // The stages after segmentation, on out.mesh (already in metres). `rig` is the garment's limb
 // rig; `rig_is_new`: it was built for this body, whose report carries its time.
 void dress_garment(const Obstacles& obstacles, const FitOptions& options, const StageSink& sink, const LimbRig& rig,
@@ -773,6 +794,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     }
   }
   report.after = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
+  if (std::string left = penetration_left_warning(report.after, options.penetration_iterations > 0); !left.empty())
+    report.warnings.push_back(left);
   if (options.simulate) {
     const std::string note = report.simulation_status + (report.simulation_discarded ? ", discarded" : "") +
                              (report.cloth_proxy.used ? ", on a proxy of " + std::to_string(report.cloth_proxy.vertices) +

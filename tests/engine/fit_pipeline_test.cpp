@@ -146,6 +146,44 @@ TEST(FitPipeline, TeeAndTrousersWithoutSimulation) {
   }
 }
 
+// A garment still inside the body or through it after the fit is warned about, with the counts;
+// a clean fit has no such warning. Driving alone (removal's rounds off) leaves at least one of
+// the catalogue tee and trousers inside the posed mannequin or through it.
+TEST(FitPipeline, WarnsOfPenetrationLeftAfterTheFit) {
+  auto warned = [](const GarmentFitReport& g) {
+    for (const std::string& w : g.warnings)
+      if (w.rfind("after the fit ", 0) == 0) return w;
+    return std::string();
+  };
+  FitOptions o;
+  o.simulate = false;
+  const FitResult clean = fit_garments(mannequin(), tee_and_trousers(), o);
+  for (const GarmentFitReport& g : clean.report.garments) {
+    ASSERT_EQ(g.after.inside_count + g.after.crossing_edges + g.after.layer_inside_count + g.after.layer_crossing_edges,
+              0u)
+        << g.name;
+    EXPECT_EQ(warned(g), "") << g.name;
+  }
+  o.penetration_iterations = 0;
+  const FitResult left = fit_garments(mannequin(), tee_and_trousers(), o);
+  std::size_t offended = 0;
+  for (const GarmentFitReport& g : left.report.garments) {
+    const std::string w = warned(g);
+    if (g.after.inside_count + g.after.crossing_edges + g.after.layer_inside_count + g.after.layer_crossing_edges == 0) {
+      EXPECT_EQ(w, "") << g.name;
+      continue;
+    }
+    ++offended;
+    EXPECT_NE(w.find(std::to_string(g.after.inside_count) + " vertices are inside the body"), std::string::npos) << w;
+    EXPECT_NE(w.find(std::to_string(g.after.crossing_edges) + " edges pass through it"), std::string::npos) << w;
+    EXPECT_NE(w.find(std::to_string(g.after.layer_inside_count) + " vertices are inside the garments under it"),
+              std::string::npos)
+        << w;
+    EXPECT_NE(w.find("penetration removal was off"), std::string::npos) << w;
+  }
+  EXPECT_GT(offended, 0u) << "driving alone left both garments clean: the test sees nothing";
+}
+
 // Many bodies, one garment set: the same results as one fit per body, bit for bit, with the
 // garments read, segmented and rigged once.
 TEST(FitPipeline, FitsTheSameGarmentsOntoSeveralBodiesAsSeparateFitsWould) {
