@@ -86,7 +86,9 @@ struct ScanFit {
   std::vector<ScanFitStage> stages;     ///< the stages run, in order
   double total_ms = 0;                  ///< wall time of the whole fit (ms)
   double total_cpu_ms = 0;              ///< CPU time of the whole fit (ms), all threads, as ScanFitStage::cpu_ms
-  std::vector<std::string> warnings;    ///< e.g. the A-pose fallback start; one line each
+  /// One line each: e.g. the A-pose fallback start, or a poor fit (the scan 60 mm or more from
+  /// the fitted body at the 95th percentile: a kneeling or sitting scan the fit does not reach).
+  std::vector<std::string> warnings;
 };
 
 /// The template body of the scan fit: the mannequin of average measurements in T-pose, 3,000
