@@ -592,9 +592,10 @@ LimbRig rig_limbs(const FitOptions& options, const StageSink& sink, const Fitted
 }
 
 // A warning when the fitted garment still offends the body or its inner layers (vertices
-// inside, edges through), or "" when it does not: removal leaves an edge crossing where clearing
-// it would tear the cloth (its direct rounds' pushes are limited) or when its rounds run out (a tee's front between forearms folded onto the belly, elbows_bent:
-// 27 edges through the forearms), and a caller looking only at the verdict would not know.
+// inside, edges through), or "" when it does not. Removal leaves an edge crossing where clearing
+// it would tear the cloth (its direct rounds' pushes are limited: a tee's front between forearms
+// folded onto the belly, elbows_bent, keeps 27 edges through the forearms) or when its rounds
+// run out, and a caller looking only at the verdict would not know.
 // `removed`: removal ran (FitOptions::penetration_iterations > 0).
 std::string penetration_left_warning(const PenetrationStats& after, bool removed) {
   if (after.inside_count == 0 && after.crossing_edges == 0 && after.layer_inside_count == 0 &&
