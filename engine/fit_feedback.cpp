@@ -335,7 +335,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
 // The elongation (m) past which an edge stretched to twice its length is torn (see the header).
 constexpr double TORN_ELONGATION = 0.02;
 
-std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modelled) {
+TornCloth torn_cloth(const Mesh& fitted, std::span<const float> modelled) {
   const MeshEdges edges = build_mesh_edges(fitted.triangles, fitted.vertex_count());
   std::vector<char> seen(edges.edge_count(), 0);
   std::size_t torn = 0;
@@ -360,6 +360,11 @@ std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modell
         worst = std::max(worst, now - rest);
       }
     }
+  return {torn, worst};
+}
+
+std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modelled) {
+  const auto [torn, worst] = torn_cloth(fitted, modelled);
   if (torn == 0) return "";
   char line[260];
   std::snprintf(line, sizeof line,

@@ -105,4 +105,13 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
 /// at twice its length).
 std::string torn_cloth_warning(const Mesh& fitted, std::span<const float> modelled);
 
+/// The edges torn_cloth_warning() counts: how many distinct edges of `fitted` are longer than
+/// twice their length in `modelled` (#V × 3, m) and by more than 2 cm, and the largest such
+/// elongation (m; 0 when none). Never throws for matching sizes.
+struct TornCloth {
+  std::size_t edges = 0;
+  double worst = 0;
+};
+TornCloth torn_cloth(const Mesh& fitted, std::span<const float> modelled);
+
 } // namespace vfit

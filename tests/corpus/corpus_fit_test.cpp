@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/fit_feedback.h"
 #include "engine/fit_pipeline.h"
 #include "geometry/body/gltf_body.h"
 #include "geometry/body/pose_io.h"
@@ -160,31 +161,6 @@ TEST_P(CorpusFit, MeetsIssue7sBars) {
   EXPECT_EQ(now.crossing_edges, 0u);
 }
 
-// Edges of `after` longer than twice their length in `before` and by more than 2 cm (the
-// torn-cloth rule of torn_cloth_warning()), and the largest such elongation (m).
-std::pair<std::size_t, double> torn_edges(const Mesh& before, const Mesh& after) {
-  std::size_t torn = 0;
-  double worst = 0;
-  auto length = [](const Mesh& m, std::int32_t a, std::int32_t b) {
-    double d2 = 0;
-    for (std::size_t c = 0; c < 3; ++c) {
-      const double d = double(m.positions[3 * std::size_t(a) + c]) - m.positions[3 * std::size_t(b) + c];
-      d2 += d * d;
-    }
-    return std::sqrt(d2);
-  };
-  for (std::size_t f = 0; f < after.face_count(); ++f)
-    for (std::size_t k = 0; k < 3; ++k) { // an inner edge is seen twice: counts compare, they are not reported
-      const std::int32_t a = after.triangles[3 * f + k], b = after.triangles[3 * f + (k + 1) % 3];
-      const double was = length(before, a, b), now = length(after, a, b);
-      if (now > 2 * was && now - was > 0.02) {
-        ++torn;
-        worst = std::max(worst, now - was);
-      }
-    }
-  return {torn, worst};
-}
-
 // Penetration removal must not draw the garment far out: no edge of the garment after removal
 // is longer than twice its length after driving by more than MAX_REMOVAL_ELONGATION. Before the
 // direct rounds' pushes were limited (limit_stretch(), engine/penetration.cpp; stop 26) they
@@ -215,11 +191,11 @@ TEST_P(CorpusFit, PenetrationRemovalDrawsNoEdgeFarOut) {
   const FitResult removed = fit_garments(body.body, {{name, garment}}, options);
   ASSERT_EQ(driven.garments.size(), 1u);
   ASSERT_EQ(removed.garments.size(), 1u);
-  const auto [torn, worst] = torn_edges(driven.garments[0].mesh, removed.garments[0].mesh);
-  std::printf("%-11s %-38s removal: %zu edge sides torn, by up to %.0f mm; after removal inside %zu, crossing %zu\n",
+  const auto [torn, worst] = torn_cloth(removed.garments[0].mesh, driven.garments[0].mesh.positions);
+  std::printf("%-11s %-38s removal: %zu edges torn, by up to %.0f mm; after removal inside %zu, crossing %zu\n",
               pose.c_str(), name.c_str(), torn, 1e3 * worst, removed.report.garments[0].after.inside_count,
               removed.report.garments[0].after.crossing_edges);
-  EXPECT_LE(worst, MAX_REMOVAL_ELONGATION) << torn << " edge sides over twice their driven length";
+  EXPECT_LE(worst, MAX_REMOVAL_ELONGATION) << torn << " edges over twice their driven length";
 }
 
 INSTANTIATE_TEST_SUITE_P(PosesAndGarments, CorpusFit,
