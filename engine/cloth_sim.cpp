@@ -661,8 +661,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     std::nth_element(structural.begin(), structural.begin() + std::ptrdiff_t(structural.size() / 2), structural.end());
     m.stretch_floor = 0.5f * structural[structural.size() / 2];
   }
-  if (std::isfinite(options.contact_thickness))
-    m.stretch_floor = std::max(m.stretch_floor, options.contact_thickness);
+  if (std::isfinite(options.contact_thickness)) m.stretch_floor = std::max(m.stretch_floor, options.contact_thickness);
   m.update_substep();
   m.state_changed();
   if (options.backend == ClothBackend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);

@@ -353,8 +353,8 @@ public:
   std::span<const float> positions() const;
   /// #V × 3 (m/s), in the caller's numbering, copied when read as positions() is.
   std::span<const float> velocities() const;
-  std::span<const float> masses() const;     ///< #V (kg); 0 for an isolated vertex
-  double stable_substep() const;             ///< the (sub)step in use (s): RK4's or implicit_step
+  std::span<const float> masses() const; ///< #V (kg); 0 for an isolated vertex
+  double stable_substep() const;         ///< the (sub)step in use (s): RK4's or implicit_step
   ClothStatus status() const;
   double kinetic_energy() const; ///< ½ Σ m v² (J)
   double spring_energy() const;  ///< ½ Σ k (l − L)² (J)

@@ -29,9 +29,7 @@ Engine::~Engine() = default;
 
 Backend Engine::backend() const { return m_impl->options.backend; }
 
-int Engine::thread_count() const {
-  return m_impl->options.backend == Backend::SERIAL ? 1 : parallel_thread_count();
-}
+int Engine::thread_count() const { return m_impl->options.backend == Backend::SERIAL ? 1 : parallel_thread_count(); }
 
 std::string Engine::description() const {
   switch (m_impl->options.backend) {

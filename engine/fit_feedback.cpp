@@ -20,7 +20,9 @@ namespace {
 
 constexpr double NaN = std::numeric_limits<double>::quiet_NaN();
 
-bool is_bottom(GarmentType t) { return t == GarmentType::TROUSERS || t == GarmentType::SHORTS || t == GarmentType::SKIRT; }
+bool is_bottom(GarmentType t) {
+  return t == GarmentType::TROUSERS || t == GarmentType::SHORTS || t == GarmentType::SKIRT;
+}
 
 Eigen::Vector3d joint(const Body& body, Joint j) { return body.joints.row(idx(j)).transpose(); }
 
@@ -112,7 +114,8 @@ std::string size_verdict_name(SizeVerdict verdict) {
 }
 
 FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const GarmentPart> parts, GarmentType type,
-                         const Body& body, std::span<const float> before_simulation, const FitFeedbackOptions& options) {
+                         const Body& body, std::span<const float> before_simulation,
+                         const FitFeedbackOptions& options) {
   const ProximityIndex index(body.mesh.positions, body.mesh.triangles);
   return fit_feedback(rest, fitted, parts, type, body, index, before_simulation, options);
 }
@@ -124,10 +127,12 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   if (rest.vertex_count() != n || rest.triangles != fitted.triangles)
     throw Error("fit feedback", 0, "the rest and fitted garments differ in vertices or faces");
   if (parts.size() != n)
-    throw Error("fit feedback", 0, std::to_string(parts.size()) + " part labels for " + std::to_string(n) + " vertices");
+    throw Error("fit feedback", 0,
+                std::to_string(parts.size()) + " part labels for " + std::to_string(n) + " vertices");
   if (!before_simulation.empty() && before_simulation.size() != 3 * n)
-    throw Error("fit feedback", 0, "the pre-simulation positions hold " + std::to_string(before_simulation.size() / 3) +
-                                       " vertices, the garment " + std::to_string(n));
+    throw Error("fit feedback", 0,
+                "the pre-simulation positions hold " + std::to_string(before_simulation.size() / 3) +
+                    " vertices, the garment " + std::to_string(n));
   FitFeedback out;
 
   // Strain over the edge graph (rest lengths from the garment as modelled).
@@ -164,8 +169,9 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   }
   const Mesh& placed = before_simulation.empty() ? fitted : placed_storage;
   const BodyLandmarks lm = landmarks(body);
-  const double height_scale = std::max(0.5, joint(body, Joint::HEAD).y() - std::min(joint(body, Joint::LEFT_ANKLE).y(),
-                                                                                   joint(body, Joint::RIGHT_ANKLE).y()));
+  const double height_scale =
+      std::max(0.5, joint(body, Joint::HEAD).y() -
+                        std::min(joint(body, Joint::LEFT_ANKLE).y(), joint(body, Joint::RIGHT_ANKLE).y()));
   const double band = 0.03 * height_scale; // ±3 % of the ankle–head span: a hand's width
   const bool top = !is_bottom(type), legs = type == GarmentType::TROUSERS || type == GarmentType::SHORTS;
   auto summarise = [&](const char* name, auto&& in_region) {
@@ -201,8 +207,10 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
       r.girth_ease_estimated = true;
     }
     if (min_ease > 0 && std::isfinite(r.girth_ease)) {
-      if (r.girth_ease < min_ease) r.verdict = SizeVerdict::TIGHT;
-      else if (r.verdict == SizeVerdict::GOOD && r.girth_ease > options.loose_factor * min_ease) r.verdict = SizeVerdict::LOOSE;
+      if (r.girth_ease < min_ease)
+        r.verdict = SizeVerdict::TIGHT;
+      else if (r.verdict == SizeVerdict::GOOD && r.girth_ease > options.loose_factor * min_ease)
+        r.verdict = SizeVerdict::LOOSE;
     }
   };
   auto torso_region = [&](const char* name, double y, double min_ease) {
@@ -220,7 +228,8 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
     torso_region("waist", lm.waist, options.min_ease_waist);
     if (is_bottom(type)) torso_region("hip", lm.hip, options.min_ease_hip);
   } else {
-    RegionFeedback r = summarise("waist", [&](std::size_t v) { return parts[v] == GarmentPart::TORSO && near_height(v, lm.waist); });
+    RegionFeedback r =
+        summarise("waist", [&](std::size_t v) { return parts[v] == GarmentPart::TORSO && near_height(v, lm.waist); });
     r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, lm.waist, torso_axis(body, lm.waist)) : NaN;
     judge(r, 0.0);
     out.regions.push_back(r);
@@ -262,7 +271,8 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   if (lowest && !legs) {
     const double hem_top = lowest->max_y + band;
     RegionFeedback r = summarise("hem", [&](std::size_t v) {
-      return parts[v] != GarmentPart::LEFT_SLEEVE && parts[v] != GarmentPart::RIGHT_SLEEVE && fitted.positions[3 * v + 1] < hem_top;
+      return parts[v] != GarmentPart::LEFT_SLEEVE && parts[v] != GarmentPart::RIGHT_SLEEVE &&
+             fitted.positions[3 * v + 1] < hem_top;
     });
     r.girth_ease = NaN;
     judge(r, 0.0);
@@ -289,7 +299,8 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
       drop = (before - after) / double(highest->vertices.size());
     }
     out.waistband_drop = drop;
-    const double hip_girth = girth_around(body.mesh, lm.hip, torso_axis(body, lm.hip).x(), torso_axis(body, lm.hip).y());
+    const double hip_girth =
+        girth_around(body.mesh, lm.hip, torso_axis(body, lm.hip).x(), torso_axis(body, lm.hip).y());
     if (hip_girth > 0 && girth >= hip_girth) {
       out.verdict = SizeVerdict::FALLS_OFF;
       reason << "the waistband (" << 100 * girth << " cm) passes over the hips (" << 100 * hip_girth
@@ -315,7 +326,8 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   auto describe = [&](const RegionFeedback& r) {
     reason << r.name << ": ";
     if (std::isfinite(r.girth_ease))
-      reason << "girth ease " << 100 * r.girth_ease << " cm" << (r.girth_ease_estimated ? " (from its distance)" : "") << ", ";
+      reason << "girth ease " << 100 * r.girth_ease << " cm" << (r.girth_ease_estimated ? " (from its distance)" : "")
+             << ", ";
     reason << "mean strain " << 100 * r.mean_strain << " %";
   };
   if (tight) {

@@ -25,12 +25,12 @@ std::string size_verdict_name(SizeVerdict verdict);
 /// One region of the garment: a band of the torso around a body landmark (chest, waist, hip),
 /// the sleeves, the thighs, or the hem.
 struct RegionFeedback {
-  std::string name;          ///< "chest", "waist", "hip", "thigh", "sleeves", "hem"
-  std::size_t vertices = 0;  ///< garment vertices in the region
-  double mean_strain = 0;    ///< mean of the vertices' strain (1 = 100 % stretch)
-  double max_strain = 0;     ///< largest vertex strain
-  double mean_ease_mm = 0;   ///< mean distance to the body (mm; negative inside)
-  double min_ease_mm = 0;    ///< smallest distance to the body (mm)
+  std::string name;         ///< "chest", "waist", "hip", "thigh", "sleeves", "hem"
+  std::size_t vertices = 0; ///< garment vertices in the region
+  double mean_strain = 0;   ///< mean of the vertices' strain (1 = 100 % stretch)
+  double max_strain = 0;    ///< largest vertex strain
+  double mean_ease_mm = 0;  ///< mean distance to the body (mm; negative inside)
+  double min_ease_mm = 0;   ///< smallest distance to the body (mm)
   /// Girth ease (m): the convex-hull perimeter of the garment's horizontal section at the
   /// landmark minus the body's (a tape measure around each); NaN where the garment has no closed
   /// section around the landmark (the region is then judged by nothing but strain).

@@ -36,9 +36,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 bool is_bottom(GarmentType type) {
   return type == GarmentType::TROUSERS || type == GarmentType::SHORTS || type == GarmentType::SKIRT;
@@ -82,9 +80,9 @@ struct StageSink {
 
 std::string penetration_note(const PenetrationStats& before, const PenetrationStats& after) {
   char line[160];
-  std::snprintf(line, sizeof line, "inside %zu -> %zu (max %.2f -> %.2f mm), crossing edges %zu -> %zu", before.inside_count,
-                after.inside_count, before.max_depth * 1e3, after.max_depth * 1e3, before.crossing_edges,
-                after.crossing_edges);
+  std::snprintf(line, sizeof line, "inside %zu -> %zu (max %.2f -> %.2f mm), crossing edges %zu -> %zu",
+                before.inside_count, after.inside_count, before.max_depth * 1e3, after.max_depth * 1e3,
+                before.crossing_edges, after.crossing_edges);
   return line;
 }
 
@@ -103,8 +101,9 @@ Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions&
     smallest = std::min(smallest, stats.bbox_max[a] - stats.bbox_min[a]);
   const auto units = detect_garment_units(stats.largest_extent, smallest, stats.max_abs_coordinate, body_torso_depth);
   if (!units)
-    throw Error(name, 0, "cannot detect the garment's length unit (largest extent " +
-                             std::to_string(stats.largest_extent) + ")");
+    throw Error(name, 0,
+                "cannot detect the garment's length unit (largest extent " + std::to_string(stats.largest_extent) +
+                    ")");
   if (note) {
     char line[240];
     const double depth = smallest * metres_per_unit(*units);
@@ -132,7 +131,7 @@ constexpr double OUTFIT_SHARE = 0.2;
 
 struct SplitInputs {
   std::vector<FitGarmentInput> garments;
-  std::vector<std::string> notes; ///< per garment: how it came out of its file ("" when whole)
+  std::vector<std::string> notes;  ///< per garment: how it came out of its file ("" when whole)
   std::vector<std::size_t> source; ///< per garment: the input it came from
 };
 
@@ -162,7 +161,8 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     const std::vector<std::int32_t> piece_of = vertex_piece_labels(m.triangles, nv);
     std::vector<std::size_t> size(nv, 0); // by piece root: referenced vertices
     std::vector<char> used(nv, 0);
-    for (std::int32_t v : m.triangles) used[static_cast<std::size_t>(v)] = 1;
+    for (std::int32_t v : m.triangles)
+      used[static_cast<std::size_t>(v)] = 1;
     for (std::size_t v = 0; v < nv; ++v)
       if (used[v]) ++size[static_cast<std::size_t>(piece_of[v])];
     std::vector<std::pair<std::size_t, std::int32_t>> big;
@@ -185,7 +185,8 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     }
     std::stable_sort(big.begin(), big.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
     std::vector<std::size_t> garment_of(nv, 0); // by piece root: index into big (small pieces: 0)
-    for (std::size_t g = 0; g < big.size(); ++g) garment_of[static_cast<std::size_t>(big[g].second)] = g;
+    for (std::size_t g = 0; g < big.size(); ++g)
+      garment_of[static_cast<std::size_t>(big[g].second)] = g;
     for (std::size_t g = 0; g < big.size(); ++g) {
       Mesh piece;
       piece.uvs = m.uvs;
@@ -220,7 +221,8 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
       std::string suffix = "#" + std::to_string(g + 1);
       for (const auto& [label, count] : labels)
         if (static_cast<double>(count) >= 0.9 * static_cast<double>(piece.face_count()) && label >= 0 &&
-            static_cast<std::size_t>(label) < m.label_names.size() && !m.label_names[static_cast<std::size_t>(label)].empty())
+            static_cast<std::size_t>(label) < m.label_names.size() &&
+            !m.label_names[static_cast<std::size_t>(label)].empty())
           suffix = ":" + m.label_names[static_cast<std::size_t>(label)];
       out.garments.push_back({input.name + suffix, std::move(piece)});
       out.notes.push_back("one of " + std::to_string(big.size()) + " garments in " + input.name +
@@ -253,8 +255,10 @@ bool frames_agree(const Mesh& a, UpAxis up_a, bool bottom_a, const Mesh& b, UpAx
   };
   const auto ba = box(a), bb = box(b);
   auto shares_half = [&](int c) {
-    const double overlap = std::min(ba[std::size_t(c) + 3], bb[std::size_t(c) + 3]) - std::max(ba[std::size_t(c)], bb[std::size_t(c)]);
-    const double shorter = std::min(ba[std::size_t(c) + 3] - ba[std::size_t(c)], bb[std::size_t(c) + 3] - bb[std::size_t(c)]);
+    const double overlap =
+        std::min(ba[std::size_t(c) + 3], bb[std::size_t(c) + 3]) - std::max(ba[std::size_t(c)], bb[std::size_t(c)]);
+    const double shorter =
+        std::min(ba[std::size_t(c) + 3] - ba[std::size_t(c)], bb[std::size_t(c) + 3] - bb[std::size_t(c)]);
     return overlap >= 0.5 * shorter;
   };
   if (!shares_half(0) || !shares_half(2)) return false;
@@ -266,8 +270,8 @@ bool frames_agree(const Mesh& a, UpAxis up_a, bool bottom_a, const Mesh& b, UpAx
 
 // The order garments are dressed in, inner first (seed 001 §6.3), with a warning on each
 // garment whose place the garments' geometry decided against the type rule (bottoms first).
-std::vector<std::size_t> dressing_order(const FitOptions& options, const SplitInputs& split, const std::vector<Mesh>& as_given,
-                                        std::vector<GarmentFitReport>& reports) {
+std::vector<std::size_t> dressing_order(const FitOptions& options, const SplitInputs& split,
+                                        const std::vector<Mesh>& as_given, std::vector<GarmentFitReport>& reports) {
   const std::size_t n = reports.size();
   std::vector<std::size_t> order(n);
   std::iota(order.begin(), order.end(), std::size_t{0});
@@ -277,15 +281,16 @@ std::vector<std::size_t> dressing_order(const FitOptions& options, const SplitIn
   if (options.layer_order != LayerOrderRule::AUTO || n < 2 || as_given.size() != n) return order;
 
   std::vector<const Mesh*> meshes(n);
-  for (std::size_t i = 0; i < n; ++i) meshes[i] = &as_given[i];
+  for (std::size_t i = 0; i < n; ++i)
+    meshes[i] = &as_given[i];
   const auto comparable = [&](std::size_t i, std::size_t j) {
-    return split.source[i] == split.source[j] ||
-           frames_agree(as_given[i], reports[i].up, is_bottom(reports[i].type), as_given[j], reports[j].up,
-                        is_bottom(reports[j].type));
+    return split.source[i] == split.source[j] || frames_agree(as_given[i], reports[i].up, is_bottom(reports[i].type),
+                                                              as_given[j], reports[j].up, is_bottom(reports[j].type));
   };
   const LayerOrder found = infer_layer_order(meshes, order, comparable);
   std::vector<std::size_t> rank(n);
-  for (std::size_t k = 0; k < n; ++k) rank[order[k]] = k;
+  for (std::size_t k = 0; k < n; ++k)
+    rank[order[k]] = k;
   if (found.contradictory) {
     reports[order.front()].warnings.push_back(
         "the garments' geometry as given gives no consistent layer order (their overlaps contradict one another): "
@@ -311,7 +316,7 @@ std::vector<std::size_t> dressing_order(const FitOptions& options, const SplitIn
 // point of the largest piece nearest to it before the simulation (its closest point's
 // barycentric blend of its triangle's corner displacements).
 struct TrimPieces {
-  std::vector<std::int32_t> vertices;      // ascending
+  std::vector<std::int32_t> vertices;       // ascending
   std::vector<std::int32_t> main_triangles; // the largest piece's triangles, #M × 3
 };
 
@@ -321,7 +326,8 @@ TrimPieces trim_pieces(const Mesh& mesh) {
   const std::vector<std::int32_t> piece = vertex_piece_labels(mesh.triangles, nv);
   std::vector<std::size_t> size(nv, 0);
   std::vector<char> used(nv, 0);
-  for (std::int32_t v : mesh.triangles) used[static_cast<std::size_t>(v)] = 1;
+  for (std::int32_t v : mesh.triangles)
+    used[static_cast<std::size_t>(v)] = 1;
   for (std::size_t v = 0; v < nv; ++v)
     if (used[v]) ++size[static_cast<std::size_t>(piece[v])];
   const auto main = static_cast<std::int32_t>(std::max_element(size.begin(), size.end()) - size.begin());
@@ -354,7 +360,8 @@ void carry_trim(const TrimPieces& trim, std::span<const float> before, std::span
     for (int c = 0; c < 3; ++c) {
       float shift = 0;
       for (int corner = 0; corner < 3; ++corner) {
-        const auto m = static_cast<std::size_t>(trim.main_triangles[3 * static_cast<std::size_t>(t) + std::size_t(corner)]);
+        const auto m =
+            static_cast<std::size_t>(trim.main_triangles[3 * static_cast<std::size_t>(t) + std::size_t(corner)]);
         shift += weight[corner] * (positions[3 * m + std::size_t(c)] - before[3 * m + std::size_t(c)]);
       }
       positions[3 * v + std::size_t(c)] = before[3 * v + std::size_t(c)] + shift;
@@ -420,9 +427,9 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   if (weld.changed()) {
     report.warnings.push_back("welded " + std::to_string(weld.welded) + " vertices shared by pieces (seams), dropped " +
                               std::to_string(weld.unreferenced) + " unused vertices and " +
-                              std::to_string(weld.collapsed) + " collapsed triangles: " +
-                              std::to_string(mesh.vertex_count()) + " vertices, " + std::to_string(mesh.face_count()) +
-                              " triangles");
+                              std::to_string(weld.collapsed) +
+                              " collapsed triangles: " + std::to_string(mesh.vertex_count()) + " vertices, " +
+                              std::to_string(mesh.face_count()) + " triangles");
     report.vertices = mesh.vertex_count();
     report.faces = mesh.face_count();
   }
@@ -473,7 +480,8 @@ void read_garment(const FitGarmentInput& input, const FitOptions& options, const
   for (const auto& w : out.segmentation.warnings)
     report.warnings.push_back("segmentation: " + w);
   sink.done(input.name, "segmentation", report.timings.segmentation_ms,
-            garment_type_name(report.type) + (report.up == UpAxis::POS_Y ? "" : " (" + up_axis_name(report.up) + " up)"));
+            garment_type_name(report.type) +
+                (report.up == UpAxis::POS_Y ? "" : " (" + up_axis_name(report.up) + " up)"));
 }
 
 // What the simulated garment collides with: the body and every inner garment (seed 001 §6.3),
@@ -523,7 +531,8 @@ void restore_shell(const ShellGarment& sg, const Obstacles& obstacles, const Fit
   auto spread = [&](auto& values) {
     if (values.size() != shell.sheet_vertices.size()) return;
     std::remove_reference_t<decltype(values)> all(source.size());
-    for (std::size_t v = 0; v < source.size(); ++v) all[v] = values[std::size_t(source[v])];
+    for (std::size_t v = 0; v < source.size(); ++v)
+      all[v] = values[std::size_t(source[v])];
     values = std::move(all);
   };
   spread(out.feedback.strain);
@@ -532,7 +541,8 @@ void restore_shell(const ShellGarment& sg, const Obstacles& obstacles, const Fit
   spread(out.segmentation.coarse_parts);
   spread(out.segmentation.geodesic);
   out.mesh = std::move(whole);
-  report.after = measure_penetration(out.mesh, obstacles.index, obstacles.crossings, obstacles.layers, options.clearance);
+  report.after =
+      measure_penetration(out.mesh, obstacles.index, obstacles.crossings, obstacles.layers, options.clearance);
   // The outer sheet can meet the body where the inner one faces away from it: a sleeve's outside
   // against the torso under an arm hanging down. Removal then runs on the whole mesh.
   if (report.after.inside_count > 0 || report.after.crossing_edges > 0 || report.after.layer_inside_count > 0 ||
@@ -545,7 +555,8 @@ void restore_shell(const ShellGarment& sg, const Obstacles& obstacles, const Fit
   if (out.feedback.ease.size() == source.size()) {
     ClosestHits hits;
     obstacles.index.closest_points(out.mesh.positions, INFINITY, hits);
-    for (std::size_t v = 0; v < source.size(); ++v) out.feedback.ease[v] = hits.signed_distances[v];
+    for (std::size_t v = 0; v < source.size(); ++v)
+      out.feedback.ease[v] = hits.signed_distances[v];
   }
   const double ms = ms_since(t0);
   report.timings.penetration_ms += ms;
@@ -558,8 +569,8 @@ void restore_shell(const ShellGarment& sg, const Obstacles& obstacles, const Fit
 struct LimbRig {
   std::vector<PartSkeleton> skeletons;
   std::optional<SkeletonDriver> driver;
-  std::string skipped;    // "skipped: …" when there is no driver
-  std::string warning;    // the skeletons' failure, reported with every body
+  std::string skipped;     // "skipped: …" when there is no driver
+  std::string warning;     // the skeletons' failure, reported with every body
   double skeletons_ms = 0; // extraction
   double setup_ms = 0;     // the driver's construction (wall, as driving_ms counts it)
 };
@@ -642,9 +653,9 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
       driven = true;
       char line[160];
       std::snprintf(line, sizeof line,
-                    "driven: %zu limbs (orientation %.1f, driving %.1f, Laplacian %.1f, setup %.1f ms%s)", d.limbs.size(),
-                    d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms, rig.driver->setup_ms(),
-                    rig_is_new ? "" : ", shared");
+                    "driven: %zu limbs (orientation %.1f, driving %.1f, Laplacian %.1f, setup %.1f ms%s)",
+                    d.limbs.size(), d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms,
+                    rig.driver->setup_ms(), rig_is_new ? "" : ", shared");
       report.driving = line;
     } catch (const Error& e) {
       report.driving = std::string("skipped: ") + e.what();
@@ -665,8 +676,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   }
   report.timings.coarse_move_ms = ms_since(t0);
   const Eigen::Vector3d& moved = report.coarse_move.translation;
-  const std::string move_note = to_string(report.coarse_move.rule) + ", translation (" + std::to_string(moved.x()) + ", " +
-                                std::to_string(moved.y()) + ", " + std::to_string(moved.z()) + ") m";
+  const std::string move_note = to_string(report.coarse_move.rule) + ", translation (" + std::to_string(moved.x()) +
+                                ", " + std::to_string(moved.y()) + ", " + std::to_string(moved.z()) + ") m";
   sink.done(out.name, "coarse_move", report.timings.coarse_move_ms, move_note);
   sink.write(4, "coarse_move", out, move_note);
 
@@ -693,8 +704,9 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
     co.backend = options.backend;
     co.contact_thickness = static_cast<float>(options.clearance);
     const TrimPieces trim = trim_pieces(mesh);
-    const bool use_proxy = options.cloth_proxy == ClothProxyMode::ON ||
-                           (options.cloth_proxy == ClothProxyMode::AUTO && mesh.vertex_count() > options.cloth_proxy_above);
+    const bool use_proxy =
+        options.cloth_proxy == ClothProxyMode::ON ||
+        (options.cloth_proxy == ClothProxyMode::AUTO && mesh.vertex_count() > options.cloth_proxy_above);
     std::optional<ClothProxy> proxy;
     if (use_proxy) {
       // The proxy stands for the largest piece; the trim stays out of it and follows that piece
@@ -708,8 +720,9 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
       report.cloth_proxy.build_ms = ms_since(tp);
     }
     const auto ts = Clock::now();
-    ClothSim sim(proxy ? std::span<const float>(proxy->positions) : std::span<const float>(mesh.positions),
-                 proxy ? std::span<const std::int32_t>(proxy->triangles) : std::span<const std::int32_t>(mesh.triangles), co);
+    ClothSim sim(
+        proxy ? std::span<const float>(proxy->positions) : std::span<const float>(mesh.positions),
+        proxy ? std::span<const std::int32_t>(proxy->triangles) : std::span<const std::int32_t>(mesh.triangles), co);
     if (!proxy && !trim.vertices.empty()) sim.pin(trim.vertices);
     if (layers.empty()) {
       sim.set_body(body.mesh.positions, body.mesh.triangles);
@@ -736,8 +749,10 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
       before_simulation = mesh.positions;
       const auto p = sim.positions();
       const auto tr = Clock::now();
-      if (proxy) reconstruct_from_proxy(*proxy, p, mesh.positions);
-      else std::copy(p.begin(), p.end(), mesh.positions.begin());
+      if (proxy)
+        reconstruct_from_proxy(*proxy, p, mesh.positions);
+      else
+        std::copy(p.begin(), p.end(), mesh.positions.begin());
       carry_trim(trim, before_simulation, mesh.positions);
       if (proxy) report.cloth_proxy.reconstruct_ms = ms_since(tr);
     }
@@ -774,7 +789,9 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
         // few more vertices inside but far fewer edges through is the better fit), is worse
         // than no simulation: keep the garment as removal left it, and say so.
         cleaned = measure_penetration(mesh, body_index, crossings, layers, options.clearance);
-        const auto layer_offences = [](const PenetrationStats& st) { return st.layer_inside_count + st.layer_crossing_edges; };
+        const auto layer_offences = [](const PenetrationStats& st) {
+          return st.layer_inside_count + st.layer_crossing_edges;
+        };
         if (cleaned.max_depth > std::max(POST_SIMULATION_TOLERANCE, report.after_removal.max_depth) ||
             layer_offences(cleaned) > layer_offences(report.after_removal)) {
           mesh.positions = before_simulation;
@@ -798,11 +815,11 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   if (std::string left = penetration_left_warning(report.after, options.penetration_iterations > 0); !left.empty())
     report.warnings.push_back(left);
   if (options.simulate) {
-    const std::string note = report.simulation_status + (report.simulation_discarded ? ", discarded" : "") +
-                             (report.cloth_proxy.used ? ", on a proxy of " + std::to_string(report.cloth_proxy.vertices) +
-                                                            " vertices"
-                                                      : std::string()) +
-                             "; " + penetration_note(report.after_removal, report.after);
+    const std::string note =
+        report.simulation_status + (report.simulation_discarded ? ", discarded" : "") +
+        (report.cloth_proxy.used ? ", on a proxy of " + std::to_string(report.cloth_proxy.vertices) + " vertices"
+                                 : std::string()) +
+        "; " + penetration_note(report.after_removal, report.after);
     sink.done(out.name, "simulation", report.timings.simulation_ms, note);
     sink.write(6, "simulation", out, note);
   } else {
@@ -812,7 +829,8 @@ void dress_garment(const Obstacles& obstacles, const FitOptions& options, const 
   t0 = Clock::now();
   Mesh rest = mesh;
   rest.positions = as_modelled;
-  out.feedback = fit_feedback(rest, mesh, out.segmentation.vertex_parts, report.type, body, body_index, before_simulation);
+  out.feedback =
+      fit_feedback(rest, mesh, out.segmentation.vertex_parts, report.type, body, body_index, before_simulation);
   report.verdict = out.feedback.verdict;
   report.verdict_reason = out.feedback.reason;
   report.regions = out.feedback.regions;
@@ -838,7 +856,7 @@ std::string to_string(SimulationOutcome outcome) {
 std::vector<std::pair<std::string, double>> FitStageTimes::named() const {
   return {{"units", units_ms},           {"segmentation", segmentation_ms}, {"skeletons", skeletons_ms},
           {"driving", driving_ms},       {"coarse_move", coarse_move_ms},   {"penetration", penetration_ms},
-          {"simulation", simulation_ms}, {"feedback", feedback_ms},        {"total", total_ms}};
+          {"simulation", simulation_ms}, {"feedback", feedback_ms},         {"total", total_ms}};
 }
 
 std::string cpu_model_name() {
@@ -904,7 +922,8 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
     for (std::size_t i = 0; i < garments.size(); ++i) {
       const GarmentFitReport& gr = read_reports[i];
       sinks[i].debug = &*debug;
-      sinks[i].write(1, "segmentation", read[i], "type " + garment_type_name(gr.type) + ", units " + units_name(gr.units));
+      sinks[i].write(1, "segmentation", read[i],
+                     "type " + garment_type_name(gr.type) + ", units " + units_name(gr.units));
     }
   }
   const auto t_order = Clock::now();
@@ -933,7 +952,8 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
     result.garments = read;
     report.garments = read_reports;
     if (b > 0)
-      for (GarmentFitReport& gr : report.garments) gr.timings.units_ms = gr.timings.segmentation_ms = 0;
+      for (GarmentFitReport& gr : report.garments)
+        gr.timings.units_ms = gr.timings.segmentation_ms = 0;
     // Layering (seed 001 §6.3): each garment is kept outside those fitted before it.
     std::vector<InnerLayer> inner;
     std::vector<LayerObstacle> layers;

@@ -85,7 +85,7 @@ struct FitOptions {
   /// mannequin come to rest after 1.97 (tee M) and 2.59 s (trousers P2), and a garment that
   /// never rests (one sliding off) costs at most 1.5 times the former limit of 2 s.
   double max_simulated_seconds = 3.0;
-  double max_wall_seconds = 0; ///< also stop the simulation after this wall time (s); 0 = none
+  double max_wall_seconds = 0;                       ///< also stop the simulation after this wall time (s); 0 = none
   ClothProxyMode cloth_proxy = ClothProxyMode::AUTO; ///< simulate on a coarse proxy (ClothProxyMode)
   /// ClothProxyMode::AUTO: garments of more vertices than this get the proxy. 25,000: the
   /// default proxy then keeps at least 60 % of the vertices. It was 50,000, which made a garment
@@ -135,9 +135,9 @@ struct FitOptions {
   LayerOrderRule layer_order = LayerOrderRule::AUTO; ///< which garment is dressed over which
   /// Called on the calling thread after each stage of each garment, in pipeline order: for every
   /// garment "units" and "segmentation" (all garments are segmented first, in input order), then,
-  /// in processing order (inner to outer, FitOptions::layer_order), "skeletons", "driving", "coarse_move", "penetration",
-  /// "simulation" (also when skipped: detail "skipped"), "feedback" and "total" — nine calls per
-  /// garment that is fitted. Empty: no calls. An exception it throws aborts the fit.
+  /// in processing order (inner to outer, FitOptions::layer_order), "skeletons", "driving", "coarse_move",
+  /// "penetration", "simulation" (also when skipped: detail "skipped"), "feedback" and "total" — nine calls per garment
+  /// that is fitted. Empty: no calls. An exception it throws aborts the fit.
   std::function<void(const FitProgress&)> progress;
   /// Non-empty: a folder (created when absent) that receives the per-stage debug meshes of
   /// engine/fit_debug.h (FitDebugWriter). Nothing is written until every garment has been
@@ -190,12 +190,12 @@ struct FitStageTimes {
 
 /// The coarse proxy a garment's simulation ran on (FitOptions::cloth_proxy).
 struct ClothProxyReport {
-  bool used = false;          ///< false: simulated at full resolution (or not simulated)
-  std::size_t vertices = 0;   ///< the proxy's
-  std::size_t triangles = 0;  ///< the proxy's
-  double build_ms = 0;        ///< build_cloth_proxy(): decimation and the fine garment's embedding
-  double simulation_ms = 0;   ///< the proxy's ClothSim construction and run_to_rest()
-  double reconstruct_ms = 0;  ///< reconstruct_from_proxy() (and the trim carried after it)
+  bool used = false;         ///< false: simulated at full resolution (or not simulated)
+  std::size_t vertices = 0;  ///< the proxy's
+  std::size_t triangles = 0; ///< the proxy's
+  double build_ms = 0;       ///< build_cloth_proxy(): decimation and the fine garment's embedding
+  double simulation_ms = 0;  ///< the proxy's ClothSim construction and run_to_rest()
+  double reconstruct_ms = 0; ///< reconstruct_from_proxy() (and the trim carried after it)
 };
 
 /// What happened to one garment.
@@ -203,32 +203,32 @@ struct GarmentFitReport {
   std::string name;
   GarmentType type = GarmentType::TEE;
   std::size_t vertices = 0, faces = 0;
-  Units units = Units::M;          ///< the input's unit (converted to metres)
-  UpAxis up = UpAxis::POS_Y;       ///< the input's up axis (rotated to +Y before segmentation)
-  Facing facing = Facing::POS_Z;   ///< where its front faced once upright (turned to +Z before segmentation)
-  std::size_t order = 0;           ///< position in the processing order (0 = first)
+  Units units = Units::M;        ///< the input's unit (converted to metres)
+  UpAxis up = UpAxis::POS_Y;     ///< the input's up axis (rotated to +Y before segmentation)
+  Facing facing = Facing::POS_Z; ///< where its front faced once upright (turned to +Z before segmentation)
+  std::size_t order = 0;         ///< position in the processing order (0 = first)
   FitStageTimes timings;
   std::size_t skeleton_parts = 0;  ///< limb skeletons extracted
   std::string driving = "skipped"; ///< "driven: ..." with the sub-stage times, or why it was skipped
   CoarseMove coarse_move;
-  SizeVerdict verdict = SizeVerdict::GOOD;   ///< fit_feedback()'s verdict for this garment
-  std::string verdict_reason;                ///< the region and numbers behind it
-  std::vector<RegionFeedback> regions;       ///< strain and ease summaries per region
+  SizeVerdict verdict = SizeVerdict::GOOD; ///< fit_feedback()'s verdict for this garment
+  std::string verdict_reason;              ///< the region and numbers behind it
+  std::vector<RegionFeedback> regions;     ///< strain and ease summaries per region
   /// Garments fitted before this one that it was kept outside of (its inner layers).
   std::size_t inner_layers = 0;
   /// After the coarse move, before removal (depths m). Crossing edges are always measured;
   /// layer_inside_count counts vertices inside the inner layers, layer_crossing_edges the inner
   /// layers' edges through this garment.
   PenetrationStats before;
-  PenetrationStats after_removal;  ///< after remove_penetration()
+  PenetrationStats after_removal; ///< after remove_penetration()
   /// As the simulation left it, before any clean-up (zeros when not simulated or diverged):
   /// what the cloth's contacts with the body and the inner garments kept out.
   PenetrationStats after_simulation;
-  PenetrationStats after;          ///< of the returned mesh
+  PenetrationStats after; ///< of the returned mesh
   int penetration_iterations = 0;
   SimulationOutcome simulation = SimulationOutcome::SKIPPED;
-  std::string simulation_status;   ///< ClothStatus text, or why it was skipped
-  double simulated_seconds = 0;    ///< s
+  std::string simulation_status; ///< ClothStatus text, or why it was skipped
+  double simulated_seconds = 0;  ///< s
   int simulation_steps = 0;
   /// The proxy of the simulation; its times are part of timings.simulation_ms (the clean-up
   /// after it, of penetration_ms).
@@ -249,9 +249,9 @@ struct FitReport {
   /// garments; the first body's report, 0 in the others').
   double layer_order_ms = 0;
   std::size_t body_vertices = 0, body_faces = 0;
-  std::string backend;                    ///< "serial" | "tbb"
-  int threads = 0;                        ///< TBB worker threads
-  std::string cpu_model;                  ///< /proc/cpuinfo's "model name", or "unknown"
+  std::string backend;   ///< "serial" | "tbb"
+  int threads = 0;       ///< TBB worker threads
+  std::string cpu_model; ///< /proc/cpuinfo's "model name", or "unknown"
   /// The worst of the garments' size verdicts (falls off, tight, loose, good); GOOD with no garment.
   SizeVerdict verdict = SizeVerdict::GOOD;
 };

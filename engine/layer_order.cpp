@@ -38,7 +38,8 @@ Outward outward(const Mesh& mesh) {
   Outward out;
   out.triangles = mesh.triangles;
   if (capped_volume(mesh.positions, out.triangles) < 0)
-    for (std::size_t f = 0; f < mesh.face_count(); ++f) std::swap(out.triangles[3 * f + 1], out.triangles[3 * f + 2]);
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+      std::swap(out.triangles[3 * f + 1], out.triangles[3 * f + 2]);
   out.box = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   for (std::int32_t v : mesh.triangles)
     for (int c = 0; c < 3; ++c) {
@@ -64,23 +65,27 @@ struct Cropped {
   std::vector<float> samples; // #S × 3
 };
 
-Cropped crop(const Mesh& mesh, const Outward& whole, const std::array<float, 6>& other_box, const LayerOrderOptions& options) {
+Cropped crop(const Mesh& mesh, const Outward& whole, const std::array<float, 6>& other_box,
+             const LayerOrderOptions& options) {
   Cropped out;
   const auto margin = static_cast<float>(options.reach);
   std::vector<char> inside(mesh.vertex_count(), 0);
-  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) inside[v] = in_box(&mesh.positions[3 * v], other_box, margin);
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v)
+    inside[v] = in_box(&mesh.positions[3 * v], other_box, margin);
   std::vector<std::int32_t> triangles;
   std::vector<char> used(mesh.vertex_count(), 0);
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     const std::int32_t* t = &whole.triangles[3 * f];
     if (!inside[std::size_t(t[0])] && !inside[std::size_t(t[1])] && !inside[std::size_t(t[2])]) continue;
     triangles.insert(triangles.end(), t, t + 3);
-    for (int k = 0; k < 3; ++k) used[std::size_t(t[k])] = inside[std::size_t(t[k])];
+    for (int k = 0; k < 3; ++k)
+      used[std::size_t(t[k])] = inside[std::size_t(t[k])];
   }
   if (triangles.empty()) return out;
   out.index.emplace(mesh.positions, triangles, OpenMeshSide::CAP_HOLES);
   const auto count = static_cast<std::size_t>(std::count(used.begin(), used.end(), char{1}));
-  const std::size_t stride = std::max<std::size_t>(1, (count + options.max_samples - 1) / std::max<std::size_t>(1, options.max_samples));
+  const std::size_t stride =
+      std::max<std::size_t>(1, (count + options.max_samples - 1) / std::max<std::size_t>(1, options.max_samples));
   std::size_t k = 0;
   for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
     if (!used[v] || k++ % stride != 0) continue;
@@ -133,9 +138,9 @@ LayerOrder infer_layer_order(std::span<const Mesh* const> garments, std::span<co
   out.order.assign(default_order.begin(), default_order.end());
   if (n < 2) return out;
 
-  std::vector<std::optional<Outward>> whole(n); // built for garments in a comparable pair
+  std::vector<std::optional<Outward>> whole(n);     // built for garments in a comparable pair
   std::vector<std::vector<std::size_t>> over_of(n); // under → the garments over it
-  std::vector<std::size_t> preceding(n, 0);          // how many garments must come before
+  std::vector<std::size_t> preceding(n, 0);         // how many garments must come before
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t j = i + 1; j < n; ++j) {
       if (comparable && !comparable(i, j)) continue;
@@ -176,7 +181,8 @@ LayerOrder infer_layer_order(std::span<const Mesh* const> garments, std::span<co
     }
     placed[next] = 1;
     order.push_back(next);
-    for (std::size_t o : over_of[next]) --preceding[o];
+    for (std::size_t o : over_of[next])
+      --preceding[o];
   }
   out.order = std::move(order);
   return out;

@@ -63,10 +63,10 @@ struct LayerRelation {
 
 /// What infer_layer_order() found.
 struct LayerOrder {
-  std::vector<std::size_t> order;         ///< garment indices, innermost first
-  std::vector<LayerPairVotes> votes;      ///< every compared pair's votes
-  std::vector<LayerRelation> relations;   ///< the decisive pairs (empty when they formed a cycle)
-  bool contradictory = false;             ///< the decisive pairs formed a cycle; the default order was kept
+  std::vector<std::size_t> order;       ///< garment indices, innermost first
+  std::vector<LayerPairVotes> votes;    ///< every compared pair's votes
+  std::vector<LayerRelation> relations; ///< the decisive pairs (empty when they formed a cycle)
+  bool contradictory = false;           ///< the decisive pairs formed a cycle; the default order was kept
 };
 
 /// Orders `garments` (each in metres, all in one frame: as given, before any per-garment move;

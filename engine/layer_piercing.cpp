@@ -78,7 +78,8 @@ void find_layer_piercings(std::span<const float> positions, std::span<const std:
     candidate_triangles.insert(candidate_triangles.end(), {c[0], c[1], c[2]});
     for (int k = 0; k < 3; ++k)
       if (const std::int32_t t = hits.triangles[std::size_t(c[k])]; t >= 0)
-        for (int j = 0; j < 3; ++j) near[std::size_t(layer.triangles[3 * std::size_t(t) + std::size_t(j)])] = 1;
+        for (int j = 0; j < 3; ++j)
+          near[std::size_t(layer.triangles[3 * std::size_t(t) + std::size_t(j)])] = 1;
   }
   if (candidates.empty()) return;
   grow_rings(layer, CANDIDATE_RINGS, near);

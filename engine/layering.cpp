@@ -33,7 +33,8 @@ bool faces_the_body(const Mesh& garment, const ProximityIndex& body) {
               c = vertex(garment, garment.triangles[3 * f + 2]);
     normals[f] = 0.5 * (b - a).cross(c - a);
     const Vec m = (a + b + c) / 3.0;
-    for (int k = 0; k < 3; ++k) centroids[3 * f + std::size_t(k)] = float(m[k]);
+    for (int k = 0; k < 3; ++k)
+      centroids[3 * f + std::size_t(k)] = float(m[k]);
   }
   ClosestHits hits;
   body.closest_points(centroids, INFINITY, hits);
@@ -87,7 +88,8 @@ InnerLayer::InnerLayer(const Mesh& garment, const ProximityIndex& body, double c
   std::vector<std::int32_t> triangles = garment.triangles;
   m_flipped = garment.face_count() > 0 && faces_the_body(garment, body);
   if (m_flipped)
-    for (std::size_t f = 0; 3 * f < triangles.size(); ++f) std::swap(triangles[3 * f + 1], triangles[3 * f + 2]);
+    for (std::size_t f = 0; 3 * f < triangles.size(); ++f)
+      std::swap(triangles[3 * f + 1], triangles[3 * f + 2]);
   // Flipping swaps corners 1 and 2, so edge k of the flipped triangle is a different edge of
   // the original: compute the boundary masks on the triangles as indexed.
   Mesh oriented;
@@ -100,8 +102,10 @@ InnerLayer::InnerLayer(const Mesh& garment, const ProximityIndex& body, double c
   const std::size_t nv = garment.vertex_count();
   m_edges = mesh_edge_endpoints(triangles, nv);
   m_edge_offsets.assign(nv + 1, 0);
-  for (const std::int32_t v : m_edges) ++m_edge_offsets[std::size_t(v) + 1];
-  for (std::size_t v = 0; v < nv; ++v) m_edge_offsets[v + 1] += m_edge_offsets[v];
+  for (const std::int32_t v : m_edges)
+    ++m_edge_offsets[std::size_t(v) + 1];
+  for (std::size_t v = 0; v < nv; ++v)
+    m_edge_offsets[v + 1] += m_edge_offsets[v];
   m_vertex_edges.resize(m_edges.size());
   std::vector<std::int32_t> fill(m_edge_offsets.begin(), m_edge_offsets.end() - 1);
   for (std::size_t e = 0; e < m_edges.size(); ++e)

@@ -48,9 +48,9 @@ public:
 
 private:
   std::unique_ptr<ProximityIndex> m_index;
-  std::vector<float> m_points;            ///< #V × 3, as indexed
-  std::vector<std::int32_t> m_triangles;  ///< #F × 3, oriented away from the body
-  std::vector<std::int32_t> m_edges;      ///< #E × 2 distinct edges
+  std::vector<float> m_points;                              ///< #V × 3, as indexed
+  std::vector<std::int32_t> m_triangles;                    ///< #F × 3, oriented away from the body
+  std::vector<std::int32_t> m_edges;                        ///< #E × 2 distinct edges
   std::vector<std::int32_t> m_edge_offsets, m_vertex_edges; ///< CSR: each vertex's edges
   std::vector<std::uint8_t> m_boundary;
   std::size_t m_boundary_edges = 0;

@@ -51,7 +51,8 @@ struct GarmentEdges {
     const auto* inner = laplacian.innerIndexPtr();
     std::size_t count = 0;
     for (Eigen::Index v = 0; v < laplacian.rows(); ++v)
-      for (auto k = outer[v]; k < outer[v + 1]; ++k) count += inner[k] > v;
+      for (auto k = outer[v]; k < outer[v + 1]; ++k)
+        count += inner[k] > v;
     forward.reserve(2 * count);
     backward.reserve(2 * count);
     for (Eigen::Index v = 0; v < laplacian.rows(); ++v)
@@ -75,12 +76,15 @@ struct Pushes {
     displacement[v] = d;
     flagged[v] = 1;
   }
-  bool any() const { return std::any_of(flagged.begin(), flagged.end(), [](char f) { return f != 0; }); }
+  bool any() const {
+    return std::any_of(flagged.begin(), flagged.end(), [](char f) { return f != 0; });
+  }
 };
 
 // Vertex targets: κ outside the closest body point, along the side (seed 000 eq. 18–19), for
 // vertices whose signed distance is below `threshold`.
-void push_vertices(std::span<const float> positions, const ClosestHits& hits, double clearance, double threshold, Pushes& pushes) {
+void push_vertices(std::span<const float> positions, const ClosestHits& hits, double clearance, double threshold,
+                   Pushes& pushes) {
   for (std::size_t v = 0; v < hits.size(); ++v) {
     const double d = hits.triangles[v] >= 0 ? hits.signed_distances[v] : INFINITY;
     if (!(d < threshold)) continue;
@@ -131,11 +135,11 @@ struct Detection {
   // distance from below (see may_have_changed()).
   std::vector<float> drift;
   bool crossings_checked = false;
-  std::vector<std::int32_t> edge_triangles;  // per edge: first body triangle crossed from its first end, or −1
-  std::vector<float> edge_parameters;        // per edge: that crossing's parameter t ∈ [0, 1]
-  std::vector<std::size_t> crossing;         // the edges with edge_triangles ≥ 0, ascending
-  std::vector<ClosestHits> layer_hits;       // per layer, per vertex
-  std::vector<std::vector<double>> layer_f;  // per layer, per vertex signed distance; +∞ = does not count
+  std::vector<std::int32_t> edge_triangles; // per edge: first body triangle crossed from its first end, or −1
+  std::vector<float> edge_parameters;       // per edge: that crossing's parameter t ∈ [0, 1]
+  std::vector<std::size_t> crossing;        // the edges with edge_triangles ≥ 0, ascending
+  std::vector<ClosestHits> layer_hits;      // per layer, per vertex
+  std::vector<std::vector<double>> layer_f; // per layer, per vertex signed distance; +∞ = does not count
   // The garment's triangles (#F × 3), for the layer edges piercing them; empty: not checked.
   std::span<const std::int32_t> triangles;
   std::vector<std::vector<LayerPiercing>> layer_piercings; // per layer
@@ -226,7 +230,8 @@ void closest_points_of(const ProximityIndex& index, std::span<const float> posit
   }
   ClosestHits part;
   index.closest_points(queries, radii, part);
-  for (std::size_t k = 0; k < moved->size(); ++k) all.copy_row((*moved)[k], part, k);
+  for (std::size_t k = 0; k < moved->size(); ++k)
+    all.copy_row((*moved)[k], part, k);
 }
 
 // A vertex with no body point within the reach is far outside, or deeper inside than that
@@ -263,7 +268,8 @@ void resolve_far_vertices(std::span<const float> positions, const ProximityIndex
     // Slack for the float rounding of Embree's pruning at the reach (~1e-7 relative).
     const double joined = 2.0 * (double(reach) * (1.0 - 1e-5) - 1e-7);
     std::vector<std::int32_t> slot(all.size(), -1); // far vertex → its index in `far`
-    for (std::size_t k = 0; k < far.size(); ++k) slot[far[k]] = std::int32_t(k);
+    for (std::size_t k = 0; k < far.size(); ++k)
+      slot[far[k]] = std::int32_t(k);
     std::vector<char> seen(far.size(), 0);
     const auto* outer = adjacency->outerIndexPtr();
     const auto* inner = adjacency->innerIndexPtr();
@@ -289,7 +295,8 @@ void resolve_far_vertices(std::span<const float> positions, const ProximityIndex
     }
   } else {
     unreached = far;
-    for (std::size_t k = 0; k < far.size(); ++k) decided_by[k] = k;
+    for (std::size_t k = 0; k < far.size(); ++k)
+      decided_by[k] = k;
   }
   // Per representative: inside.
   std::vector<char> in(unreached.size(), 1);
@@ -318,16 +325,20 @@ void resolve_far_vertices(std::span<const float> positions, const ProximityIndex
   }
   std::vector<std::size_t> inside;
   for (std::size_t k = 0; k < far.size(); ++k) {
-    if (in[decided_by[k]]) inside.push_back(far[k]);
-    else all.signed_distances[far[k]] = reach; // outside, at least this far
+    if (in[decided_by[k]])
+      inside.push_back(far[k]);
+    else
+      all.signed_distances[far[k]] = reach; // outside, at least this far
   }
   if (inside.empty()) return;
   std::vector<float> queries;
   queries.reserve(3 * inside.size());
-  for (std::size_t v : inside) queries.insert(queries.end(), {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]});
+  for (std::size_t v : inside)
+    queries.insert(queries.end(), {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]});
   ClosestHits part;
   body.closest_points(queries, INFINITY, part);
-  for (std::size_t k = 0; k < inside.size(); ++k) all.copy_row(inside[k], part, k);
+  for (std::size_t k = 0; k < inside.size(); ++k)
+    all.copy_row(inside[k], part, k);
 }
 
 // Signed distance of each vertex to a layer, +∞ where the layer does not count (out of reach,
@@ -341,9 +352,11 @@ void detect_layer(std::span<const float> positions, const LayerObstacle& layer, 
     f[v] = counts ? double(hits.signed_distances[v]) : double(INFINITY);
   };
   if (moved)
-    for (std::size_t v : *moved) update(v);
+    for (std::size_t v : *moved)
+      update(v);
   else
-    for (std::size_t v = 0; v < hits.size(); ++v) update(v);
+    for (std::size_t v = 0; v < hits.size(); ++v)
+      update(v);
 }
 
 // Edges crossing the body. An edge a–b of length ℓ crossing the surface at p has
@@ -396,9 +409,11 @@ void detect(std::span<const float> positions, const ProximityIndex& body, const 
   if (moved || !d.body_queried) closest_points_of(body, positions, d.reach, moved ? requery : nullptr, d.body);
   d.body_queried = false;
   resolve_far_vertices(positions, body, crossings, moved ? requery : nullptr, d.reach, d.adjacency, d.body);
-  if (!moved) d.drift.assign(positions.size() / 3, 0.0f);
+  if (!moved)
+    d.drift.assign(positions.size() / 3, 0.0f);
   else
-    for (std::size_t v : *requery) d.drift[v] = 0.0f;
+    for (std::size_t v : *requery)
+      d.drift[v] = 0.0f;
   if (crossings) detect_crossings(positions, d.body, d.drift, *crossings, *edges, moved ? moved_flags : nullptr, d);
   d.layer_hits.resize(layers.size());
   d.layer_f.resize(layers.size());
@@ -455,7 +470,8 @@ PenetrationStats stats_of(const Detection& d, double clearance) {
         s.layer_max_depth = std::max(s.layer_max_depth, -f[v]);
       }
   s.layer_inside_count = std::size_t(std::count(inside.begin(), inside.end(), char(1)));
-  for (const std::vector<LayerPiercing>& p : d.layer_piercings) s.layer_crossing_edges += p.size();
+  for (const std::vector<LayerPiercing>& p : d.layer_piercings)
+    s.layer_crossing_edges += p.size();
   return s;
 }
 
@@ -584,7 +600,8 @@ void push_out_of_layers(std::span<const float> positions, std::span<const LayerO
     if (!piercings) continue;
     for (const LayerPiercing& p : d.layer_piercings[l])
       for (int k = 0; k < 3; ++k)
-        if (p.push.squaredNorm() > 0) pushes.propose(std::size_t(d.triangles[3 * std::size_t(p.triangle) + std::size_t(k)]), p.push);
+        if (p.push.squaredNorm() > 0)
+          pushes.propose(std::size_t(d.triangles[3 * std::size_t(p.triangle) + std::size_t(k)]), p.push);
   }
 }
 
@@ -617,7 +634,7 @@ constexpr std::size_t SHRINK_REGION_FROM = 2000;
 // The unknowns of the solve: the vertices within REGION_RINGS rings of a pushed vertex (R),
 // and the Laplacian rows that touch them (R and one ring more).
 struct Region {
-  std::vector<std::int32_t> column; // per vertex: its unknown index in R, or −1 when fixed
+  std::vector<std::int32_t> column;  // per vertex: its unknown index in R, or −1 when fixed
   std::vector<std::size_t> vertices; // unknown index → vertex
   std::vector<std::size_t> rows;     // Laplacian rows (vertices) whose stencil touches R
   std::vector<char> moves;           // per vertex: in R
@@ -691,7 +708,8 @@ public:
     const double* value = L.valuePtr();
     Eigen::Index nonzeros = 0;
     for (const std::size_t v : region.rows)
-      for (auto k = outer[v]; k < outer[v + 1]; ++k) nonzeros += region.column[std::size_t(inner[k])] >= 0;
+      for (auto k = outer[v]; k < outer[v + 1]; ++k)
+        nonzeros += region.column[std::size_t(inner[k])] >= 0;
     m_L.resize(m, n);
     m_L.resizeNonZeros(nonzeros);
     auto* out_outer = m_L.outerIndexPtr();
@@ -711,13 +729,16 @@ public:
     m_Lt = m_L.transpose();
     m_inverse_diagonal = Eigen::VectorXd::Constant(n, c);
     for (Eigen::Index r = 0; r < m; ++r)
-      for (SparseMatrix::InnerIterator it(m_L, r); it; ++it) m_inverse_diagonal[it.col()] += w * it.value() * it.value();
+      for (SparseMatrix::InnerIterator it(m_L, r); it; ++it)
+        m_inverse_diagonal[it.col()] += w * it.value() * it.value();
     m_inverse_diagonal = m_inverse_diagonal.cwiseInverse();
     if (cholesky) {
       Eigen::SparseMatrix<double> M = (m_w * (m_Lt * m_L)).eval();
-      for (Eigen::Index v = 0; v < n; ++v) M.coeffRef(v, v) += m_c;
+      for (Eigen::Index v = 0; v < n; ++v)
+        M.coeffRef(v, v) += m_c;
       m_cholesky.emplace(M);
-      if (m_cholesky->info() != Eigen::Success) throw Error("remove_penetration", 0, "the region's system is not positive definite");
+      if (m_cholesky->info() != Eigen::Success)
+        throw Error("remove_penetration", 0, "the region's system is not positive definite");
     }
   }
   Eigen::Index rows() const { return m_L.rows(); }
@@ -734,7 +755,8 @@ public:
     // Vectors are n × 3, row-major (x, y, z of one vertex together).
     std::vector<double> x(3 * n, 0.0), r(3 * n), z(3 * n), d(3 * n), q(3 * n), t(3 * std::size_t(m_L.rows()));
     for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) r[3 * i + std::size_t(c)] = rhs(Eigen::Index(i), c);
+      for (int c = 0; c < 3; ++c)
+        r[3 * i + std::size_t(c)] = rhs(Eigen::Index(i), c);
     // Per-chunk partial dot products (CG_GRAIN rows a chunk), summed in chunk order: the same
     // bits for any thread count. Each pass over the vectors does all the work of one CG step
     // that reads those vectors, and the dot products it needs, in one sweep.
@@ -750,7 +772,8 @@ public:
       });
       std::array<double, 6> total{};
       for (const auto& s : partial)
-        for (std::size_t k = 0; k < 6; ++k) total[k] += s[k];
+        for (std::size_t k = 0; k < 6; ++k)
+          total[k] += s[k];
       return total;
     };
     // z = M⁻¹r (Jacobi), and r·z, r·r per column.
@@ -764,7 +787,8 @@ public:
     std::array<double, 6> sums = sweep(precondition);
     d = z;
     std::array<double, 3> rz{sums[0], sums[1], sums[2]}, stop{sums[3], sums[4], sums[5]};
-    for (double& s : stop) s *= m_cg_tolerance * m_cg_tolerance;
+    for (double& s : stop)
+      s *= m_cg_tolerance * m_cg_tolerance;
     for (; iterations < 200; ++iterations) {
       if (sums[3] <= stop[0] && sums[4] <= stop[1] && sums[5] <= stop[2]) break;
       multiply(m_L, d, t);
@@ -777,7 +801,8 @@ public:
         }
       });
       std::array<double, 3> alpha{};
-      for (std::size_t c = 0; c < 3; ++c) alpha[c] = dq[c] > 0 ? rz[c] / dq[c] : 0.0; // 0: converged (d = 0)
+      for (std::size_t c = 0; c < 3; ++c)
+        alpha[c] = dq[c] > 0 ? rz[c] / dq[c] : 0.0; // 0: converged (d = 0)
       sums = sweep([&](std::size_t b, std::size_t e, std::array<double, 6>& s) {
         for (std::size_t k = b; k < e; ++k) {
           x[k] += alpha[k % 3] * d[k];
@@ -791,12 +816,14 @@ public:
         rz[c] = sums[c];
       }
       parallel_for_range(n, CG_GRAIN, [&](std::size_t b, std::size_t e) {
-        for (std::size_t k = 3 * b; k < 3 * e; ++k) d[k] = z[k] + beta[k % 3] * d[k];
+        for (std::size_t k = 3 * b; k < 3 * e; ++k)
+          d[k] = z[k] + beta[k % 3] * d[k];
       });
     }
     Eigen::MatrixXd out(Eigen::Index(n), 3);
     for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) out(Eigen::Index(i), c) = x[3 * i + std::size_t(c)];
+      for (int c = 0; c < 3; ++c)
+        out(Eigen::Index(i), c) = x[3 * i + std::size_t(c)];
     return out;
   }
 
@@ -818,7 +845,8 @@ private:
     const auto n = static_cast<std::size_t>(rhs.rows());
     std::vector<double> y(3 * n);
     for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) y[3 * std::size_t(to[Eigen::Index(i)]) + std::size_t(c)] = rhs(Eigen::Index(i), c);
+      for (int c = 0; c < 3; ++c)
+        y[3 * std::size_t(to[Eigen::Index(i)]) + std::size_t(c)] = rhs(Eigen::Index(i), c);
     for (std::size_t j = 0; j < n; ++j) { // L y = P·rhs
       const double y0 = y[3 * j], y1 = y[3 * j + 1], y2 = y[3 * j + 2];
       for (auto k = outer[j]; k < outer[j + 1]; ++k) {
@@ -830,7 +858,8 @@ private:
     }
     for (std::size_t j = 0; j < n; ++j) { // times 1/d, as Eigen does
       const double inverse = 1.0 / diagonal[Eigen::Index(j)];
-      for (std::size_t c = 0; c < 3; ++c) y[3 * j + c] *= inverse;
+      for (std::size_t c = 0; c < 3; ++c)
+        y[3 * j + c] *= inverse;
     }
     for (std::size_t j = n; j-- > 0;) { // Lᵀ x = D⁻¹ y
       double s0 = y[3 * j], s1 = y[3 * j + 1], s2 = y[3 * j + 2];
@@ -846,7 +875,8 @@ private:
     }
     Eigen::MatrixXd out(Eigen::Index(n), 3);
     for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) out(Eigen::Index(i), c) = y[3 * std::size_t(to[Eigen::Index(i)]) + std::size_t(c)];
+      for (int c = 0; c < 3; ++c)
+        out(Eigen::Index(i), c) = y[3 * std::size_t(to[Eigen::Index(i)]) + std::size_t(c)];
     return out;
   }
 
@@ -872,8 +902,8 @@ private:
   }
 
   double m_c, m_w, m_cg_tolerance;
-  SparseMatrix m_L;                                      // region rows × R
-  Eigen::SparseMatrix<double, Eigen::RowMajor> m_Lt;     // R × region rows
+  SparseMatrix m_L;                                  // region rows × R
+  Eigen::SparseMatrix<double, Eigen::RowMajor> m_Lt; // R × region rows
   Eigen::VectorXd m_inverse_diagonal;
   std::optional<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> m_cholesky;
 };
@@ -881,7 +911,8 @@ private:
 Eigen::MatrixXd as_matrix(std::span<const float> p) {
   Eigen::MatrixXd y(static_cast<Eigen::Index>(p.size() / 3), 3);
   for (Eigen::Index v = 0; v < y.rows(); ++v)
-    for (int k = 0; k < 3; ++k) y(v, k) = p[3 * std::size_t(v) + std::size_t(k)];
+    for (int k = 0; k < 3; ++k)
+      y(v, k) = p[3 * std::size_t(v) + std::size_t(k)];
   return y;
 }
 
@@ -910,7 +941,8 @@ bool resolved(const PenetrationStats& s) {
 template <class Badness>
 void push_directly(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
                    const GarmentEdges& edges, std::span<const LayerObstacle> layers, double clearance,
-                   const PenetrationOptions& o, const Badness& badness, Detection& detection, PenetrationReport& report) {
+                   const PenetrationOptions& o, const Badness& badness, Detection& detection,
+                   PenetrationReport& report) {
   const std::size_t nv = garment.vertex_count();
   const std::vector<float> reference = garment.positions;
   detection.reference = reference;
@@ -930,7 +962,8 @@ void push_directly(Mesh& garment, const ProximityIndex& body, const EdgeCrossing
     for (std::size_t v = 0; v < nv; ++v)
       if (pushes.flagged[v]) {
         moved.push_back(v);
-        for (int c = 0; c < 3; ++c) garment.positions[3 * v + std::size_t(c)] += static_cast<float>(pushes.displacement[v][c]);
+        for (int c = 0; c < 3; ++c)
+          garment.positions[3 * v + std::size_t(c)] += static_cast<float>(pushes.displacement[v][c]);
       }
     // Only the moved vertices and their edges can have changed (the body is static): detected
     // again, every one of them queried afresh, so the statistics stay exact.
@@ -1009,7 +1042,8 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
   }
 
   const std::vector<float> start_positions = garment.positions;
-  const Eigen::MatrixXd rest_laplacian = seed004 ? Eigen::MatrixXd(L * as_matrix(garment.positions)) : Eigen::MatrixXd();
+  const Eigen::MatrixXd rest_laplacian =
+      seed004 ? Eigen::MatrixXd(L * as_matrix(garment.positions)) : Eigen::MatrixXd();
   const int rounds = seed004 ? std::min(o.max_iterations, o.seed004_iterations) : o.max_iterations;
 
   // The best state seen, returned when the rounds run out unresolved: never worse than that.
@@ -1031,7 +1065,7 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
   std::size_t seed_count = 0;
   int last_improvement = -1;
   std::vector<std::size_t> requery;
-  std::vector<double> response(nv, 1.0); // per vertex: see PUSH_GAIN_INSIDE; 1 until pushed
+  std::vector<double> response(nv, 1.0);                      // per vertex: see PUSH_GAIN_INSIDE; 1 until pushed
   std::vector<char> crossings_pending(crossings ? nv : 0, 0); // moved since their edges' last check
   auto check_pending_crossings = [&] {
     detect_crossings(garment.positions, detection.body, detection.drift, *crossings, *edge_list, &crossings_pending,
@@ -1053,7 +1087,8 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
       resolve_far_vertices(garment.positions, body, crossings, &requery, detection.reach, detection.adjacency,
                            detection.body);
     });
-    for (std::size_t v : requery) detection.drift[v] = 0.0f;
+    for (std::size_t v : requery)
+      detection.drift[v] = 0.0f;
     report.after = stats_of(detection, o.clearance);
   };
   for (int iter = 0; iter < rounds; ++iter) {
@@ -1067,21 +1102,22 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
     const std::size_t pushed_now = std::size_t(std::count(pushes.flagged.begin(), pushes.flagged.end(), char(1)));
     const bool shrink = system && region.vertices.size() >= SHRINK_REGION_FROM && 8 * pushed_now < seed_count;
     if (!system || shrink || !region.covers(pushes)) {
-      if (!system || shrink) seeds = pushes.flagged;
+      if (!system || shrink)
+        seeds = pushes.flagged;
       else
-        for (std::size_t v = 0; v < nv; ++v) seeds[v] |= pushes.flagged[v];
+        for (std::size_t v = 0; v < nv; ++v)
+          seeds[v] |= pushes.flagged[v];
       seed_count = std::size_t(std::count(seeds.begin(), seeds.end(), char(1)));
       region = make_region(L, seeds);
       // AUTO factors only the first round's region: a region rebuilt later (shrunk around a
       // few remaining pushes, or grown to a new spot) is mostly solved once or twice, where
       // the factorisation's ordering and elimination cost more than CG on its few hundred
       // unknowns (see PenetrationSolver::AUTO).
-      const bool direct = o.solver == PenetrationSolver::CHOLESKY ||
-                          (o.solver == PenetrationSolver::AUTO && !system &&
-                           region.vertices.size() < o.direct_solve_limit);
+      const bool direct = o.solver == PenetrationSolver::CHOLESKY || (o.solver == PenetrationSolver::AUTO && !system &&
+                                                                      region.vertices.size() < o.direct_solve_limit);
       timed(report.system_ms, [&] {
-        system.emplace(L, region, seed004 ? 1.0 + o.seed004_damping : 1.0,
-                       seed004 ? o.seed004_smoothing : o.smoothness, direct, o.cg_tolerance);
+        system.emplace(L, region, seed004 ? 1.0 + o.seed004_damping : 1.0, seed004 ? o.seed004_smoothing : o.smoothness,
+                       direct, o.cg_tolerance);
       });
       ++report.region_builds;
     }
@@ -1092,11 +1128,13 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
       }
     const auto n = static_cast<Eigen::Index>(region.vertices.size());
     Eigen::MatrixXd rhs(n, 3);
-    for (Eigen::Index k = 0; k < n; ++k) rhs.row(k) = pushes.displacement[region.vertices[std::size_t(k)]];
+    for (Eigen::Index k = 0; k < n; ++k)
+      rhs.row(k) = pushes.displacement[region.vertices[std::size_t(k)]];
     if (seed004) {
       const Eigen::MatrixXd drift = rest_laplacian - L * as_matrix(garment.positions);
       Eigen::MatrixXd g(system->rows(), 3);
-      for (Eigen::Index r = 0; r < g.rows(); ++r) g.row(r) = drift.row(Eigen::Index(region.rows[std::size_t(r)]));
+      for (Eigen::Index r = 0; r < g.rows(); ++r)
+        g.row(r) = drift.row(Eigen::Index(region.rows[std::size_t(r)]));
       rhs += system->transpose_times(g);
     }
     int cg_iterations = 0;
@@ -1114,8 +1152,10 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
     for (Eigen::Index k = 0; k < n; ++k) {
       const std::size_t v = region.vertices[std::size_t(k)];
       const float moved = float(delta.row(k).norm()) + 1e-6f; // + float rounding of the positions
-      if (may_have_changed(detection, v, moved, o.clearance)) requery.push_back(v);
-      else detection.drift[v] += moved;
+      if (may_have_changed(detection, v, moved, o.clearance))
+        requery.push_back(v);
+      else
+        detection.drift[v] += moved;
     }
     timed(report.detection_ms, [&] {
       detect(garment.positions, body, nullptr, edge_list, layers, &region.vertices, &region.moves, &requery, detection);
@@ -1124,7 +1164,8 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
       // (propose()), so the edges' check waits: the vertices moved meanwhile are remembered
       // and their edges checked once it is needed (Table-1 Shorts 1: two rounds of ~18k edge
       // checks saved). Meanwhile the statistics carry the last crossing count.
-      for (std::size_t v : region.vertices) crossings_pending[v] = 1;
+      for (std::size_t v : region.vertices)
+        crossings_pending[v] = 1;
       if (vertex_stats(detection.body, 0.0).max_depth > o.tolerance) return;
       check_pending_crossings();
     });
@@ -1147,8 +1188,9 @@ PenetrationReport remove(Mesh& garment, const ProximityIndex& body, const EdgeCr
     if (!best_positions.empty()) {
       garment.positions = best_positions;
       // best's statistics were taken with skipped vertices: measure the state returned afresh.
-      timed(report.detection_ms,
-            [&] { detect(garment.positions, body, crossings, edge_list, layers, nullptr, nullptr, nullptr, detection); });
+      timed(report.detection_ms, [&] {
+        detect(garment.positions, body, crossings, edge_list, layers, nullptr, nullptr, nullptr, detection);
+      });
       report.after = stats_of(detection, o.clearance);
     } else {
       garment.positions = start_positions; // the start was best

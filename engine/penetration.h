@@ -119,14 +119,14 @@ enum class PenetrationSolver : std::int8_t {
 };
 
 struct PenetrationOptions {
-  double clearance = 0.002;   ///< κ (m): the gap left between a pushed vertex and the body
-  double smoothness = 1.0;    ///< λ2/λ1: weight of keeping the garment's Laplacian coordinates
-  int max_iterations = 25;    ///< detection → solve rounds at most
+  double clearance = 0.002; ///< κ (m): the gap left between a pushed vertex and the body
+  double smoothness = 1.0;  ///< λ2/λ1: weight of keeping the garment's Laplacian coordinates
+  int max_iterations = 25;  ///< detection → solve rounds at most
   /// Stop after this many rounds in a row that did not improve on the best state seen (the
   /// pushes of vertices and of crossing edges can trade offences back and forth without end);
   /// the best state is returned. 0: never stop early.
   int stall_rounds = 8;
-  double tolerance = 0.0005;  ///< stop when no vertex is deeper than this (m)
+  double tolerance = 0.0005; ///< stop when no vertex is deeper than this (m)
   /// Rounds of direct pushes after the solved rounds when edges still cross the body and no
   /// vertex is deeper than `tolerance`: each crossing edge's ends (and any vertex inside) move
   /// by their pushes as they are, without the Laplacian solve that spreads a push over the
@@ -162,13 +162,13 @@ struct PenetrationOptions {
 /// Before/after statistics of one remove_penetration() call.
 struct PenetrationReport {
   PenetrationStats before, after;
-  int iterations = 0;      ///< detection → solve rounds run
+  int iterations = 0; ///< detection → solve rounds run
   /// Region systems set up (factored, with CHOLESKY): 0 when nothing needed a push, else 1 for
   /// the first round, plus one each time a round's pushes left the region (the region then
   /// grows to cover them), plus one each time a region of ≥ 2,000 vertices is rebuilt around
   /// a round that pushes fewer than 1/8 of the vertices it was grown from (it then shrinks).
   int region_builds = 0;
-  int direct_rounds = 0;   ///< rounds of direct pushes run (PenetrationOptions::direct_rounds)
+  int direct_rounds = 0; ///< rounds of direct pushes run (PenetrationOptions::direct_rounds)
   /// Conjugate-gradient iterations summed over all rounds (one count per solve of the three
   /// columns together); 0 with PenetrationSolver::CHOLESKY.
   long long solver_iterations = 0;
@@ -233,8 +233,8 @@ PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, 
 /// edge through garment triangle T (the layer poking out between T's corners, which are all
 /// outside it) pushes T's corners out along the layer's outward normal by how far the edge's
 /// outer end lies beyond T, plus k (engine/layer_piercing.h; like crossing edges, only once no
-/// vertex is deeper in the body than `tolerance`); the pushes are smoothed by the same solve. The statistics count layer_inside_count / layer_max_depth /
-/// layer_crossing_edges too.
+/// vertex is deeper in the body than `tolerance`); the pushes are smoothed by the same solve. The statistics count
+/// layer_inside_count / layer_max_depth / layer_crossing_edges too.
 PenetrationReport remove_penetration(Mesh& garment, const ProximityIndex& body, const EdgeCrossingIndex& crossings,
                                      std::span<const LayerObstacle> layers, const PenetrationOptions& options = {});
 

@@ -114,7 +114,8 @@ struct CappedSurface {
                            positions.data() + 3 * std::size_t(t[2])};
       float* b = bounds.data() + 8 * f;
       float radius2 = 0.0f;
-      for (int k = 0; k < 3; ++k) b[k] = (p[0][k] + p[1][k] + p[2][k]) / 3.0f;
+      for (int k = 0; k < 3; ++k)
+        b[k] = (p[0][k] + p[1][k] + p[2][k]) / 3.0f;
       for (const float* v : p)
         radius2 = std::max(radius2, (v[0] - b[0]) * (v[0] - b[0]) + (v[1] - b[1]) * (v[1] - b[1]) +
                                         (v[2] - b[2]) * (v[2] - b[2]));
@@ -138,7 +139,8 @@ struct CappedSurface {
       }
       for (const float* v : p) {
         double d = 0.0;
-        for (int k = 0; k < 3; ++k) d += double(b[4 + k]) * (double(v[k]) - double(b[k]));
+        for (int k = 0; k < 3; ++k)
+          d += double(b[4 + k]) * (double(v[k]) - double(b[k]));
         h = std::max(h, std::fabs(d));
       }
       b[7] = float(h * (1.0 + 1e-6) + 1e-9); // rounded up: the bound only needs h not too small

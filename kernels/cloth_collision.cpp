@@ -93,9 +93,9 @@ std::optional<RestingContact> resting_contact(std::size_t i, std::span<const flo
   const vfit_vec3 nrm =
       contact_normal(load3(positions.data(), i), load3(hits.points.data(), i), d, body_positions, body_triangles, t);
   if (!(vfit_v3_dot(nrm, nrm) > 0.0f)) return std::nullopt;
-  return RestingContact{d, nrm,
-                        body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i],
-                                         hits.barycentrics[2 * i + 1])};
+  return RestingContact{
+      d, nrm,
+      body_velocity_at(body_velocities, body_triangles, t, hits.barycentrics[2 * i], hits.barycentrics[2 * i + 1])};
 }
 
 } // namespace

@@ -349,8 +349,8 @@ VFIT_CLOTH_AVX512_TARGET void update_range_rows(const ImplicitSystem& s, const f
 #endif
 
 // update_slices() in the variant this CPU runs fastest (as direction_range).
-void update_range(const ImplicitSystem& s, const float* normals, float alpha, const float* p, const float* q,
-                  float* dv, float* r, float* z, std::size_t begin, std::size_t end, double& rr, double& rz) {
+void update_range(const ImplicitSystem& s, const float* normals, float alpha, const float* p, const float* q, float* dv,
+                  float* r, float* z, std::size_t begin, std::size_t end, double& rr, double& rz) {
 #if VFIT_CLOTH_AVX512
   if (avx512_available()) {
     update_range_rows(s, normals, alpha, p, q, dv, r, z, begin, end, rr, rz);
@@ -522,8 +522,7 @@ ImplicitCoarseSpace* coarse_level(const SpringAdjacency& adjacency, const Implic
 // Pᵀ·A·P is not safely positive definite. Writes c and whether any free particle has a pinned
 // neighbour (translated_row() then has springs to add).
 bool translation_start(const ImplicitSystem& s, const SpringAdjacency& adj, ImplicitWorkspace& w,
-                       const ImplicitPasses& passes,
-                       vfit_vec3& c_out, bool& pinned_neighbours) {
+                       const ImplicitPasses& passes, vfit_vec3& c_out, bool& pinned_neighbours) {
   const std::size_t nv = adj.particle_count();
   const std::size_t chunks = chunk_count(nv);
   constexpr std::size_t K = 10; // Pᵀ·b (3), Pᵀ·A·P (xx, xy, xz, yy, yz, zz), springs to pinned rows
@@ -615,8 +614,7 @@ ImplicitSolveReport solve_system(const SpringAdjacency& adjacency, const Implici
     vfit_vec3 row = vfit_sym3_apply(load_sym(s.particle_blocks.data(), i), translation);
     if (!pinned_neighbours) return row;
     const std::size_t slots = adjacency.slice_neighbor_offsets.size();
-    std::size_t slot =
-        static_cast<std::size_t>(adjacency.slice_offsets[i / CLOTH_SLICE_WIDTH]) + i % CLOTH_SLICE_WIDTH;
+    std::size_t slot = static_cast<std::size_t>(adjacency.slice_offsets[i / CLOTH_SLICE_WIDTH]) + i % CLOTH_SLICE_WIDTH;
     for (std::int32_t e = adjacency.offsets[i]; e < adjacency.offsets[i + 1]; ++e, slot += CLOTH_SLICE_WIDTH) {
       if (s.free[static_cast<std::size_t>(adjacency.neighbors[e])]) continue;
       const vfit_vec3 t = spring_times(s.sliced_springs.data(), slots, slot, translation);

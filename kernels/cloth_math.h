@@ -21,14 +21,14 @@
  * in OpenCL C a float vector (cloth.cl's kernel for CPU devices evaluates 16 springs at once
  * with it). ONE_IF(c) turns the comparison c into 1 or 0 of type T. Written once, here, so
  * every backend evaluates the same expressions in the same order. All arguments are names. */
-#define VFIT_SPRING_FORCE_SCALE(T, ONE_IF, dx, dy, dz, dvx, dvy, dvz, rest_length, stiffness, damping, t_out) \
-  do {                                                                                                     \
-    T vfit_l_ = sqrt(dx * dx + dy * dy + dz * dz);                                                        \
-    T vfit_m_ = ONE_IF(vfit_l_ > VFIT_SPRING_MIN_LENGTH);                                                 \
-    T vfit_safe_l_ = vfit_m_ * vfit_l_ + (1.0f - vfit_m_);                                                \
-    T vfit_w_ = 1.0f / vfit_safe_l_;                                                                      \
-    t_out = (stiffness * (vfit_safe_l_ - rest_length) + damping * (dvx * dx + dvy * dy + dvz * dz) * vfit_w_) * \
-            vfit_w_ * vfit_m_;                                                                            \
+#define VFIT_SPRING_FORCE_SCALE(T, ONE_IF, dx, dy, dz, dvx, dvy, dvz, rest_length, stiffness, damping, t_out)          \
+  do {                                                                                                                 \
+    T vfit_l_ = sqrt(dx * dx + dy * dy + dz * dz);                                                                     \
+    T vfit_m_ = ONE_IF(vfit_l_ > VFIT_SPRING_MIN_LENGTH);                                                              \
+    T vfit_safe_l_ = vfit_m_ * vfit_l_ + (1.0f - vfit_m_);                                                             \
+    T vfit_w_ = 1.0f / vfit_safe_l_;                                                                                   \
+    t_out = (stiffness * (vfit_safe_l_ - rest_length) + damping * (dvx * dx + dvy * dy + dvz * dz) * vfit_w_) *        \
+            vfit_w_ * vfit_m_;                                                                                         \
   } while (0)
 
 #define VFIT_ONE_IF_FLOAT(c) ((float)(c))
@@ -66,8 +66,8 @@ VFIT_INLINE vfit_vec3 vfit_spring_force(vfit_vec3 xi, vfit_vec3 xj, vfit_vec3 vi
 /* Acceleration of a particle (eq. 22–23): a = f_springs/m + g − μ·v, or +0 when pinned
  * (inv_mass == 0). gravity in m/s², global_damping μ in 1/s. Selects, not a branch, so a loop
  * over particles vectorises. */
-VFIT_INLINE vfit_vec3 vfit_particle_acceleration(vfit_vec3 spring_force, vfit_vec3 v, float inv_mass,
-                                                 vfit_vec3 gravity, float global_damping) {
+VFIT_INLINE vfit_vec3 vfit_particle_acceleration(vfit_vec3 spring_force, vfit_vec3 v, float inv_mass, vfit_vec3 gravity,
+                                                 float global_damping) {
   int pinned = inv_mass == 0.0f;
   vfit_vec3 a;
   a.x = pinned ? 0.0f : spring_force.x * inv_mass + gravity.x - global_damping * v.x;
@@ -212,8 +212,8 @@ VFIT_INLINE vfit_sym3 vfit_spring_system_block(vfit_vec3 xi, vfit_vec3 xj, float
  * vfit_spring_force_relative it has no select on the length (a loop over springs vectorises):
  * springs shorter than VFIT_SPRING_MIN_LENGTH give ±0. */
 VFIT_INLINE void vfit_spring_implicit_terms_relative(vfit_vec3 d, vfit_vec3 dv, float rest_length, float stiffness,
-                                                     float damping, float h, vfit_vec3* force,
-                                                     vfit_vec3* stiffness_dv, vfit_sym3* block) {
+                                                     float damping, float h, vfit_vec3* force, vfit_vec3* stiffness_dv,
+                                                     vfit_sym3* block) {
   float l = sqrt(vfit_v3_dot(d, d));
   float m = (float)(l > VFIT_SPRING_MIN_LENGTH);
   float safe_l = m * l + (1.0f - m);

@@ -108,8 +108,7 @@ VFIT_CLOTH_INLINE void stage_slices(const StagePass& p, const SpringAdjacency& a
       const bool pinned = im == 0.0f;
       const vfit_vec3 slope_x{pinned ? 0.0f : vsl.x, pinned ? 0.0f : vsl.y, pinned ? 0.0f : vsl.z};
       vfit_rk4_stage_update(vfit_vec3{x0.c[0][l], x0.c[1][l], x0.c[2][l]},
-                            vfit_vec3{v0.c[0][l], v0.c[1][l], v0.c[2][l]}, slope_x, a, h, STAGE, &ax, &av, &nx,
-                            &nv);
+                            vfit_vec3{v0.c[0][l], v0.c[1][l], v0.c[2][l]}, slope_x, a, h, STAGE, &ax, &av, &nx, &nv);
       acc_x.c[0][l] = ax.x;
       acc_x.c[1][l] = ax.y;
       acc_x.c[2][l] = ax.z;
@@ -437,8 +436,8 @@ void rk4_step_tbb(std::span<float> positions, std::span<float> velocities, const
   const auto threads = std::max<std::size_t>(
       1, std::min(static_cast<std::size_t>(std::max(1, parallel_thread_count())),
                   tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
-  const std::size_t ends = std::min(threads, std::max<std::size_t>(1, adjacency.slice_count() /
-                                                                           (CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH)));
+  const std::size_t ends =
+      std::min(threads, std::max<std::size_t>(1, adjacency.slice_count() / (CLOTH_PARTICLE_GRAIN / CLOTH_SLICE_WIDTH)));
   if (schedule == Rk4Schedule::AUTO) schedule = threads == 1 ? Rk4Schedule::WAVEFRONT : RK4_AUTO_SCHEDULE_THREADED;
   rk4_step(positions, velocities, adjacency, particles, h, workspace, schedule, ends, TbbForEach{});
 }

@@ -28,8 +28,8 @@
 /// inserts; evaluating the springs from registers with GCC vector types instead of the
 /// vectorised loop over the transposed rows measured no faster); other CPUs load the
 /// neighbours lane by lane (GCC's generic tuning emulates the gather instruction, which made
-/// the pass twice as slow on that machine). Both give the same bits. The scattered loads hit the cache when the particles are numbered for locality
-/// (kernels/cloth_ordering.h, as ClothSim numbers them).
+/// the pass twice as slow on that machine). Both give the same bits. The scattered loads hit the cache when the
+/// particles are numbered for locality (kernels/cloth_ordering.h, as ClothSim numbers them).
 ///
 /// The schedule: a step does not run the four stages as four passes over all particles, each
 /// streaming every spring row and state from memory (at 10^6 particles 0.3 GB a pass, far

@@ -126,8 +126,8 @@ void build_slices(SpringAdjacency& adj) {
   adj.slice_neighbor_last.resize(slices);
   for (std::size_t s = 0; s < slices; ++s) {
     auto first = static_cast<std::int32_t>(s), last = first;
-    for (auto slot = static_cast<std::size_t>(adj.slice_offsets[s]); slot < static_cast<std::size_t>(adj.slice_offsets[s + 1]);
-         ++slot) {
+    for (auto slot = static_cast<std::size_t>(adj.slice_offsets[s]);
+         slot < static_cast<std::size_t>(adj.slice_offsets[s + 1]); ++slot) {
       const std::int32_t neighbor_slice = adj.slice_neighbor_offsets[slot] / 3 / static_cast<std::int32_t>(W);
       first = std::min(first, neighbor_slice);
       last = std::max(last, neighbor_slice);

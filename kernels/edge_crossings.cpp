@@ -126,7 +126,8 @@ void SegmentCrossings::resize(std::size_t segment_count) {
 }
 
 std::size_t SegmentCrossings::crossing_count() const {
-  return static_cast<std::size_t>(std::count_if(triangles.begin(), triangles.end(), [](std::int32_t f) { return f >= 0; }));
+  return static_cast<std::size_t>(
+      std::count_if(triangles.begin(), triangles.end(), [](std::int32_t f) { return f >= 0; }));
 }
 
 struct EdgeCrossingIndex::Impl : CrossingData {};

@@ -23,7 +23,8 @@ SparseMatrix assemble(std::vector<Eigen::Triplet<double>>& edges, std::size_t n)
     diag[e.row()] += e.value();
     diag[e.col()] += e.value();
   }
-  for (std::size_t i = 0; i < n; ++i) t.emplace_back(static_cast<int>(i), static_cast<int>(i), diag[i]);
+  for (std::size_t i = 0; i < n; ++i)
+    t.emplace_back(static_cast<int>(i), static_cast<int>(i), diag[i]);
   SparseMatrix L(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
   L.setFromTriplets(t.begin(), t.end()); // duplicate (i, j) entries are summed
   return L;
@@ -45,7 +46,8 @@ SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::siz
       ++start[std::size_t(a) + 1];
       ++start[std::size_t(b) + 1];
     }
-  for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+  for (std::size_t v = 0; v < n; ++v)
+    start[v + 1] += start[v];
   std::vector<std::int32_t> neighbours(std::size_t(start[n]));
   std::vector<std::int32_t> cursor(start.begin(), start.end() - 1);
   for (std::size_t c = 0; c < triangles.size(); ++c)
@@ -69,7 +71,8 @@ SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::siz
   SparseMatrix L(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
   auto* outer = L.outerIndexPtr();
   outer[0] = 0;
-  for (std::size_t v = 0; v < n; ++v) outer[v + 1] = outer[v] + cursor[v] + 1;
+  for (std::size_t v = 0; v < n; ++v)
+    outer[v + 1] = outer[v] + cursor[v] + 1;
   L.resizeNonZeros(outer[n]);
   auto* inner = L.innerIndexPtr();
   double* value = L.valuePtr();
@@ -123,7 +126,8 @@ SparseMatrix cotangent_laplacian(std::span<const float> positions, std::span<con
   for (std::size_t i = 0; i < half.size();) {
     double w = 0;
     std::size_t j = i;
-    while (j < half.size() && half[j].row() == half[i].row() && half[j].col() == half[i].col()) w += half[j++].value();
+    while (j < half.size() && half[j].row() == half[i].row() && half[j].col() == half[i].col())
+      w += half[j++].value();
     if (half[i].row() != half[i].col()) edges.emplace_back(half[i].row(), half[i].col(), w);
     i = j;
   }

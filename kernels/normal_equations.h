@@ -15,8 +15,7 @@ namespace vfit {
 
 /// Factorisation: an Eigen sparse solver over Eigen::SparseMatrix<double> (column-major), with
 /// compute(), info() and solve(). A: #R × #N.
-template <typename Factorisation>
-struct NormalEquations {
+template <typename Factorisation> struct NormalEquations {
   Eigen::SparseMatrix<double> At; ///< Aᵀ (#N × #R), column-major: Aᵀ b is a fast product
   Factorisation factor;           ///< of AᵀA
   bool factored = false;          ///< factor.info() was Success; the caller's bar decides ok()
@@ -29,7 +28,8 @@ struct NormalEquations {
   /// AᵀA x = rhs, column by column (rhs: #N × k).
   Eigen::MatrixXd solve_normal(const Eigen::MatrixXd& rhs) const {
     Eigen::MatrixXd x(rhs.rows(), rhs.cols());
-    for (Eigen::Index c = 0; c < rhs.cols(); ++c) x.col(c) = factor.solve(rhs.col(c));
+    for (Eigen::Index c = 0; c < rhs.cols(); ++c)
+      x.col(c) = factor.solve(rhs.col(c));
     return x;
   }
 

@@ -14,13 +14,13 @@ namespace vfit {
 
 /// One OpenCL device as the ICD loader reports it.
 struct OpenClDeviceInfo {
-  int platform_index = 0;       ///< position of its platform in clGetPlatformIDs order
-  int device_index = 0;         ///< position within the platform
-  int flat_index = 0;           ///< position in the flat list over all platforms
+  int platform_index = 0; ///< position of its platform in clGetPlatformIDs order
+  int device_index = 0;   ///< position within the platform
+  int flat_index = 0;     ///< position in the flat list over all platforms
   std::string platform_name;
   std::string device_name;
-  std::string device_type;      ///< "gpu" | "cpu" | "accelerator" | "other"
-  std::string version;          ///< CL_DEVICE_VERSION
+  std::string device_type; ///< "gpu" | "cpu" | "accelerator" | "other"
+  std::string version;     ///< CL_DEVICE_VERSION
   std::uint64_t global_memory_bytes = 0;
   int compute_units = 0;
 };

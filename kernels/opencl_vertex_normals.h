@@ -19,8 +19,7 @@ class OpenClContext;
 class OpenClVertexNormals {
 public:
   /// triangles: #F × 3 indices in [0, vertex_count) (validated by the caller).
-  OpenClVertexNormals(OpenClContext& context, std::span<const std::int32_t> triangles,
-                      std::size_t vertex_count);
+  OpenClVertexNormals(OpenClContext& context, std::span<const std::int32_t> triangles, std::size_t vertex_count);
   ~OpenClVertexNormals();
   OpenClVertexNormals(const OpenClVertexNormals&) = delete;
   OpenClVertexNormals& operator=(const OpenClVertexNormals&) = delete;

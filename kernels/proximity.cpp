@@ -15,8 +15,9 @@
 
 namespace vfit {
 namespace {
-using std::sqrt; // the shared math headers call sqrt(float) as OpenCL C does.
-#include "closest_point_math.h"
+using std::sqrt;                // the shared math headers call sqrt(float) as OpenCL C does.
+#include "closest_point_math.h" // first: the two below are written against its types
+
 #include "capped_surface.h"
 #include "closest_hit_row.h"
 
@@ -25,8 +26,6 @@ static_assert(static_cast<int>(TriangleFeature::FACE) == VFIT_FEATURE_FACE);
 static_assert(static_cast<int>(TriangleFeature::EDGE_0) == VFIT_FEATURE_EDGE_0);
 static_assert(static_cast<int>(TriangleFeature::VERTEX_0) == VFIT_FEATURE_VERTEX_0);
 static_assert(static_cast<int>(TriangleFeature::VERTEX_2) == VFIT_FEATURE_VERTEX_2);
-
-
 
 // Everything the index owns; ProximityIndex::Impl is this under the name the header declares.
 struct IndexData : CappedSurface {
@@ -88,8 +87,9 @@ bool closest_triangle_callback(RTCPointQueryFunctionArguments* args) {
 }
 
 void write_hit(const IndexData& index, const QueryState& s, std::size_t i, ClosestHits& hits) {
-  write_closest_hit(s.query, s.best, s.best_triangle, s.best_cap, s.best_cap_triangle,
-                    [&](std::uint32_t t, int feature) { return index.feature_normal(t, feature); }, i, hits);
+  write_closest_hit(
+      s.query, s.best, s.best_triangle, s.best_cap, s.best_cap_triangle,
+      [&](std::uint32_t t, int feature) { return index.feature_normal(t, feature); }, i, hits);
 }
 
 // `radii` empty: every query searches within max_distance; otherwise query i within radii[i].
@@ -200,7 +200,8 @@ void ClosestHits::resize(std::size_t query_count) {
 }
 
 void ClosestHits::copy_row(std::size_t row, const ClosestHits& from, std::size_t from_row) {
-  for (std::size_t c = 0; c < 3; ++c) points[3 * row + c] = from.points[3 * from_row + c];
+  for (std::size_t c = 0; c < 3; ++c)
+    points[3 * row + c] = from.points[3 * from_row + c];
   triangles[row] = from.triangles[from_row];
   barycentrics[2 * row] = from.barycentrics[2 * from_row];
   barycentrics[2 * row + 1] = from.barycentrics[2 * from_row + 1];
@@ -265,8 +266,9 @@ void ProximityIndex::closest_points(std::span<const float> queries, float max_di
   const std::size_t count = queries.size() / 3;
   hits.resize(count);
   const Impl& m = *m_impl;
-  parallel_for_range(count, PROXIMITY_QUERY_GRAIN,
-                     [&](std::size_t b, std::size_t e) { closest_points_range(m, queries, max_distance, {}, hits, b, e); });
+  parallel_for_range(count, PROXIMITY_QUERY_GRAIN, [&](std::size_t b, std::size_t e) {
+    closest_points_range(m, queries, max_distance, {}, hits, b, e);
+  });
   embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
 }
 
@@ -407,7 +409,8 @@ void ProximityIndex::first_hits_brute_force(std::span<const float> from, std::sp
       const double tv[3] = {a[0] - p0[0], a[1] - p0[1], a[2] - p0[2]};
       const double u = (tv[0] * pv[0] + tv[1] * pv[1] + tv[2] * pv[2]) / det;
       if (u < 0.0 || u > 1.0) continue;
-      const double qv[3] = {tv[1] * e1[2] - tv[2] * e1[1], tv[2] * e1[0] - tv[0] * e1[2], tv[0] * e1[1] - tv[1] * e1[0]};
+      const double qv[3] = {tv[1] * e1[2] - tv[2] * e1[1], tv[2] * e1[0] - tv[0] * e1[2],
+                            tv[0] * e1[1] - tv[1] * e1[0]};
       const double v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) / det;
       if (v < 0.0 || u + v > 1.0) continue;
       const double t = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;

@@ -15,12 +15,11 @@
 
 namespace vfit {
 namespace {
-using std::sqrt; // the shared math headers call sqrt(float) as OpenCL C does.
-#include "closest_point_math.h"
+using std::sqrt;                // the shared math headers call sqrt(float) as OpenCL C does.
+#include "closest_point_math.h" // first: the two below are written against its types
+
 #include "capped_surface.h"
 #include "closest_hit_row.h"
-
-
 
 bool is_prime(std::size_t n) {
   if (n < 2) return false;
@@ -196,10 +195,10 @@ struct SpatialHash::Impl : CappedSurface {
   // The row of query i: ProximityIndex's write_hit, the side decided by the closest feature's
   // pseudo-normal on the capped mesh (a cap strictly closer than the mesh decides instead).
   void write_hit(const Query& s, std::size_t i, ClosestHits& hits) const {
-    write_closest_hit(s.q, s.best, s.best_triangle, s.best_cap, s.best_cap_triangle,
-                      [&](std::uint32_t t, int feature) { return feature_normal(t, feature); }, i, hits);
+    write_closest_hit(
+        s.q, s.best, s.best_triangle, s.best_cap, s.best_cap_triangle,
+        [&](std::uint32_t t, int feature) { return feature_normal(t, feature); }, i, hits);
   }
-
 
   void query_range(std::span<const float> queries, float max_distance, ClosestHits& hits, std::size_t begin,
                    std::size_t end) const {

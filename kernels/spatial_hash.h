@@ -79,9 +79,9 @@ public:
   /// Serial reference of closest_points(): the same answers, one query after another.
   void closest_points_serial(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
 
-  float cell_size() const;         ///< h (m)
-  std::size_t table_size() const;  ///< T, the number of buckets
-  std::size_t entry_count() const; ///< (triangle, cell) entries, caps included
+  float cell_size() const;          ///< h (m)
+  std::size_t table_size() const;   ///< T, the number of buckets
+  std::size_t entry_count() const;  ///< (triangle, cell) entries, caps included
   std::size_t vertex_count() const; ///< #V of the input mesh (hole-cap centroids not counted)
   std::size_t face_count() const;   ///< #F of the input mesh (cap triangles not counted)
 

@@ -23,7 +23,8 @@ constexpr double SUPERNODAL_RCOND = 1e-6;
 
 struct SupernodalLeastSquares::Impl : NormalEquations<Factor> {
   // A singular PSD matrix often "succeeds" with round-off pivots, hence the condition bar.
-  explicit Impl(const SparseMatrix& A) : NormalEquations(A), ok(factored && factor.reciprocal_condition() > SUPERNODAL_RCOND) {}
+  explicit Impl(const SparseMatrix& A)
+      : NormalEquations(A), ok(factored && factor.reciprocal_condition() > SUPERNODAL_RCOND) {}
   bool ok;
 };
 
@@ -35,6 +36,8 @@ SupernodalLeastSquares& SupernodalLeastSquares::operator=(SupernodalLeastSquares
 
 bool SupernodalLeastSquares::ok() const { return m_impl->ok; }
 
-Eigen::MatrixXd SupernodalLeastSquares::solve(const Eigen::MatrixXd& b) const { return m_impl->factor.solve(Eigen::MatrixXd(m_impl->At * b)); }
+Eigen::MatrixXd SupernodalLeastSquares::solve(const Eigen::MatrixXd& b) const {
+  return m_impl->factor.solve(Eigen::MatrixXd(m_impl->At * b));
+}
 
 } // namespace vfit

@@ -4,8 +4,8 @@
 #include <cassert>
 #include <cmath>
 #include <cstdint>
-#include <vector>
 #include <cstdlib>
+#include <vector>
 
 #include <Eigen/CholmodSupport>
 
@@ -123,10 +123,12 @@ std::vector<std::int32_t> aggregate(const Couplings& s, std::int32_t& count) {
   for (std::size_t i = 0; i < n; ++i) {
     if (agg[i] >= 0 || s.start[i] == s.start[i + 1]) continue;
     bool free = true;
-    for (int k = s.start[i]; k < s.start[i + 1] && free; ++k) free = agg[static_cast<std::size_t>(s.neighbour[k])] < 0;
+    for (int k = s.start[i]; k < s.start[i + 1] && free; ++k)
+      free = agg[static_cast<std::size_t>(s.neighbour[k])] < 0;
     if (!free) continue;
     agg[i] = count;
-    for (int k = s.start[i]; k < s.start[i + 1]; ++k) agg[static_cast<std::size_t>(s.neighbour[k])] = count;
+    for (int k = s.start[i]; k < s.start[i + 1]; ++k)
+      agg[static_cast<std::size_t>(s.neighbour[k])] = count;
     ++count;
   }
   const std::vector<std::int32_t> first = agg;
@@ -156,11 +158,11 @@ std::vector<std::int32_t> aggregate(const Couplings& s, std::int32_t& count) {
 struct TwoGridLeastSquares::Impl {
   TwoGridOptions options;
   SparseMatrix A, At;
-  Eigen::VectorXd inverse_diagonal;   ///< 1 / (AᵀA)_ii, #N
-  double upper = 1;                   ///< Gershgorin bound of D⁻¹AᵀA's spectrum
-  std::vector<std::int32_t> aggregate_of; ///< #N
-  std::vector<std::int32_t> members, member_start; ///< unknowns by aggregate (ascending in each)
-  std::vector<std::int32_t> coarse_start;          ///< #aggregates + 1: each one's coarse unknowns
+  Eigen::VectorXd inverse_diagonal;                                ///< 1 / (AᵀA)_ii, #N
+  double upper = 1;                                                ///< Gershgorin bound of D⁻¹AᵀA's spectrum
+  std::vector<std::int32_t> aggregate_of;                          ///< #N
+  std::vector<std::int32_t> members, member_start;                 ///< unknowns by aggregate (ascending in each)
+  std::vector<std::int32_t> coarse_start;                          ///< #aggregates + 1: each one's coarse unknowns
   Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> basis; ///< #N × 4: P's row of each unknown (zero-padded)
   Factor coarse;
   bool ok = false;
@@ -235,11 +237,13 @@ struct TwoGridLeastSquares::Impl {
           const std::int32_t i = members[static_cast<std::size_t>(k)];
           for (int c = 0; c < 3; ++c) {
             const double r = B(i, c) - w.AD(i, c);
-            for (std::int32_t f = 0; f < count; ++f) sum[f][c] += basis(i, f) * r;
+            for (std::int32_t f = 0; f < count; ++f)
+              sum[f][c] += basis(i, f) * r;
           }
         }
         for (std::int32_t f = 0; f < count; ++f)
-          for (int c = 0; c < 3; ++c) w.coarse_b(c0 + f, c) = sum[f][c];
+          for (int c = 0; c < 3; ++c)
+            w.coarse_b(c0 + f, c) = sum[f][c];
       }
     });
     const Eigen::MatrixXd coarse_x = coarse.solve(w.coarse_b);
@@ -248,7 +252,8 @@ struct TwoGridLeastSquares::Impl {
         const auto a = static_cast<std::size_t>(aggregate_of[i]);
         const std::int32_t c0 = coarse_start[a], count = coarse_start[a + 1] - c0;
         for (std::int32_t f = 0; f < count; ++f)
-          for (int c = 0; c < 3; ++c) X(static_cast<Eigen::Index>(i), c) += basis(static_cast<Eigen::Index>(i), f) * coarse_x(c0 + f, c);
+          for (int c = 0; c < 3; ++c)
+            X(static_cast<Eigen::Index>(i), c) += basis(static_cast<Eigen::Index>(i), f) * coarse_x(c0 + f, c);
       }
     });
     smooth(B, X, false, w);
@@ -259,7 +264,8 @@ struct TwoGridLeastSquares::Impl {
     inverse_diagonal.resize(A.cols());
     for (Eigen::Index i = 0; i < At.rows(); ++i) {
       double d = 0;
-      for (SparseMatrix::InnerIterator it(At, i); it; ++it) d += it.value() * it.value();
+      for (SparseMatrix::InnerIterator it(At, i); it; ++it)
+        d += it.value() * it.value();
       if (!(d > 0)) return; // a zero column: AᵀA singular
       inverse_diagonal[i] = 1 / d;
     }
@@ -270,11 +276,15 @@ struct TwoGridLeastSquares::Impl {
     aggregate_of = aggregate(s, count);
     // Members by aggregate (counting sort keeps them ascending).
     member_start.assign(static_cast<std::size_t>(count) + 1, 0);
-    for (std::int32_t a : aggregate_of) ++member_start[static_cast<std::size_t>(a) + 1];
-    for (std::size_t a = 0; a < static_cast<std::size_t>(count); ++a) member_start[a + 1] += member_start[a];
+    for (std::int32_t a : aggregate_of)
+      ++member_start[static_cast<std::size_t>(a) + 1];
+    for (std::size_t a = 0; a < static_cast<std::size_t>(count); ++a)
+      member_start[a + 1] += member_start[a];
     members.resize(n);
     std::vector<std::int32_t> fill(member_start.begin(), member_start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) members[static_cast<std::size_t>(fill[static_cast<std::size_t>(aggregate_of[i])]++)] = static_cast<std::int32_t>(i);
+    for (std::size_t i = 0; i < n; ++i)
+      members[static_cast<std::size_t>(fill[static_cast<std::size_t>(aggregate_of[i])]++)] =
+          static_cast<std::int32_t>(i);
     // Tentative prolongator: per aggregate an orthonormal basis of the near-null vectors
     // restricted to it, the constant first, the others with it projected out.
     const Eigen::Index m = near_null.cols();
@@ -283,7 +293,8 @@ struct TwoGridLeastSquares::Impl {
     for (std::size_t a = 0; a < static_cast<std::size_t>(count); ++a) {
       const Eigen::Index k = member_start[a + 1] - member_start[a];
       Eigen::MatrixXd Bk(k, m);
-      for (Eigen::Index r = 0; r < k; ++r) Bk.row(r) = near_null.row(members[static_cast<std::size_t>(member_start[a] + r)]);
+      for (Eigen::Index r = 0; r < k; ++r)
+        Bk.row(r) = near_null.row(members[static_cast<std::size_t>(member_start[a] + r)]);
       Eigen::MatrixXd Q(k, std::min(k, m));
       Eigen::Index q = 0;
       Q.col(q++) = Bk.col(0).normalized();
@@ -297,7 +308,8 @@ struct TwoGridLeastSquares::Impl {
         const double norm = v.norm();
         if (norm > DEPENDENT * extent && norm > 0) Q.col(q++) = v / norm;
       }
-      for (Eigen::Index r = 0; r < k; ++r) basis.row(members[static_cast<std::size_t>(member_start[a] + r)]).head(q) = Q.row(r).head(q);
+      for (Eigen::Index r = 0; r < k; ++r)
+        basis.row(members[static_cast<std::size_t>(member_start[a] + r)]).head(q) = Q.row(r).head(q);
       coarse_start[a + 1] = coarse_start[a] + static_cast<std::int32_t>(q);
     }
     const Eigen::SparseMatrix<double> G = galerkin();
@@ -365,14 +377,16 @@ struct TwoGridLeastSquares::Impl {
       }
       g_start.push_back(static_cast<int>(g_row.size()));
     }
-    return Eigen::Map<const Eigen::SparseMatrix<double>>(nc, nc, static_cast<Eigen::Index>(g_value.size()), g_start.data(),
-                                                         g_row.data(), g_value.data());
+    return Eigen::Map<const Eigen::SparseMatrix<double>>(nc, nc, static_cast<Eigen::Index>(g_value.size()),
+                                                         g_start.data(), g_row.data(), g_value.data());
   }
 };
 
-TwoGridLeastSquares::TwoGridLeastSquares(const SparseMatrix& A, const Eigen::MatrixXd& near_null, const TwoGridOptions& options)
+TwoGridLeastSquares::TwoGridLeastSquares(const SparseMatrix& A, const Eigen::MatrixXd& near_null,
+                                         const TwoGridOptions& options)
     : m_impl(std::make_unique<Impl>()) {
-  assert(near_null.rows() == A.cols() && near_null.cols() >= 1 && near_null.cols() <= 4 && "TwoGridLeastSquares: near-null shape");
+  assert(near_null.rows() == A.cols() && near_null.cols() >= 1 && near_null.cols() <= 4 &&
+         "TwoGridLeastSquares: near-null shape");
   m_impl->options = options;
   m_impl->A = A;
   m_impl->A.makeCompressed();
@@ -424,7 +438,8 @@ IterativeSolveStats TwoGridLeastSquares::solve(const Eigen::MatrixXd& b, Eigen::
     Eigen::RowVector3d r_norm = column_dots(R, R).cwiseSqrt();
     auto relative_residual = [&] {
       double worst = 0;
-      for (int c = 0; c < 3; ++c) worst = std::max(worst, b_norm[c] > 0 ? r_norm[c] / b_norm[c] : 0.0);
+      for (int c = 0; c < 3; ++c)
+        worst = std::max(worst, b_norm[c] > 0 ? r_norm[c] / b_norm[c] : 0.0);
       return worst;
     };
     int iterations = 0;
@@ -462,7 +477,8 @@ IterativeSolveStats TwoGridLeastSquares::solve(const Eigen::MatrixXd& b, Eigen::
         s.cycle(R, Z, w);
         const Eigen::RowVector3d rz_next = column_dots(R, Z);
         Eigen::RowVector3d beta;
-        for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? rz_next[c] / rz[c] : 0.0;
+        for (int c = 0; c < 3; ++c)
+          beta[c] = rz[c] > 0 ? rz_next[c] / rz[c] : 0.0;
         parallel_for_range(static_cast<std::size_t>(n), ROW_GRAIN, [&](std::size_t begin, std::size_t end) {
           for (std::size_t i = begin; i < end; ++i)
             for (int c = 0; c < 3; ++c) {

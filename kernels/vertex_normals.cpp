@@ -20,8 +20,8 @@ vfit_vec3 face_normal(std::span<const float> positions, std::span<const std::int
                                    load(positions, tris[3 * f + 2]));
 }
 
-void face_normals_range(std::span<const float> positions, std::span<const std::int32_t> tris,
-                        float* out, std::size_t begin, std::size_t end) {
+void face_normals_range(std::span<const float> positions, std::span<const std::int32_t> tris, float* out,
+                        std::size_t begin, std::size_t end) {
   for (std::size_t f = begin; f < end; ++f) {
     vfit_vec3 n = face_normal(positions, tris, f);
     out[3 * f] = n.x;
@@ -48,19 +48,20 @@ void gather_range(const VertexFaceAdjacency& adj, const float* face_normals, flo
 }
 } // namespace
 
-VertexFaceAdjacency build_vertex_face_adjacency(std::span<const std::int32_t> triangles,
-                                                std::size_t vertex_count) {
+VertexFaceAdjacency build_vertex_face_adjacency(std::span<const std::int32_t> triangles, std::size_t vertex_count) {
   VertexFaceAdjacency adj;
   adj.offsets.assign(vertex_count + 1, 0);
   for (std::int32_t v : triangles) {
     assert(v >= 0 && static_cast<std::size_t>(v) < vertex_count && "triangle index out of range");
     ++adj.offsets[static_cast<std::size_t>(v) + 1];
   }
-  for (std::size_t v = 0; v < vertex_count; ++v) adj.offsets[v + 1] += adj.offsets[v];
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    adj.offsets[v + 1] += adj.offsets[v];
   adj.faces.resize(triangles.size());
   std::vector<std::int32_t> cursor(adj.offsets.begin(), adj.offsets.end() - 1);
   // Counting sort in triangle order keeps each vertex's list ascending.
-  for (std::size_t i = 0; i < triangles.size(); ++i) adj.faces[cursor[triangles[i]]++] = static_cast<std::int32_t>(i / 3);
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    adj.faces[cursor[triangles[i]]++] = static_cast<std::int32_t>(i / 3);
   return adj;
 }
 
@@ -94,9 +95,8 @@ void vertex_normals_tbb(std::span<const float> positions, std::span<const std::i
   face_normals.resize(3 * nf);
   normals.resize(3 * nv);
   float* fn = face_normals.data();
-  parallel_for_range(nf, VERTEX_NORMALS_GRAIN, [&](std::size_t b, std::size_t e) {
-    face_normals_range(positions, triangles, fn, b, e);
-  });
+  parallel_for_range(nf, VERTEX_NORMALS_GRAIN,
+                     [&](std::size_t b, std::size_t e) { face_normals_range(positions, triangles, fn, b, e); });
   float* out = normals.data();
   parallel_for_range(nv, VERTEX_NORMALS_GRAIN,
                      [&](std::size_t b, std::size_t e) { gather_range(adjacency, fn, out, b, e); });

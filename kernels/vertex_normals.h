@@ -21,8 +21,7 @@ struct VertexFaceAdjacency {
 
 /// Builds the adjacency of `triangles` (#F × 3 vertex indices, each in [0, vertex_count)).
 /// Indices must already be validated (assert only).
-VertexFaceAdjacency build_vertex_face_adjacency(std::span<const std::int32_t> triangles,
-                                                std::size_t vertex_count);
+VertexFaceAdjacency build_vertex_face_adjacency(std::span<const std::int32_t> triangles, std::size_t vertex_count);
 
 /// Grain size of the TBB drivers below, in triangles or vertices per task.
 inline constexpr std::size_t VERTEX_NORMALS_GRAIN = 4096;

@@ -59,7 +59,8 @@ std::vector<std::string> Args::positionals(std::size_t min_count, std::size_t ma
   if (out.size() < min_count)
     throw Error("vfit " + m_command, 0, "missing argument (see vfit " + m_command + " --help)");
   if (out.size() > max_count)
-    throw Error("vfit " + m_command, 0, "unexpected argument '" + out[max_count] + "' (see vfit " + m_command + " --help)");
+    throw Error("vfit " + m_command, 0,
+                "unexpected argument '" + out[max_count] + "' (see vfit " + m_command + " --help)");
   return out;
 }
 

@@ -21,7 +21,8 @@ BodyMeasurements measurements_from_args(Args& args) {
     if (auto v = args.value(flag)) {
       char* end = nullptr;
       const double x = std::strtod(v->c_str(), &end);
-      if (end == v->c_str() || *end != '\0') throw Error("--" + flag, 0, "expected a length in metres, got '" + *v + "'");
+      if (end == v->c_str() || *end != '\0')
+        throw Error("--" + flag, 0, "expected a length in metres, got '" + *v + "'");
       m[name] = x;
     }
   }
@@ -39,7 +40,8 @@ BodyRequest body_request_from_args(Args& args, const std::string& source) {
   r.source = source;
   r.mannequin.measurements = measurements_from_args(args);
   if (auto p = args.value("pose-rest")) r.mannequin.pose = parse_rest_pose("--pose-rest", *p);
-  if (auto n = args.value("vertices")) r.mannequin.target_vertices = static_cast<std::size_t>(Args::to_int("--vertices", *n, 1000, 2000000));
+  if (auto n = args.value("vertices"))
+    r.mannequin.target_vertices = static_cast<std::size_t>(Args::to_int("--vertices", *n, 1000, 2000000));
   if (auto b = args.value("betas")) {
     std::string s = *b;
     std::size_t start = 0;
@@ -48,7 +50,8 @@ BodyRequest body_request_from_args(Args& args, const std::string& source) {
       const std::string item = s.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
       char* end = nullptr;
       const double x = std::strtod(item.c_str(), &end);
-      if (item.empty() || *end != '\0' || !std::isfinite(x)) throw Error("--betas", 0, "expected comma-separated numbers, got '" + *b + "'");
+      if (item.empty() || *end != '\0' || !std::isfinite(x))
+        throw Error("--betas", 0, "expected comma-separated numbers, got '" + *b + "'");
       r.betas.push_back(x);
       if (comma == std::string::npos) break;
       start = comma + 1;
@@ -111,7 +114,8 @@ Pose pose_from_arg(const std::string& value, RestPose rest) {
 KeypointFit fit_keypoint_file(const std::string& file, const KeypointOptions& options, bool quiet, Keypoints* read) {
   Keypoints kp = read_keypoints(file, options);
   if (!quiet)
-    for (const auto& w : kp.warnings) std::cerr << "vfit: warning: " << w << "\n";
+    for (const auto& w : kp.warnings)
+      std::cerr << "vfit: warning: " << w << "\n";
   KeypointFit fit = fit_keypoints(kp);
   if (read) *read = std::move(kp);
   return fit;

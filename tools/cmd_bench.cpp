@@ -94,8 +94,10 @@ int run_table1(Args& args) {
               "paper  ours(min)  x", "paper  ours(min)  x", "paper  ours(min)  x", "ours (outcome)");
   for (const Table1Row& row : table1_rows()) {
     if (static_cast<int>(rows.size()) >= row_limit) break;
-    if (!posed.contains(row.body_pose)) posed.emplace(row.body_pose, pose_body(rest, named_pose(row.body_pose, rest.rest_pose)));
-    if (!quiet) std::cerr << "vfit: bench: " << row.garment << " (" << row.vertices << " vertices) on " << row.body_pose << "\n";
+    if (!posed.contains(row.body_pose))
+      posed.emplace(row.body_pose, pose_body(rest, named_pose(row.body_pose, rest.rest_pose)));
+    if (!quiet)
+      std::cerr << "vfit: bench: " << row.garment << " (" << row.vertices << " vertices) on " << row.body_pose << "\n";
     const Garment garment = make_garment(table1_garment_options(row));
     const auto times = time_fit(posed.at(row.body_pose), garment, row.garment, runs, &report);
     nlohmann::ordered_json j;
@@ -122,9 +124,8 @@ int run_table1(Args& args) {
       FitReport simulated;
       time_fit(posed.at(row.body_pose), garment, row.garment, 1, &simulated, true);
       const GarmentFitReport& g = simulated.garments.front();
-      j["simulation"] = {{"ms", g.timings.simulation_ms},
-                         {"outcome", to_string(g.simulation)},
-                         {"steps", g.simulation_steps}};
+      j["simulation"] = {
+          {"ms", g.timings.simulation_ms}, {"outcome", to_string(g.simulation)}, {"steps", g.simulation_steps}};
       std::printf(" | %8.1f (%s)", g.timings.simulation_ms, to_string(g.simulation).c_str());
     }
     std::printf("\n");
@@ -176,7 +177,8 @@ int run_sweep(Args& args) {
   mo.pose = RestPose::APOSE;
   const Body body = pose_body(make_mannequin(mo), named_pose("arms_down", RestPose::APOSE));
   std::vector<double> sizes;
-  for (double v = 1000; v <= max_vertices * 1.0001; v *= std::sqrt(10.0)) sizes.push_back(std::round(v / 100) * 100);
+  for (double v = 1000; v <= max_vertices * 1.0001; v *= std::sqrt(10.0))
+    sizes.push_back(std::round(v / 100) * 100);
   const char* stages[] = {"segmentation", "deformation", "penetration", "total"};
   std::map<std::string, std::vector<double>> medians;
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();

@@ -86,9 +86,9 @@ int run_scan(Args& args, const std::string& path) {
     parsed.warnings.push_back(path + ": stored with +z up (detected), rotated to +y up (force with --up)");
   }
   rotate_to_y_up(parsed.mesh.positions, up);
-  const PreparedScan prepared = prepare_scan(std::move(parsed.mesh), path,
-                                             facing_arg && *facing_arg != "auto" ? std::optional<Facing>(parse_facing(*facing_arg))
-                                                                                 : std::nullopt);
+  const PreparedScan prepared = prepare_scan(
+      std::move(parsed.mesh), path,
+      facing_arg && *facing_arg != "auto" ? std::optional<Facing>(parse_facing(*facing_arg)) : std::nullopt);
   parsed.warnings.insert(parsed.warnings.end(), prepared.warnings.begin(), prepared.warnings.end());
   ScanFit fit = fit_scan(prepared.mesh, path);
   restore_scan_surface(fit.rigged, prepared);
@@ -100,8 +100,7 @@ int run_scan(Args& args, const std::string& path) {
     std::printf("scan: %zu vertices, %zu faces; start from %s\n", prepared.vertex_count, prepared.face_count,
                 fit.initialised_from_joints ? "the joints estimated on the scan"
                                             : "the A-pose (joint estimation failed)");
-    std::printf("%-8s %10s %10s %10s %12s %12s\n", "stage", "iterations", "candidates", "ms", "mean (mm)",
-                "95% (mm)");
+    std::printf("%-8s %10s %10s %10s %12s %12s\n", "stage", "iterations", "candidates", "ms", "mean (mm)", "95% (mm)");
     for (const ScanFitStage& s : fit.stages)
       std::printf("%-8s %10d %10d %10.1f %12.2f %12.2f\n", s.name.c_str(), s.iterations, s.candidates, s.ms,
                   1000 * s.mean_distance, 1000 * s.p95_distance);

@@ -36,7 +36,8 @@ int run_convert(Args& args) {
     scale_positions(parsed.mesh.positions, metres_per_unit(from));
   }
   if (!quiet)
-    for (const auto& w : parsed.warnings) std::cerr << "vfit: warning: " << w << "\n";
+    for (const auto& w : parsed.warnings)
+      std::cerr << "vfit: warning: " << w << "\n";
   write_mesh(out, parsed.mesh, in.stem().string());
   if (!quiet)
     std::cout << "wrote " << out.string() << " (" << parsed.mesh.vertex_count() << " vertices, "

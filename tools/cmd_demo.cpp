@@ -81,10 +81,13 @@ int run_demo(Args& args) {
   write_mesh(trousers_file, trousers.mesh);
   say("fitting " + tee_file.string() + " and " + trousers_file.string() +
       " onto the mannequin in the 'demo' pose (arms down, left knee bent):\n");
-  std::vector<std::string> fit_tokens = {"--body", "mannequin", "--pose", "demo", "--garment", trousers_file.string(),
-                                         "--garment", tee_file.string(), "--out", (out_dir / "fit.glb").string(),
-                                         "--report", (out_dir / "fit_report.json").string(), "--render",
-                                         (out_dir / "fit_views.png").string()};
+  std::vector<std::string> fit_tokens = {"--body",    "mannequin",
+                                         "--pose",    "demo",
+                                         "--garment", trousers_file.string(),
+                                         "--garment", tee_file.string(),
+                                         "--out",     (out_dir / "fit.glb").string(),
+                                         "--report",  (out_dir / "fit_report.json").string(),
+                                         "--render",  (out_dir / "fit_views.png").string()};
   if (quiet) fit_tokens.push_back("--quiet");
   Args fit_args(fit_tokens, "fit");
   if (const int rc = run_fit(fit_args); rc != 0) return rc;
@@ -98,14 +101,16 @@ int run_demo(Args& args) {
   const Body body = make_mannequin(mo);
   const double body_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tb).count();
   Body posed = pose_body(body, named_pose("demo", body.rest_pose));
-  for (std::size_t v = 0; v < posed.mesh.vertex_count(); ++v) posed.mesh.positions[3 * v] += 1.0f;
+  for (std::size_t v = 0; v < posed.mesh.vertex_count(); ++v)
+    posed.mesh.positions[3 * v] += 1.0f;
   {
     const MeasuredBody m = measure_body(body.mesh, body.joints);
-    say("mannequin: " + std::to_string(body.mesh.vertex_count()) + " vertices, built in " + std::to_string(int(body_ms)) +
-        " ms; requested vs measured:\n");
+    say("mannequin: " + std::to_string(body.mesh.vertex_count()) + " vertices, built in " +
+        std::to_string(int(body_ms)) + " ms; requested vs measured:\n");
     for (std::string_view n : BodyMeasurements::names()) {
       char line[128];
-      std::snprintf(line, sizeof line, "  %-15s %7.4f m  %7.4f m\n", std::string(n).c_str(), mo.measurements[n], m.values[n]);
+      std::snprintf(line, sizeof line, "  %-15s %7.4f m  %7.4f m\n", std::string(n).c_str(), mo.measurements[n],
+                    m.values[n]);
       say(line);
     }
   }
@@ -119,9 +124,10 @@ int run_demo(Args& args) {
   items.push_back({"builtin_cloth_grid", make_grid(80, 80, 1.0f, 1.0f), {}});
   for (Item& it : items) {
     TopologyReport t = analyse_topology(it.mesh.triangle_view(), it.mesh.vertex_count());
-    it.summary = {{"file", "(built-in) " + it.name}, {"vertices", it.mesh.vertex_count()}, {"faces", it.mesh.face_count()},
-                  {"units", "m"}, {"components", t.components}, {"boundary_loops", t.boundary_loops},
-                  {"watertight", t.watertight()}, {"manifold", t.manifold()}};
+    it.summary = {{"file", "(built-in) " + it.name}, {"vertices", it.mesh.vertex_count()},
+                  {"faces", it.mesh.face_count()},   {"units", "m"},
+                  {"components", t.components},      {"boundary_loops", t.boundary_loops},
+                  {"watertight", t.watertight()},    {"manifold", t.manifold()}};
   }
 
   std::size_t corpus_files = 0;
@@ -151,8 +157,9 @@ int run_demo(Args& args) {
   say("\nmesh                                      vertices    faces units comps loops watertight\n");
   for (const Item& it : items) {
     const auto& j = it.summary;
-    std::snprintf(row, sizeof row, "%-40s %9zu %8zu %5s %5zu %5zu %s\n", it.name.c_str(), j["vertices"].get<std::size_t>(),
-                  j["faces"].get<std::size_t>(), j["units"].get<std::string>().c_str(), j["components"].get<std::size_t>(),
+    std::snprintf(row, sizeof row, "%-40s %9zu %8zu %5s %5zu %5zu %s\n", it.name.c_str(),
+                  j["vertices"].get<std::size_t>(), j["faces"].get<std::size_t>(),
+                  j["units"].get<std::string>().c_str(), j["components"].get<std::size_t>(),
                   j["boundary_loops"].get<std::size_t>(), j["watertight"].get<bool>() ? "yes" : "no");
     say(row);
   }
@@ -180,8 +187,8 @@ int run_demo(Args& args) {
     std::snprintf(row, sizeof row, "  %-8s %8.3f ms   max deviation from serial %.2e deg   [%s]\n",
                   backend_name(b).c_str(), ms, dev, engine.description().c_str());
     say(row);
-    normals_report.push_back({{"backend", backend_name(b)}, {"device", engine.description()}, {"ms", ms},
-                              {"max_deviation_deg", dev}});
+    normals_report.push_back(
+        {{"backend", backend_name(b)}, {"device", engine.description()}, {"ms", ms}, {"max_deviation_deg", dev}});
   }
 
   std::vector<NamedMesh> named;
@@ -191,7 +198,8 @@ int run_demo(Args& args) {
   write_meshes_glb(glb, named);
   nlohmann::json report;
   report["meshes"] = nlohmann::json::array();
-  for (const Item& it : items) report["meshes"].push_back(it.summary);
+  for (const Item& it : items)
+    report["meshes"].push_back(it.summary);
   report["vertex_normals"] = normals_report;
   const auto json_path = out_dir / "demo.json";
   write_file_atomically(json_path, report.dump(2) + "\n");

@@ -38,7 +38,8 @@ double to_double(const std::string& option, const std::string& value, double lo,
     used = 0;
   }
   if (used != value.size() || !std::isfinite(x) || x < lo || x > hi)
-    throw Error(option, 0, "expected a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + value + "'");
+    throw Error(option, 0,
+                "expected a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + value + "'");
   return x;
 }
 
@@ -165,10 +166,11 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
     gj["penetration"]["after"] = stats_json(g.after);
     gj["penetration"]["iterations"] = g.penetration_iterations;
     const ClothProxyReport& cp = g.cloth_proxy;
-    gj["cloth_proxy"] = {{"used", cp.used},
-                         {"vertices", cp.vertices},
-                         {"triangles", cp.triangles},
-                         {"timings_ms", {{"build", cp.build_ms}, {"simulation", cp.simulation_ms}, {"reconstruct", cp.reconstruct_ms}}}};
+    gj["cloth_proxy"] = {
+        {"used", cp.used},
+        {"vertices", cp.vertices},
+        {"triangles", cp.triangles},
+        {"timings_ms", {{"build", cp.build_ms}, {"simulation", cp.simulation_ms}, {"reconstruct", cp.reconstruct_ms}}}};
     gj["simulation"] = {{"outcome", to_string(g.simulation)},
                         {"status", g.simulation_status},
                         {"simulated_seconds", g.simulated_seconds},
@@ -186,7 +188,8 @@ std::string report_json(const FitReport& report, const LoadedBody& loaded, const
                                    {"mean_ease_mm", r.mean_ease_mm},
                                    {"min_ease_mm", r.min_ease_mm},
                                    {"verdict", size_verdict_name(r.verdict)}};
-      rj["girth_ease_m"] = std::isfinite(r.girth_ease) ? nlohmann::ordered_json(r.girth_ease) : nlohmann::ordered_json();
+      rj["girth_ease_m"] =
+          std::isfinite(r.girth_ease) ? nlohmann::ordered_json(r.girth_ease) : nlohmann::ordered_json();
       if (r.girth_ease_estimated) rj["girth_ease_estimated"] = true;
       gj["regions"].push_back(rj);
     }
@@ -212,8 +215,9 @@ void print_table(const FitReport& report, double body_ms) {
       std::printf(" %14.1f", g.timings.named()[s].second);
     std::printf(" %10.1f\n", all[s].second);
   }
-  std::printf("body %zu vertices (loaded in %.1f ms, index %.1f ms); backend %s, %d threads, %s\n", report.body_vertices,
-              body_ms, report.body_index_ms, report.backend.c_str(), report.threads, report.cpu_model.c_str());
+  std::printf("body %zu vertices (loaded in %.1f ms, index %.1f ms); backend %s, %d threads, %s\n",
+              report.body_vertices, body_ms, report.body_index_ms, report.backend.c_str(), report.threads,
+              report.cpu_model.c_str());
   for (const GarmentFitReport& g : report.garments) {
     std::printf("%s: %s, %zu vertices; move %s; driving %s; inside %zu -> %zu (max %.2f -> %.2f mm); crossing edges "
                 "%zu -> %zu; inside inner layers %zu -> %zu, through them %zu -> %zu; simulation %s\n",
@@ -290,18 +294,26 @@ int run_fit(Args& args) {
   FitOptions options;
   options.simulate = !args.flag("no-simulation");
   if (auto b = args.value("backend")) {
-    if (*b == "serial") options.backend = ClothBackend::SERIAL;
-    else if (*b == "tbb") options.backend = ClothBackend::TBB;
-    else throw Error("--backend", 0, "expected serial or tbb, got '" + *b + "'");
+    if (*b == "serial")
+      options.backend = ClothBackend::SERIAL;
+    else if (*b == "tbb")
+      options.backend = ClothBackend::TBB;
+    else
+      throw Error("--backend", 0, "expected serial or tbb, got '" + *b + "'");
   }
   if (auto f = args.value("fabric")) options.fabric = *f;
   if (auto c = args.value("clearance")) options.clearance = to_double("--clearance", *c, 0, 0.05);
-  if (auto s = args.value("max-sim-seconds")) options.max_simulated_seconds = to_double("--max-sim-seconds", *s, 0, 600);
+  if (auto s = args.value("max-sim-seconds"))
+    options.max_simulated_seconds = to_double("--max-sim-seconds", *s, 0, 600);
   if (auto m = args.value("cloth-proxy")) {
-    if (*m == "auto") options.cloth_proxy = ClothProxyMode::AUTO;
-    else if (*m == "on") options.cloth_proxy = ClothProxyMode::ON;
-    else if (*m == "off") options.cloth_proxy = ClothProxyMode::OFF;
-    else throw Error("--cloth-proxy", 0, "expected auto, on or off, got '" + *m + "'");
+    if (*m == "auto")
+      options.cloth_proxy = ClothProxyMode::AUTO;
+    else if (*m == "on")
+      options.cloth_proxy = ClothProxyMode::ON;
+    else if (*m == "off")
+      options.cloth_proxy = ClothProxyMode::OFF;
+    else
+      throw Error("--cloth-proxy", 0, "expected auto, on or off, got '" + *m + "'");
   }
   if (auto n = args.value("proxy-vertices"))
     options.cloth_proxy_vertices = static_cast<std::size_t>(Args::to_int("--proxy-vertices", *n, 100, 2000000));
@@ -310,10 +322,14 @@ int run_fit(Args& args) {
   if (auto facing = args.value("garment-facing"); facing && *facing != "auto")
     options.garment_facing = parse_facing(*facing);
   if (auto order = args.value("layer-order")) {
-    if (*order == "auto") options.layer_order = LayerOrderRule::AUTO;
-    else if (*order == "type") options.layer_order = LayerOrderRule::TYPE;
-    else if (*order == "given") options.layer_order = LayerOrderRule::GIVEN;
-    else throw Error("--layer-order", 0, "expected auto, type or given, got '" + *order + "'");
+    if (*order == "auto")
+      options.layer_order = LayerOrderRule::AUTO;
+    else if (*order == "type")
+      options.layer_order = LayerOrderRule::TYPE;
+    else if (*order == "given")
+      options.layer_order = LayerOrderRule::GIVEN;
+    else
+      throw Error("--layer-order", 0, "expected auto, type or given, got '" + *order + "'");
   }
   if (debug_dir) {
     if (debug_dir->empty()) throw Error("--debug", 0, "expected a folder");
@@ -329,8 +345,10 @@ int run_fit(Args& args) {
     const std::string ext = lower_extension(*out);
     if (ext != ".obj" && ext != ".ply" && ext != ".glb") throw Error(*out, 0, "--out writes .obj, .ply or .glb");
   }
-  if (report_file && lower_extension(*report_file) != ".json") throw Error(*report_file, 0, "--report writes a .json file");
-  if (render_file && lower_extension(*render_file) != ".png") throw Error(*render_file, 0, "--render writes a .png file");
+  if (report_file && lower_extension(*report_file) != ".json")
+    throw Error(*report_file, 0, "--report writes a .json file");
+  if (render_file && lower_extension(*render_file) != ".png")
+    throw Error(*render_file, 0, "--render writes a .png file");
   if (options.simulate) (void)fabric_preset(options.fabric);
   // Outputs are checked before the fit, so that none is written when another cannot be.
   {
@@ -348,7 +366,7 @@ int run_fit(Args& args) {
   // Read every garment before the (slower) body, so a missing file fails at once.
   std::vector<FitGarmentInput> garments;
   ReadOptions read_options;
-  read_options.repair = body_flags.repair; // --repair, read with the body's flags
+  read_options.repair = body_flags.repair;                       // --repair, read with the body's flags
   std::map<std::string, std::vector<std::string>> read_warnings; // for the report
   for (const std::string& f : garment_files) {
     ParsedMesh parsed = read_mesh(f, read_options);
@@ -369,8 +387,8 @@ int run_fit(Args& args) {
     keypoint_fit = fit_keypoint_file(*keypoints_file, kp_options, quiet, &kp);
     keypoint_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (progress)
-      std::fprintf(stderr, "vfit: keypoints: %zu, fitted in %.1f ms, mean reprojection error %.2f px\n", kp.points.size(),
-                   keypoint_fit->total_ms, keypoint_fit->mean_reprojection_px);
+      std::fprintf(stderr, "vfit: keypoints: %zu, fitted in %.1f ms, mean reprojection error %.2f px\n",
+                   kp.points.size(), keypoint_fit->total_ms, keypoint_fit->mean_reprojection_px);
   }
   // Every body is loaded (and checked) before any fit, so a bad body file fails at once.
   std::vector<LoadedBody> loaded;

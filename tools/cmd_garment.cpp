@@ -15,7 +15,6 @@
 
 namespace vfit::cli {
 
-
 /// The labels file written beside a garment mesh: out.obj → out.labels.json.
 std::filesystem::path labels_path(const std::filesystem::path& mesh_path) {
   std::filesystem::path p = mesh_path;
@@ -29,7 +28,8 @@ int run_garment(Args& args) {
   o.body = measurements_from_args(args);
   o.size = args.value("size").value_or("M");
   if (auto p = args.value("pose")) o.pose = parse_rest_pose("--pose", *p);
-  if (auto n = args.value("vertices")) o.target_vertices = static_cast<std::size_t>(Args::to_int("--vertices", *n, 1000, 2000000));
+  if (auto n = args.value("vertices"))
+    o.target_vertices = static_cast<std::size_t>(Args::to_int("--vertices", *n, 1000, 2000000));
   const auto out = args.value("out");
   const auto pos = args.positionals(1, 1);
   o.type = parse_garment_type(pos[0]);
@@ -44,9 +44,11 @@ int run_garment(Args& args) {
   labels["ease_m"] = {{"chest", g.ease.chest}, {"waist", g.ease.waist}, {"hip", g.ease.hip}, {"thigh", g.ease.thigh}};
   labels["pose"] = g.pose == RestPose::TPOSE ? "tpose" : "apose";
   labels["part_names"] = nlohmann::json::array();
-  for (int p = 0; p < GARMENT_PART_COUNT; ++p) labels["part_names"].push_back(garment_part_name(static_cast<GarmentPart>(p)));
+  for (int p = 0; p < GARMENT_PART_COUNT; ++p)
+    labels["part_names"].push_back(garment_part_name(static_cast<GarmentPart>(p)));
   std::vector<int> parts(g.vertex_parts.size());
-  for (std::size_t v = 0; v < parts.size(); ++v) parts[v] = int(g.vertex_parts[v]);
+  for (std::size_t v = 0; v < parts.size(); ++v)
+    parts[v] = int(g.vertex_parts[v]);
   labels["vertex_parts"] = parts;
   write_mesh(*out, g.mesh, garment_type_name(g.type));
   write_file_atomically(labels_path(*out), labels.dump() + "\n");

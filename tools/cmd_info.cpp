@@ -16,7 +16,8 @@ int run_info(Args& args) {
   if (json) {
     std::cout << summary_json(s).dump(2) << "\n";
   } else {
-    for (const auto& w : s.parsed.warnings) std::cerr << "vfit: warning: " << w << "\n";
+    for (const auto& w : s.parsed.warnings)
+      std::cerr << "vfit: warning: " << w << "\n";
     std::cout << summary_text(s);
   }
   return 0;

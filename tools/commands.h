@@ -17,7 +17,4 @@ int run_render(Args& args);
 int run_fit(Args& args);
 int run_bench(Args& args);
 
-
-
-
 } // namespace vfit::cli

@@ -77,7 +77,8 @@ OpenCL backends and compares them, and writes DIR/demo.glb (all meshes in metres
 mesh each) and DIR/demo.json. DIR defaults to ./vfit_demo.
 )";
 
-constexpr const char* BODY_HELP = R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
+constexpr const char* BODY_HELP =
+    R"(usage: vfit body [--preset NAME] [--height M] [--chest M] ... [--pose-rest apose|tpose]
                  [--from FILE [--betas B1,B2,...] [--joints-in FILE.json] [--units U] [--up A]
                  [--facing F] [--repair]]
                  [--pose NAME|FILE.json] [--vertices N] [--out FILE] [--joints FILE.json]
@@ -125,7 +126,8 @@ compares requested and measured values.
                   --out the scan, or with --pose P the rigged scan driven to P (T-pose-relative)
 )";
 
-constexpr const char* GARMENT_HELP = R"(usage: vfit garment TYPE --out FILE [--size S] [--vertices N] [--pose tpose|apose]
+constexpr const char* GARMENT_HELP =
+    R"(usage: vfit garment TYPE --out FILE [--size S] [--vertices N] [--pose tpose|apose]
                     [--preset NAME] [--height M] [--chest M] ... [--quiet]
 
 Generates a catalogue garment around the built-in mannequin: TYPE is tee, long-sleeve,
@@ -136,7 +138,8 @@ the same measurement flags as `vfit body`. Writes the mesh (with UVs, parts as g
 FILE's stem + .labels.json: {"part_names": [...], "vertex_parts": [one per vertex]}.
 )";
 
-constexpr const char* MEASURE_HELP = R"(usage: vfit measure BODY [--json] [--units U] [--joints-in FILE.json] [--betas B1,B2,...]
+constexpr const char* MEASURE_HELP =
+    R"(usage: vfit measure BODY [--json] [--units U] [--joints-in FILE.json] [--betas B1,B2,...]
                     [--rig-mapping FILE.json]
 
 Measures any body in its rest pose (upright, arms away from the torso): the 11 measurements of
@@ -173,7 +176,8 @@ garments darker. Views are composited side by side with their names into FILE.pn
 Files are written atomically (a temporary file renamed); nothing is written on error.
 )";
 
-constexpr const char* FIT_HELP = R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE ...] [body flags]
+constexpr const char* FIT_HELP =
+    R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE ...] [body flags]
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
@@ -232,7 +236,8 @@ bottoms turned a quarter, front and back are not told apart (see the report's wa
 A table of stage times goes to stdout (not with --quiet). Nothing is written on error.
 )";
 
-constexpr const char* BENCH_HELP = R"(usage: vfit bench table1 [--runs N] [--rows N] [--json FILE] [--no-simulation] [--quiet]
+constexpr const char* BENCH_HELP =
+    R"(usage: vfit bench table1 [--runs N] [--rows N] [--json FILE] [--no-simulation] [--quiet]
        vfit bench sweep [--garment TYPE] [--max-vertices N] [--runs N] [--json FILE] [--quiet]
 
 table1: the nine garment/body pairs of seed 000 Table 1, rebuilt from the catalogue with the
@@ -262,16 +267,11 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
     const char* help;
     int (*run)(Args&);
   };
-  static const Command commands[] = {{"info", INFO_HELP, run_info},
-                                     {"convert", CONVERT_HELP, run_convert},
-                                     {"devices", DEVICES_HELP, run_devices},
-                                     {"demo", DEMO_HELP, run_demo},
-                                     {"body", BODY_HELP, run_body},
-                                     {"garment", GARMENT_HELP, run_garment},
-                                     {"render", RENDER_HELP, run_render},
-                                     {"fit", FIT_HELP, run_fit},
-                                     {"bench", BENCH_HELP, run_bench},
-                                     {"measure", MEASURE_HELP, run_measure}};
+  static const Command commands[] = {{"info", INFO_HELP, run_info},          {"convert", CONVERT_HELP, run_convert},
+                                     {"devices", DEVICES_HELP, run_devices}, {"demo", DEMO_HELP, run_demo},
+                                     {"body", BODY_HELP, run_body},          {"garment", GARMENT_HELP, run_garment},
+                                     {"render", RENDER_HELP, run_render},    {"fit", FIT_HELP, run_fit},
+                                     {"bench", BENCH_HELP, run_bench},       {"measure", MEASURE_HELP, run_measure}};
   for (const auto& c : commands) {
     if (command != c.name) continue;
     if (wants_help(rest)) {
@@ -292,7 +292,7 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
 // takes 9.3 ms either way). Apps that link the engine and fit many garments can do the same.
 void keep_freed_memory() {
 #if defined(__GLIBC__)
-  mallopt(M_MMAP_THRESHOLD, 64 << 20); // blocks below 64 MB come from the heap
+  mallopt(M_MMAP_THRESHOLD, 64 << 20);  // blocks below 64 MB come from the heap
   mallopt(M_TRIM_THRESHOLD, 256 << 20); // the heap keeps up to 256 MB free at its top
 #endif
 }

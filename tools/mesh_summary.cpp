@@ -112,8 +112,9 @@ std::string summary_text(const MeshSummary& s) {
   };
   line("file", s.path + " (" + s.format + ", " + fmt("%.1f", double(s.bytes) / 1024.0) + " KiB, read in " +
                    fmt("%.1f", s.read_ms) + " ms)");
-  line("vertices", std::to_string(m.vertex_count()) +
-                       (t.unreferenced_vertices ? " (" + std::to_string(t.unreferenced_vertices) + " unreferenced)" : ""));
+  line("vertices",
+       std::to_string(m.vertex_count()) +
+           (t.unreferenced_vertices ? " (" + std::to_string(t.unreferenced_vertices) + " unreferenced)" : ""));
   line("faces", std::to_string(m.face_count()) + " triangles" +
                     (s.stats.zero_area_faces ? " (" + std::to_string(s.stats.zero_area_faces) + " of zero area)" : ""));
   line("edges", std::to_string(t.edges));
@@ -127,11 +128,13 @@ std::string summary_text(const MeshSummary& s) {
   line("units", units_name(s.units) + (s.units_stated ? " (stated)" : " (detected from the extent)"));
   line("surface area", fmt("%.4g", s.stats.surface_area * k * k) + " m^2");
   line("components", std::to_string(t.components));
-  line("boundary loops", std::to_string(t.boundary_loops) + " (" + std::to_string(t.boundary_edges) + " boundary edges)");
+  line("boundary loops",
+       std::to_string(t.boundary_loops) + " (" + std::to_string(t.boundary_edges) + " boundary edges)");
   line("manifold", yes_no(t.manifold()) + " (" + std::to_string(t.non_manifold_edges) + " non-manifold edges, " +
                        std::to_string(t.non_manifold_vertices) + " non-manifold vertices)");
-  line("oriented", yes_no(t.oriented()) +
-                       (t.inconsistent_edges ? " (" + std::to_string(t.inconsistent_edges) + " edges with flipped neighbours)" : ""));
+  line("oriented", yes_no(t.oriented()) + (t.inconsistent_edges ? " (" + std::to_string(t.inconsistent_edges) +
+                                                                      " edges with flipped neighbours)"
+                                                                : ""));
   line("watertight", yes_no(t.watertight()));
   line("euler characteristic", std::to_string(t.euler_characteristic));
   return out;

@@ -27,8 +27,7 @@ struct MeshSummary {
 
 /// Reads, validates and analyses a mesh file. `stated` overrides unit detection; detection
 /// failure (extent too large or zero) is an error asking for --units.
-MeshSummary summarise_mesh(const std::filesystem::path& path, const ReadOptions& options,
-                           std::optional<Units> stated);
+MeshSummary summarise_mesh(const std::filesystem::path& path, const ReadOptions& options, std::optional<Units> stated);
 
 nlohmann::json summary_json(const MeshSummary& s);
 std::string summary_text(const MeshSummary& s);

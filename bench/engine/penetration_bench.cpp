@@ -78,8 +78,7 @@ vfit::PenetrationOptions pipeline_options() {
 }
 
 // Runs removal and returns the median of its own wall times (PenetrationReport::milliseconds).
-double run(benchmark::State& state, const Case& c,
-           vfit::PenetrationSolver solver = vfit::PenetrationOptions{}.solver) {
+double run(benchmark::State& state, const Case& c, vfit::PenetrationSolver solver = vfit::PenetrationOptions{}.solver) {
   vfit::PenetrationOptions po = pipeline_options();
   po.solver = solver;
   vfit::PenetrationReport report;
@@ -132,7 +131,11 @@ void BM_RemoveScaled(benchmark::State& state) {
   state.SetLabel(state.range(1) == 0 ? "cholesky" : "conjugate gradients");
   run(state, *c, state.range(1) == 0 ? vfit::PenetrationSolver::CHOLESKY : vfit::PenetrationSolver::CONJUGATE_GRADIENT);
 }
-BENCHMARK(BM_RemoveScaled)->ArgsProduct({{10'000, 100'000, 1'000'000}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_RemoveScaled)
+    ->ArgsProduct({{10'000, 100'000, 1'000'000}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 vfit::GarmentOptions catalogue_options(vfit::GarmentType type, const std::string& size, std::size_t vertices) {
   vfit::GarmentOptions o;
@@ -147,7 +150,7 @@ void BM_InferLayerOrder(benchmark::State& state) {
   auto& pair = cache[state.range(0)];
   if (pair.empty())
     for (const auto& [type, size] : {std::pair<vfit::GarmentType, std::string>{vfit::GarmentType::TEE, "M"},
-                                      std::pair<vfit::GarmentType, std::string>{vfit::GarmentType::TROUSERS, "P2"}})
+                                     std::pair<vfit::GarmentType, std::string>{vfit::GarmentType::TROUSERS, "P2"}})
       pair.push_back(vfit::make_garment(catalogue_options(type, size, std::size_t(state.range(0)))).mesh);
   const vfit::Mesh* garments[] = {&pair[0], &pair[1]};
   const std::size_t given[] = {1, 0}; // bottoms first
@@ -163,7 +166,13 @@ void BM_InferLayerOrder(benchmark::State& state) {
   state.counters["tee_first"] = found.order[0] == 0 ? 1 : 0;
   state.counters["vertices"] = double(pair[0].vertex_count() + pair[1].vertex_count());
 }
-BENCHMARK(BM_InferLayerOrder)->Arg(10'000)->Arg(100'000)->Arg(1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_InferLayerOrder)
+    ->Arg(10'000)
+    ->Arg(100'000)
+    ->Arg(1'000'000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 } // namespace
 

@@ -9,7 +9,8 @@ namespace {
 void BM_mannequin(benchmark::State& state) {
   vfit::MannequinOptions o;
   o.target_vertices = static_cast<std::size_t>(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::make_mannequin(o));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::make_mannequin(o));
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 BENCHMARK(BM_mannequin)->Arg(1000)->Arg(7000)->Arg(20000)->Arg(100000)->Unit(benchmark::kMillisecond)->Iterations(1);
@@ -18,7 +19,8 @@ void BM_garment(benchmark::State& state) {
   vfit::GarmentOptions o;
   o.type = static_cast<vfit::GarmentType>(state.range(0));
   o.target_vertices = static_cast<std::size_t>(state.range(1));
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::make_garment(o));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::make_garment(o));
   state.SetItemsProcessed(state.iterations() * state.range(1));
   state.SetLabel(vfit::garment_type_name(o.type));
 }

@@ -38,7 +38,8 @@ Keypoints bench_keypoints(int which) {
   for (int i = 0; i < 25; ++i) {
     const Eigen::Vector2d px = cam.project(posed.row(keypoint_body_point(KeypointLayout::BODY_25, i)).transpose());
     const bool missing = which == 2 && (i == 4 || i == 7); // BODY_25 right and left wrists
-    for (double v : {px.x() + noise(rng), px.y() + noise(rng), missing ? 0.0 : 0.9}) arr.push_back(v);
+    for (double v : {px.x() + noise(rng), px.y() + noise(rng), missing ? 0.0 : 0.9})
+      arr.push_back(v);
   }
   const nlohmann::json doc = {{"image_size", {1000, 1000}}, {"people", {{{"pose_keypoints_2d", arr}}}}};
   return parse_keypoints(doc.dump(), "bench");

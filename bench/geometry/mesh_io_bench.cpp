@@ -38,7 +38,8 @@ const Fixture& fixture(std::int64_t vertices) {
 
 void BM_read_bytes(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::read_file_bytes(f.file));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::read_file_bytes(f.file));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
 BENCHMARK(BM_read_bytes)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -46,7 +47,8 @@ BENCHMARK(BM_read_bytes)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark:
 void BM_parse_obj(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(1)));
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::read_obj(f.obj, "bench.obj"));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::read_obj(f.obj, "bench.obj"));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
   state.SetItemsProcessed(state.iterations() * std::int64_t(f.mesh.vertex_count()));
   state.counters["threads"] = double(state.range(1));
@@ -55,14 +57,16 @@ BENCHMARK(BM_parse_obj)->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})->Unit(b
 
 void BM_read_mesh_obj(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::read_mesh(f.file));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::read_mesh(f.file));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
 BENCHMARK(BM_read_mesh_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_write_obj(benchmark::State& state) {
   const Fixture& f = fixture(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::write_obj(f.mesh));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::write_obj(f.mesh));
   state.SetBytesProcessed(state.iterations() * std::int64_t(f.obj.size()));
 }
 BENCHMARK(BM_write_obj)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -97,7 +101,8 @@ BENCHMARK(BM_weld)->ArgsProduct({{10000, 100000, 1000000}, {0, 1}})->Unit(benchm
 void BM_orient(benchmark::State& state) {
   vfit::Mesh input = fixture(state.range(0)).mesh;
   if (state.range(1))
-    for (std::size_t f = 0; f < input.face_count(); f += 3) std::swap(input.triangles[3 * f + 1], input.triangles[3 * f + 2]);
+    for (std::size_t f = 0; f < input.face_count(); f += 3)
+      std::swap(input.triangles[3 * f + 1], input.triangles[3 * f + 2]);
   for (auto _ : state) {
     state.PauseTiming();
     vfit::Mesh m = input;

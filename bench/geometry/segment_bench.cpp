@@ -59,8 +59,10 @@ void BM_segment_table1(benchmark::State& state) {
   const vfit::Table1Row& row = vfit::table1_rows().at(std::size_t(state.range(0)));
   static std::map<std::int64_t, vfit::Garment> cache;
   auto it = cache.find(state.range(0));
-  if (it == cache.end()) it = cache.emplace(state.range(0), vfit::make_garment(vfit::table1_garment_options(row))).first;
-  for (auto _ : state) benchmark::DoNotOptimize(vfit::segment_garment(it->second.mesh).vertex_parts.data());
+  if (it == cache.end())
+    it = cache.emplace(state.range(0), vfit::make_garment(vfit::table1_garment_options(row))).first;
+  for (auto _ : state)
+    benchmark::DoNotOptimize(vfit::segment_garment(it->second.mesh).vertex_parts.data());
   state.SetItemsProcessed(state.iterations() * std::int64_t(row.vertices));
   state.SetLabel(row.garment);
   state.counters["paper_ms"] = row.paper_segmentation_ms;
@@ -73,7 +75,8 @@ void BM_find_thick_shell(benchmark::State& state) {
   const vfit::Mesh& tee = catalogue_mesh(vfit::GarmentType::TEE, std::size_t(state.range(0)));
   static std::map<std::size_t, vfit::Mesh> thick;
   const bool solid = state.range(1) != 0;
-  if (solid && !thick.contains(tee.vertex_count())) thick.emplace(tee.vertex_count(), vfit::make_solidified(tee, 0.003f, true));
+  if (solid && !thick.contains(tee.vertex_count()))
+    thick.emplace(tee.vertex_count(), vfit::make_solidified(tee, 0.003f, true));
   const vfit::Mesh& mesh = solid ? thick.at(tee.vertex_count()) : tee;
   std::size_t sheet_vertices = 0;
   for (auto _ : state) {
@@ -85,9 +88,7 @@ void BM_find_thick_shell(benchmark::State& state) {
   state.counters["sheet_vertices"] = double(sheet_vertices);
   state.SetLabel(solid ? "solidified tee" : "tee");
 }
-BENCHMARK(BM_find_thick_shell)
-    ->ArgsProduct({{10000, 100000}, {0, 1}})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_find_thick_shell)->ArgsProduct({{10000, 100000}, {0, 1}})->Unit(benchmark::kMillisecond);
 
 } // namespace
 

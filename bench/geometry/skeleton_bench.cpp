@@ -50,14 +50,16 @@ void BM_tube_skeleton(benchmark::State& state) {
   const std::vector<vfit::GarmentPart> parts(mesh.vertex_count(), vfit::GarmentPart::LEFT_SLEEVE);
   vfit::PartSkeletonOptions o;
   o.skeleton.proxy_vertices = std::size_t(state.range(0));
-  o.skeleton.contraction.laplacian = state.range(1) ? vfit::ContractionLaplacian::COTANGENT : vfit::ContractionLaplacian::UNIFORM;
+  o.skeleton.contraction.laplacian =
+      state.range(1) ? vfit::ContractionLaplacian::COTANGENT : vfit::ContractionLaplacian::UNIFORM;
   vfit::PartSkeleton s;
   for (auto _ : state) {
     s = vfit::extract_part_skeleton(mesh, parts, vfit::GarmentPart::LEFT_SLEEVE, o);
     benchmark::DoNotOptimize(s.nodes.data());
   }
   double offset = 0;
-  for (const auto& p : s.nodes) offset += axis_offset(p.x(), p.y(), p.z());
+  for (const auto& p : s.nodes)
+    offset += axis_offset(p.x(), p.y(), p.z());
   state.SetItemsProcessed(state.iterations() * std::int64_t(mesh.vertex_count()));
   state.SetLabel(state.range(1) ? "cotangent" : "uniform");
   state.counters["centredness"] = offset / double(std::max<std::size_t>(1, s.nodes.size()));
@@ -176,7 +178,9 @@ double thread_cpu_ms() {
 // Part skeletons, driver setup and drive() of one case, with the per-limb stages as counters.
 void time_deformation(benchmark::State& state, const Table1Case& c, vfit::BandSolver solver = vfit::BandSolver::AUTO) {
   using Clock = std::chrono::steady_clock;
-  const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  const auto ms = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
   double skeleton_ms = 0, setup_ms = 0, drive_ms = 0;
   double skeleton_cpu_ms = 0, setup_cpu_ms = 0, drive_cpu_ms = 0;
   vfit::PartSkeletonTimings limb_sum; // per-limb stages summed over limbs and runs
@@ -187,7 +191,8 @@ void time_deformation(benchmark::State& state, const Table1Case& c, vfit::BandSo
   for (auto _ : state) {
     const auto t0 = Clock::now();
     const double c0 = thread_cpu_ms();
-    const std::vector<vfit::PartSkeleton> limbs = vfit::extract_limb_skeletons(c.garment.mesh, c.segmentation.vertex_parts);
+    const std::vector<vfit::PartSkeleton> limbs =
+        vfit::extract_limb_skeletons(c.garment.mesh, c.segmentation.vertex_parts);
     const auto t1 = Clock::now();
     const double c1 = thread_cpu_ms();
     const vfit::SkeletonDriver driver(c.garment.mesh, c.segmentation, limbs, options);
@@ -245,8 +250,10 @@ void time_deformation(benchmark::State& state, const Table1Case& c, vfit::BandSo
   state.counters["piece_vertices"] = pieces / n; // summed over the limbs
   state.counters["cap_vertices"] = caps / n;
   state.counters["band_vertices"] = free_vertices / n; // the Laplacian's unknowns
-  state.counters["band_cg_iterations"] = band_iterations / n; // 0: every piece factored (AUTO below 25,000 free vertices a piece)
-  state.counters["band_fallbacks"] = band_fallbacks / n;       // share of runs where an unconverged piece was factored instead
+  state.counters["band_cg_iterations"] =
+      band_iterations / n; // 0: every piece factored (AUTO below 25,000 free vertices a piece)
+  state.counters["band_fallbacks"] =
+      band_fallbacks / n; // share of runs where an unconverged piece was factored instead
   state.counters["worst_area_ratio"] = area;
 }
 
@@ -263,7 +270,13 @@ void BM_sweep_deformation(benchmark::State& state) {
   time_deformation(state, sweep_case(std::size_t(state.range(0))));
   state.SetLabel("tee");
 }
-BENCHMARK(BM_sweep_deformation)->Arg(10000)->Arg(31600)->Arg(100000)->Arg(316200)->Arg(1000000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sweep_deformation)
+    ->Arg(10000)
+    ->Arg(31600)
+    ->Arg(100000)
+    ->Arg(316200)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMillisecond);
 
 // The same with the band solver forced (arg 0: the tee's vertex count; arg 1: the BandSolver,
 // 1 DIRECT, 2 SUPERNODAL, 3 MULTIGRID: two-grid CG), to compare them at one size back to back.
@@ -274,7 +287,9 @@ void BM_sweep_deformation_solver(benchmark::State& state) {
                  : solver == vfit::BandSolver::SUPERNODAL ? "tee, supernodal"
                                                           : "tee, two-grid CG");
 }
-BENCHMARK(BM_sweep_deformation_solver)->ArgsProduct({{31600, 100000, 316200}, {1, 2, 3}})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sweep_deformation_solver)
+    ->ArgsProduct({{31600, 100000, 316200}, {1, 2, 3}})
+    ->Unit(benchmark::kMillisecond);
 
 #ifdef VFIT_BENCH_CGAL
 // CGAL's mean curvature flow skeleton of the same tube, closed by our hole filling (CGAL needs
@@ -289,7 +304,8 @@ void BM_tube_skeleton_cgal(benchmark::State& state) {
     handles.push_back(sm.add_vertex(Kernel::Point_3(closed.mesh.positions[3 * v], closed.mesh.positions[3 * v + 1],
                                                     closed.mesh.positions[3 * v + 2])));
   for (std::size_t f = 0; f < closed.mesh.face_count(); ++f)
-    sm.add_face(handles[std::size_t(closed.mesh.triangles[3 * f])], handles[std::size_t(closed.mesh.triangles[3 * f + 1])],
+    sm.add_face(handles[std::size_t(closed.mesh.triangles[3 * f])],
+                handles[std::size_t(closed.mesh.triangles[3 * f + 1])],
                 handles[std::size_t(closed.mesh.triangles[3 * f + 2])]);
   using Skeletonization = CGAL::Mean_curvature_flow_skeletonization<SurfaceMesh>;
   Skeletonization::Skeleton skeleton;

@@ -53,8 +53,8 @@
 #include <ctime>
 #include <filesystem>
 #include <map>
-#include <random>
 #include <memory>
+#include <random>
 
 #include "engine/cloth_sim.h"
 #include "engine/penetration.h"
@@ -66,11 +66,11 @@
 #include "kernels/cloth_implicit.h"
 #include "kernels/cloth_ordering.h"
 #include "kernels/cloth_rk4.h"
-#include "kernels/proximity.h"
 #include "kernels/cloth_springs.h"
 #include "kernels/opencl_cloth.h"
 #include "kernels/opencl_context.h"
 #include "kernels/parallel.h"
+#include "kernels/proximity.h"
 
 namespace {
 
@@ -426,9 +426,7 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   state.counters["consecutive_columns"] = double(consecutive * vfit::CLOTH_SLICE_WIDTH) / double(slots);
 }
 
-void BM_drape_tee_to_rest(benchmark::State& state) {
-  drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0);
-}
+void BM_drape_tee_to_rest(benchmark::State& state) { drape_bench(state, vfit::ClothIntegrator::IMPLICIT_EULER, 10.0); }
 // One drape per thread count (each takes seconds); the garment and body are built once, untimed.
 BENCHMARK(BM_drape_tee_to_rest)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
@@ -544,4 +542,3 @@ BENCHMARK(BM_rk4_opencl_tee)->Apply(sizes);
 } // namespace
 
 BENCHMARK_MAIN();
-

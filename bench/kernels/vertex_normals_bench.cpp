@@ -26,7 +26,8 @@ const vfit::Mesh& sphere(std::int64_t vertices) {
 }
 
 void sizes(benchmark::internal::Benchmark* b) {
-  for (std::int64_t n : {1000, 10000, 100000, 1000000}) b->Arg(n);
+  for (std::int64_t n : {1000, 10000, 100000, 1000000})
+    b->Arg(n);
   b->Unit(benchmark::kMicrosecond)->UseRealTime();
 }
 
@@ -54,7 +55,10 @@ void BM_normals_tbb(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * std::int64_t(m.vertex_count()));
   state.counters["threads"] = double(state.range(1));
 }
-BENCHMARK(BM_normals_tbb)->ArgsProduct({{1000, 10000, 100000, 1000000}, {1, 2}})->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(BM_normals_tbb)
+    ->ArgsProduct({{1000, 10000, 100000, 1000000}, {1, 2}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 
 void BM_normals_opencl(benchmark::State& state) {
   if (vfit::list_opencl_devices().empty()) {

@@ -7,7 +7,8 @@ MeshSkin body_skin(const Body& body) {
   for (int j = 0; j < JOINT_COUNT; ++j) {
     s.joint_names.emplace_back(joint_name(j));
     s.joint_parents.push_back(joint_parent(j));
-    for (int k = 0; k < 3; ++k) s.joint_positions.push_back(static_cast<float>(body.joints(j, k)));
+    for (int k = 0; k < 3; ++k)
+      s.joint_positions.push_back(static_cast<float>(body.joints(j, k)));
   }
   s.joints = body.weights.joints;
   s.weights = body.weights.weights;

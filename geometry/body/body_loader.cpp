@@ -8,11 +8,11 @@
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/mesh_stats.h"
-#include "gltf_body.h"
-#include "json_input.h"
-#include "joint_estimation.h"
 #include "geometry/mesh/orient.h"
 #include "geometry/mesh/weld.h"
+#include "gltf_body.h"
+#include "joint_estimation.h"
+#include "json_input.h"
 #include "kernels/error.h"
 #include "kernels/hole_caps.h"
 #include "rig_mapping.h"
@@ -62,7 +62,8 @@ LoadedBody load_body(const BodyRequest& r) {
   }
   const std::filesystem::path path = r.source;
   std::string ext = path.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (char& c : ext)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".npz") {
     auto model = std::make_shared<SmplModel>(SmplModel::load(path));
     out.rest = model->rest_body(r.betas);
@@ -99,9 +100,9 @@ LoadedBody load_body(const BodyRequest& r) {
   }
   scale_positions(parsed.mesh.positions, metres_per_unit(units));
   if (const WeldReport weld = weld_coincident_vertices(parsed.mesh); weld.changed())
-    out.warnings.push_back(path.string() + ": welded " + std::to_string(weld.welded) + " coincident vertices, dropped " +
-                           std::to_string(weld.unreferenced) + " unused vertices and " + std::to_string(weld.collapsed) +
-                           " collapsed triangles");
+    out.warnings.push_back(path.string() + ": welded " + std::to_string(weld.welded) +
+                           " coincident vertices, dropped " + std::to_string(weld.unreferenced) +
+                           " unused vertices and " + std::to_string(weld.collapsed) + " collapsed triangles");
   if (const OrientReport orient = orient_consistently(parsed.mesh); orient.changed())
     out.warnings.push_back(path.string() + ": turned over " + std::to_string(orient.flipped) + " of " +
                            std::to_string(parsed.mesh.face_count()) +
@@ -121,7 +122,8 @@ LoadedBody load_body(const BodyRequest& r) {
     out.rest.mesh = std::move(parsed.mesh);
     out.rest.joints = read_joints_json(*r.joints_file);
     rotate_to_y_up(std::span<double>(out.rest.joints.data(), std::size_t(out.rest.joints.size())), up);
-    if (r.facing) rotate_to_face_z(std::span<double>(out.rest.joints.data(), std::size_t(out.rest.joints.size())), *r.facing);
+    if (r.facing)
+      rotate_to_face_z(std::span<double>(out.rest.joints.data(), std::size_t(out.rest.joints.size())), *r.facing);
     out.rest.weights = estimate_skin_weights(out.rest.mesh, out.rest.joints);
     out.rest.source = path.string();
     out.kind = "mesh+joints";

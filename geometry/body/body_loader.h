@@ -22,11 +22,11 @@ class SmplModel;
 struct BodyRequest {
   /// "mannequin", or a file: .npz (SMPL format), .glb/.gltf (rigged, or plain), .obj/.ply/...
   std::string source = "mannequin";
-  MannequinOptions mannequin;          ///< for "mannequin"
-  std::vector<double> betas;           ///< for SMPL-format files (missing ones are 0)
+  MannequinOptions mannequin;                  ///< for "mannequin"
+  std::vector<double> betas;                   ///< for SMPL-format files (missing ones are 0)
   std::optional<std::string> rig_mapping_file; ///< explicit bone → joint mapping for glTF rigs
-  std::optional<std::string> joints_file; ///< {"joints": {"pelvis": [x, y, z], ...}} for plain meshes
-  std::optional<Units> units;          ///< a plain mesh's units (detected when absent)
+  std::optional<std::string> joints_file;      ///< {"joints": {"pelvis": [x, y, z], ...}} for plain meshes
+  std::optional<Units> units;                  ///< a plain mesh's units (detected when absent)
   /// A plain mesh's up axis in its file (with its joints file, if any): rotated to +Y by
   /// rotate_to_y_up(). Absent: detect_body_up_axis() on the mesh (+Y when it cannot tell), with a
   /// warning when it turns the body.
@@ -44,9 +44,9 @@ struct BodyRequest {
 /// A body ready for fitting: rigged, in metres, in its rest pose, plus how to pose it.
 class LoadedBody {
 public:
-  Body rest;                          ///< rest-pose mesh, joints, weights
-  std::vector<std::string> warnings;  ///< unit conversion, joint estimation notes, ...
-  std::string kind;                   ///< "mannequin" | "smpl" | "gltf-rig" | "mesh+joints" | "scan"
+  Body rest;                         ///< rest-pose mesh, joints, weights
+  std::vector<std::string> warnings; ///< unit conversion, joint estimation notes, ...
+  std::string kind;                  ///< "mannequin" | "smpl" | "gltf-rig" | "mesh+joints" | "scan"
 
   /// The body in `pose`: SMPL's own model (pose blend shapes included) for SMPL-format files,
   /// linear blend skinning otherwise.

@@ -36,8 +36,10 @@ std::vector<SectionLoop> horizontal_section(const Mesh& mesh, double height) {
     for (std::size_t s : {a, b}) {
       const std::size_t o = s == a ? b : a;
       Link& l = nodes[s];
-      if (l.other[0] < 0) l.other[0] = static_cast<std::int64_t>(o);
-      else if (l.other[1] < 0) l.other[1] = static_cast<std::int64_t>(o);
+      if (l.other[0] < 0)
+        l.other[0] = static_cast<std::int64_t>(o);
+      else if (l.other[1] < 0)
+        l.other[1] = static_cast<std::int64_t>(o);
     }
   };
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
@@ -96,15 +98,18 @@ double convex_hull_perimeter(const SectionLoop& loop) {
   std::vector<std::array<double, 2>> hull(2 * pts.size());
   std::size_t k = 0;
   for (const auto& q : pts) {
-    while (k >= 2 && cross(hull[k - 2], hull[k - 1], q) <= 0) --k;
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], q) <= 0)
+      --k;
     hull[k++] = q;
   }
   for (std::size_t i = pts.size() - 1, t = k + 1; i-- > 0;) {
-    while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0) --k;
+    while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0)
+      --k;
     hull[k++] = pts[i];
   }
   double perimeter = 0;
-  for (std::size_t i = 1; i < k; ++i) perimeter += std::hypot(hull[i][0] - hull[i - 1][0], hull[i][1] - hull[i - 1][1]);
+  for (std::size_t i = 1; i < k; ++i)
+    perimeter += std::hypot(hull[i][0] - hull[i - 1][0], hull[i][1] - hull[i - 1][1]);
   return perimeter;
 }
 

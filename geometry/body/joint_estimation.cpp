@@ -67,13 +67,15 @@ void check_shape(const Mesh& mesh, const std::string& source) {
   // Upright: far taller than deep, and as tall as a T-pose's arm span at least.
   // The message says which test failed: a body that stands Y up can still sit or kneel.
   if (ext.y() < 2 * ext.z())
-    throw Error(source, 0, "the mesh is " + size.str() +
-                               ": not an upright body (Y up, facing +Z): deeper than half its height (sitting, "
-                               "kneeling or lying, or a floor scanned with it?)");
+    throw Error(source, 0,
+                "the mesh is " + size.str() +
+                    ": not an upright body (Y up, facing +Z): deeper than half its height (sitting, "
+                    "kneeling or lying, or a floor scanned with it?)");
   if (ext.y() < 0.75 * ext.x())
-    throw Error(source, 0, "the mesh is " + size.str() +
-                               ": not an upright body (Y up, facing +Z): wider than 4/3 of its height (lying on "
-                               "its side, or a floor scanned with it?)");
+    throw Error(source, 0,
+                "the mesh is " + size.str() +
+                    ": not an upright body (Y up, facing +Z): wider than 4/3 of its height (lying on "
+                    "its side, or a floor scanned with it?)");
 }
 
 const char* side_name(int side) { return side > 0 ? "left" : "right"; }

@@ -28,7 +28,8 @@ inline Eigen::Vector3d vec3(const nlohmann::json& v, const std::string& file, co
   if (!v.is_array() || v.size() != 3) throw Error(file, 0, "'" + key + "': expected [x, y, z]");
   Eigen::Vector3d r;
   for (int k = 0; k < 3; ++k) {
-    if (!v[k].is_number() || !std::isfinite(v[k].get<double>())) throw Error(file, 0, "'" + key + "': not a finite number");
+    if (!v[k].is_number() || !std::isfinite(v[k].get<double>()))
+      throw Error(file, 0, "'" + key + "': not a finite number");
     r[k] = v[k].get<double>();
   }
   return r;

@@ -7,8 +7,8 @@
 
 #include <ceres/ceres.h>
 
-#include "keypoint_costs.h"
 #include "kernels/error.h"
+#include "keypoint_costs.h"
 #include "limb_lift.h"
 #include "mannequin_shape.h"
 
@@ -18,7 +18,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace keypoint_detail;
 constexpr double PI = std::numbers::pi;
-constexpr double SHAPE_LIMIT = 3.0;              // |β_k| ≤ 3 σ: beyond that, not an adult body
+constexpr double SHAPE_LIMIT = 3.0; // |β_k| ≤ 3 σ: beyond that, not an adult body
 constexpr double HIP_TRUST = 0.5;
 
 int L(Landmark l) { return static_cast<int>(l); }
@@ -57,7 +57,8 @@ KeypointBodyModel::Points points_of(const BodyMeasurements& m) {
   const Eigen::Vector3d hip_offset(0.010 * H, -0.035 * H, 0.0);
   set(Landmark::LEFT_HIP_SURFACE, J(Joint::LEFT_HIP) + hip_offset);
   set(Landmark::RIGHT_HIP_SURFACE, J(Joint::RIGHT_HIP) + Eigen::Vector3d(-hip_offset.x(), hip_offset.y(), 0));
-  set(Landmark::MID_HIP, 0.5 * (P.row(L(Landmark::LEFT_HIP_SURFACE)) + P.row(L(Landmark::RIGHT_HIP_SURFACE))).transpose());
+  set(Landmark::MID_HIP,
+      0.5 * (P.row(L(Landmark::LEFT_HIP_SURFACE)) + P.row(L(Landmark::RIGHT_HIP_SURFACE))).transpose());
   // Feet: the foot ellipsoid runs from the heel to the toes; the big toe is on the inner side.
   for (int side = 0; side < 2; ++side) {
     const Eigen::Vector3d fc = foot[side]->centre, fr = foot[side]->radii;
@@ -82,12 +83,15 @@ KeypointBodyModel build_mannequin_model() {
     model.basis[static_cast<std::size_t>(k)] =
         0.5 * (points_of(KeypointBodyModel::measurements(plus)) - points_of(KeypointBodyModel::measurements(minus)));
   }
-  for (int j = 0; j < JOINT_COUNT; ++j) model.joint[static_cast<std::size_t>(j)] = j;
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    model.joint[static_cast<std::size_t>(j)] = j;
   auto attach = [&](Landmark l, Joint j) { model.joint[static_cast<std::size_t>(L(l))] = idx(j); };
-  for (Landmark l : {Landmark::NOSE, Landmark::LEFT_EYE, Landmark::RIGHT_EYE, Landmark::LEFT_EAR, Landmark::RIGHT_EAR, Landmark::HEAD_TOP})
+  for (Landmark l : {Landmark::NOSE, Landmark::LEFT_EYE, Landmark::RIGHT_EYE, Landmark::LEFT_EAR, Landmark::RIGHT_EAR,
+                     Landmark::HEAD_TOP})
     attach(l, Joint::HEAD);
   attach(Landmark::NECK_BASE, Joint::SPINE3);
-  for (Landmark l : {Landmark::MID_HIP, Landmark::LEFT_HIP_SURFACE, Landmark::RIGHT_HIP_SURFACE}) attach(l, Joint::PELVIS);
+  for (Landmark l : {Landmark::MID_HIP, Landmark::LEFT_HIP_SURFACE, Landmark::RIGHT_HIP_SURFACE})
+    attach(l, Joint::PELVIS);
   attach(Landmark::LEFT_BIG_TOE, Joint::LEFT_FOOT);
   attach(Landmark::LEFT_SMALL_TOE, Joint::LEFT_FOOT);
   attach(Landmark::LEFT_HEEL, Joint::LEFT_ANKLE);
@@ -119,7 +123,8 @@ struct State {
 // (views into body), trans, beta.
 std::vector<double*> blocks_of(State& s, const std::vector<int>& joints) {
   std::vector<double*> blocks = {s.global.data()};
-  for (int j : joints) blocks.push_back(s.body.data() + 3 * (j - 1));
+  for (int j : joints)
+    blocks.push_back(s.body.data() + 3 * (j - 1));
   blocks.push_back(s.trans.data());
   blocks.push_back(s.beta.data());
   return blocks;
@@ -129,8 +134,8 @@ std::vector<double*> blocks_of(State& s, const std::vector<int>& joints) {
 // of hips, collars and neck above its joint, or the pelvis (the trunk) when none is.
 int branch_of(const KeypointBodyModel& model, int point) {
   for (int j = model.joint[static_cast<std::size_t>(point)]; j > 0; j = joint_parent(j))
-    if (j == idx(Joint::LEFT_HIP) || j == idx(Joint::RIGHT_HIP) || j == idx(Joint::LEFT_COLLAR) || j == idx(Joint::RIGHT_COLLAR) ||
-        j == idx(Joint::NECK))
+    if (j == idx(Joint::LEFT_HIP) || j == idx(Joint::RIGHT_HIP) || j == idx(Joint::LEFT_COLLAR) ||
+        j == idx(Joint::RIGHT_COLLAR) || j == idx(Joint::NECK))
       return j;
   return 0;
 }
@@ -152,9 +157,11 @@ public:
   bool Evaluate(double const* const* p, double* r, double** jacobians) const override {
     const std::size_t n = m_joints.size();
     std::array<double, BODY_POSE> body{};
-    for (std::size_t c = 0; c < n; ++c) std::copy(p[1 + c], p[1 + c] + 3, body.begin() + 3 * (m_joints[c] - 1));
+    for (std::size_t c = 0; c < n; ++c)
+      std::copy(p[1 + c], p[1 + c] + 3, body.begin() + 3 * (m_joints[c] - 1));
     bool need_body = false;
-    for (std::size_t c = 0; jacobians && c < n; ++c) need_body = need_body || jacobians[1 + c];
+    for (std::size_t c = 0; jacobians && c < n; ++c)
+      need_body = need_body || jacobians[1 + c];
     std::vector<double> body_jacobian(need_body ? static_cast<std::size_t>(num_residuals()) * BODY_POSE : 0);
     double* jac[4] = {jacobians ? jacobians[0] : nullptr, need_body ? body_jacobian.data() : nullptr,
                       jacobians ? jacobians[n + 1] : nullptr, jacobians ? jacobians[n + 2] : nullptr};
@@ -162,8 +169,9 @@ public:
     for (std::size_t c = 0; need_body && c < n; ++c) {
       if (!jacobians[1 + c]) continue;
       for (int i = 0; i < num_residuals(); ++i)
-        std::copy_n(&body_jacobian[static_cast<std::size_t>(i) * BODY_POSE + 3 * static_cast<std::size_t>(m_joints[c] - 1)], 3,
-                    jacobians[1 + c] + 3 * i);
+        std::copy_n(
+            &body_jacobian[static_cast<std::size_t>(i) * BODY_POSE + 3 * static_cast<std::size_t>(m_joints[c] - 1)], 3,
+            jacobians[1 + c] + 3 * i);
     }
     return true;
   }
@@ -187,15 +195,18 @@ public:
   bool Evaluate(double const* const* p, double* r, double** jacobians) const override {
     const PosePriorTerm& t = pose_prior_terms()[m_term];
     std::array<double, BODY_POSE> body{};
-    for (std::size_t c = 0; c < t.joints.size(); ++c) std::copy(p[c], p[c] + 3, body.begin() + 3 * (t.joints[c] - 1));
+    for (std::size_t c = 0; c < t.joints.size(); ++c)
+      std::copy(p[c], p[c] + 3, body.begin() + 3 * (t.joints[c] - 1));
     bool any = false;
-    for (std::size_t c = 0; jacobians && c < t.joints.size(); ++c) any = any || jacobians[c];
+    for (std::size_t c = 0; jacobians && c < t.joints.size(); ++c)
+      any = any || jacobians[c];
     const std::size_t cols = 3 * t.joints.size();
     std::vector<double> jac(any ? static_cast<std::size_t>(t.residuals) * cols : 0);
     pose_prior_term(m_term, body.data(), m_relaxed, r, any ? jac.data() : nullptr);
     for (std::size_t c = 0; any && c < t.joints.size(); ++c) {
       if (!jacobians[c]) continue;
-      for (int i = 0; i < t.residuals; ++i) std::copy_n(&jac[static_cast<std::size_t>(i) * cols + 3 * c], 3, jacobians[c] + 3 * i);
+      for (int i = 0; i < t.residuals; ++i)
+        std::copy_n(&jac[static_cast<std::size_t>(i) * cols + 3 * c], 3, jacobians[c] + 3 * i);
     }
     return true;
   }
@@ -206,8 +217,8 @@ private:
 };
 
 // Adds the reprojection error of `obs` to `problem`, one residual block per limb.
-void add_reprojection(ceres::Problem& problem, const KeypointBodyModel& model, const Observations& obs, const PinholeCamera& cam,
-                      State& s) {
+void add_reprojection(ceres::Problem& problem, const KeypointBodyModel& model, const Observations& obs,
+                      const PinholeCamera& cam, State& s) {
   std::array<Observations, JOINT_COUNT> groups;
   std::array<std::vector<int>, JOINT_COUNT> joints;
   for (std::size_t i = 0; i < obs.points.size(); ++i) {
@@ -254,12 +265,13 @@ template <typename Observed> std::array<double, BODY_POSE> relaxed_pose_for(Obse
   return mean;
 }
 
-constexpr double SHAPE_WEIGHT = 3.0;  // px-equivalent per population σ
+constexpr double SHAPE_WEIGHT = 3.0;   // px-equivalent per population σ
 constexpr double DEPTH_WEIGHT = 200.0; // px-equivalent per metre of depth change in stage 1
 
 struct ShapePrior {
   template <typename T> bool operator()(const T* beta, T* r) const {
-    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) r[k] = T(SHAPE_WEIGHT) * beta[k];
+    for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k)
+      r[k] = T(SHAPE_WEIGHT) * beta[k];
     return true;
   }
 };
@@ -273,7 +285,6 @@ struct DepthPrior {
 };
 
 // ---------------------------------------------------------------------------------------------
-
 
 ceres::Solver::Options solver_options(const KeypointFitOptions& o) {
   ceres::Solver::Options s;
@@ -307,7 +318,8 @@ State state_of(const Pose& pose, const KeypointShape& beta) {
     s.trans[static_cast<std::size_t>(a)] = pose.translation[a];
   }
   for (int j = 1; j < JOINT_COUNT; ++j)
-    for (int a = 0; a < 3; ++a) s.body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
+    for (int a = 0; a < 3; ++a)
+      s.body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
   s.beta = beta;
   return s;
 }
@@ -316,7 +328,8 @@ Pose pose_of(const State& s) {
   Pose pose;
   pose.axis_angle.row(0) = to_vec(s.global).transpose();
   for (int j = 1; j < JOINT_COUNT; ++j)
-    for (int a = 0; a < 3; ++a) pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+    for (int a = 0; a < 3; ++a)
+      pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
   pose.translation = to_vec(s.trans);
   return pose;
 }
@@ -329,7 +342,9 @@ const Eigen::Vector2d* observed_pixel(const Observations& obs, int point) {
 
 // Unit direction (camera frame) of the ray from the camera's centre through pixel `px`.
 Eigen::Vector3d camera_ray(const PinholeCamera& cam, const Eigen::Vector2d& px) {
-  return Eigen::Vector3d((px.x() - cam.principal_point.x()) / cam.focal, -(px.y() - cam.principal_point.y()) / cam.focal, -1.0).normalized();
+  return Eigen::Vector3d((px.x() - cam.principal_point.x()) / cam.focal,
+                         -(px.y() - cam.principal_point.y()) / cam.focal, -1.0)
+      .normalized();
 }
 
 // Pose start for stage 2: each upper arm and thigh turned towards its keypoint, lifted from the
@@ -341,27 +356,32 @@ void lift_limbs(const KeypointBodyModel& model, const PinholeCamera& cam, const 
   Pose pose;
   pose.axis_angle.row(0) = to_vec(s.global).transpose();
   for (int j = 1; j < JOINT_COUNT; ++j)
-    for (int a = 0; a < 3; ++a) pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+    for (int a = 0; a < 3; ++a)
+      pose.axis_angle(j, a) = s.body[static_cast<std::size_t>(3 * (j - 1) + a)];
   pose.translation = to_vec(s.trans);
   const JointPositions rest = model.rest_joints(s.beta);
   const auto G = joint_world_transforms(rest, pose);
   const Eigen::Vector3d front = G[0].linear() * Eigen::Vector3d::UnitZ();
-  for (const auto& [upper, lower] : {std::pair{Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW}, std::pair{Joint::RIGHT_SHOULDER, Joint::RIGHT_ELBOW},
-                                     std::pair{Joint::LEFT_HIP, Joint::LEFT_KNEE}, std::pair{Joint::RIGHT_HIP, Joint::RIGHT_KNEE}}) {
+  for (const auto& [upper, lower] :
+       {std::pair{Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW}, std::pair{Joint::RIGHT_SHOULDER, Joint::RIGHT_ELBOW},
+        std::pair{Joint::LEFT_HIP, Joint::LEFT_KNEE}, std::pair{Joint::RIGHT_HIP, Joint::RIGHT_KNEE}}) {
     const auto it = std::find(obs.points.begin(), obs.points.end(), idx(lower));
     if (it == obs.points.end()) continue;
     const Eigen::Vector2d px = obs.pixels[static_cast<std::size_t>(it - obs.points.begin())];
     const Eigen::Vector3d P = G[static_cast<std::size_t>(idx(upper))].translation();
     const double D = std::max(-P.z(), 0.1);
-    Eigen::Vector3d d((px.x() - cam.principal_point.x()) * D / cam.focal - P.x(), -(px.y() - cam.principal_point.y()) * D / cam.focal - P.y(), 0);
+    Eigen::Vector3d d((px.x() - cam.principal_point.x()) * D / cam.focal - P.x(),
+                      -(px.y() - cam.principal_point.y()) * D / cam.focal - P.y(), 0);
     const Eigen::Vector3d bone = (rest.row(idx(lower)) - rest.row(idx(upper))).transpose();
     const double L = bone.norm(), planar = d.norm();
     if (planar < 1e-6 || L < 1e-6) continue;
     if (planar < L) d.z() = (front.z() >= 0 ? 1.0 : -1.0) * std::sqrt(L * L - planar * planar);
     const Eigen::Matrix3d parent = G[static_cast<std::size_t>(joint_parent(idx(upper)))].linear();
-    const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(bone.normalized(), parent.transpose() * d.normalized());
+    const Eigen::Quaterniond q =
+        Eigen::Quaterniond::FromTwoVectors(bone.normalized(), parent.transpose() * d.normalized());
     const Eigen::Vector3d aa = matrix_to_axis_angle(q.toRotationMatrix());
-    for (int a = 0; a < 3; ++a) s.body[static_cast<std::size_t>(3 * (idx(upper) - 1) + a)] = aa[a];
+    for (int a = 0; a < 3; ++a)
+      s.body[static_cast<std::size_t>(3 * (idx(upper) - 1) + a)] = aa[a];
   }
 }
 
@@ -373,7 +393,7 @@ double elapsed_ms(Clock::time_point t0) { return std::chrono::duration<double, s
 struct Setup {
   PinholeCamera camera;
   Observations all, torso;
-  double depth = 0;                 // torso centre's distance from the camera (m)
+  double depth = 0; // torso centre's distance from the camera (m)
   Eigen::Vector3d centre_cam, centre_rest, pelvis_rest;
 };
 
@@ -404,7 +424,8 @@ Setup set_up(const KeypointBodyModel& model, const Keypoints& keypoints) {
     }
   }
   // Keypoints guarantees 3 of the 4 torso points; the guard keeps a hand-built input safe.
-  if (n_top == 0 || n_bottom == 0) throw Error(keypoints.source, 0, "too few torso keypoints for a fit (need a shoulder and a hip)");
+  if (n_top == 0 || n_bottom == 0)
+    throw Error(keypoints.source, 0, "too few torso keypoints for a fit (need a shoulder and a hip)");
   top_px /= n_top;
   bottom_px /= n_bottom;
   top_rest /= n_top;
@@ -431,7 +452,8 @@ Setup set_up(const KeypointBodyModel& model, const Keypoints& keypoints) {
 BodyMeasurements KeypointBodyModel::measurements(const KeypointShape& beta) {
   BodyMeasurements m;
   const double k = 1.0 + beta[0] * 0.07 / m.height;
-  for (std::string_view n : BodyMeasurements::names()) m[n] *= k;
+  for (std::string_view n : BodyMeasurements::names())
+    m[n] *= k;
   const double crotch = m.crotch_height, arm = m.arm_length;
   m.crotch_height += beta[1] * 0.025 * k;
   m.knee_height *= m.crotch_height / crotch;
@@ -443,7 +465,8 @@ BodyMeasurements KeypointBodyModel::measurements(const KeypointShape& beta) {
 
 KeypointBodyModel::Points KeypointBodyModel::rest_points(const KeypointShape& beta) const {
   Points P = mean;
-  for (std::size_t k = 0; k < beta.size(); ++k) P += beta[k] * basis[k];
+  for (std::size_t k = 0; k < beta.size(); ++k)
+    P += beta[k] * basis[k];
   return P;
 }
 
@@ -508,9 +531,11 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
     // Only the global orientation and translation vary; pose and shape are held.
     add_reprojection(problem, model, torso, cam, s);
     for (int j = 1; j < JOINT_COUNT; ++j)
-      if (problem.HasParameterBlock(s.body.data() + 3 * (j - 1))) problem.SetParameterBlockConstant(s.body.data() + 3 * (j - 1));
+      if (problem.HasParameterBlock(s.body.data() + 3 * (j - 1)))
+        problem.SetParameterBlockConstant(s.body.data() + 3 * (j - 1));
     problem.SetParameterBlockConstant(s.beta.data());
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DepthPrior, 1, 3>(new DepthPrior{t.z()}), nullptr, s.trans.data());
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DepthPrior, 1, 3>(new DepthPrior{t.z()}), nullptr,
+                             s.trans.data());
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &problem, &summary);
     stage1.iterations += iterations_of(summary);
@@ -537,11 +562,13 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
     add_reprojection(problem, model, all, cam, s);
     for (std::size_t t = 0; t < pose_prior_terms().size(); ++t) {
       std::vector<double*> blocks;
-      for (int j : pose_prior_terms()[t].joints) blocks.push_back(s.body.data() + 3 * (j - 1));
+      for (int j : pose_prior_terms()[t].joints)
+        blocks.push_back(s.body.data() + 3 * (j - 1));
       problem.AddResidualBlock(new PosePriorCost(t, relaxed), nullptr, blocks);
     }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ShapePrior, KEYPOINT_SHAPE_PARAMS, KEYPOINT_SHAPE_PARAMS>(new ShapePrior),
-                             nullptr, s.beta.data());
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ShapePrior, KEYPOINT_SHAPE_PARAMS, KEYPOINT_SHAPE_PARAMS>(new ShapePrior),
+        nullptr, s.beta.data());
     for (int k = 0; k < KEYPOINT_SHAPE_PARAMS; ++k) {
       problem.SetParameterLowerBound(s.beta.data(), k, -SHAPE_LIMIT);
       problem.SetParameterUpperBound(s.beta.data(), k, SHAPE_LIMIT);
@@ -597,7 +624,8 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
       const State base = chosen;
       const JointPositions rest = model.rest_joints(base.beta);
       const JointPositions base_joints = posed_joints(rest, pose_of(base));
-      const Eigen::Vector3d middle_ray = middle_px ? camera_ray(cam, *middle_px) : base_joints.row(idx(limb.middle)).transpose().normalized();
+      const Eigen::Vector3d middle_ray =
+          middle_px ? camera_ray(cam, *middle_px) : base_joints.row(idx(limb.middle)).transpose().normalized();
       const std::optional<Eigen::Vector3d> end_ray = end_px ? std::optional(camera_ray(cam, *end_px)) : std::nullopt;
       for (LiftDepth middle_depth : {LiftDepth::NEAR, LiftDepth::FAR})
         for (LiftDepth end_depth : {LiftDepth::NEAR, LiftDepth::FAR}) {
@@ -634,7 +662,8 @@ KeypointFit fit_keypoints(const Keypoints& keypoints, const KeypointFitOptions& 
   fit.measurements = KeypointBodyModel::measurements(chosen.beta);
   fit.pose.axis_angle.row(0) = to_vec(chosen.global).transpose();
   for (int j = 1; j < JOINT_COUNT; ++j)
-    for (int a = 0; a < 3; ++a) fit.pose.axis_angle(j, a) = chosen.body[static_cast<std::size_t>(3 * (j - 1) + a)];
+    for (int a = 0; a < 3; ++a)
+      fit.pose.axis_angle(j, a) = chosen.body[static_cast<std::size_t>(3 * (j - 1) + a)];
   fit.pose.translation = to_vec(chosen.trans);
   fit.rest_joints = model.rest_joints(chosen.beta);
   fit.joints = posed_joints(fit.rest_joints, fit.pose);
@@ -660,18 +689,22 @@ double keypoint_fit_objective(const Keypoints& keypoints, const Pose& pose, cons
     trans[static_cast<std::size_t>(a)] = pose.translation[a];
   }
   for (int j = 1; j < JOINT_COUNT; ++j)
-    for (int a = 0; a < 3; ++a) body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
+    for (int a = 0; a < 3; ++a)
+      body[static_cast<std::size_t>(3 * (j - 1) + a)] = pose.axis_angle(j, a);
   std::vector<double> r(2 * su.all.points.size());
   reprojection(model, su.all, su.camera, global.data(), body.data(), trans.data(), shape.data(), r.data(), nullptr);
   double sum = 0;
-  for (double x : r) sum += x * x;
+  for (double x : r)
+    sum += x * x;
   r.assign(static_cast<std::size_t>(pose_prior_residual_count()), 0.0);
   const auto relaxed = relaxed_pose_for([&](int p) { return observed_pixel(su.all, p) != nullptr; });
   pose_prior(body.data(), relaxed, r.data(), nullptr);
-  for (double x : r) sum += x * x;
+  for (double x : r)
+    sum += x * x;
   std::array<double, KEYPOINT_SHAPE_PARAMS> rs{};
   ShapePrior{}(shape.data(), rs.data());
-  for (double x : rs) sum += x * x;
+  for (double x : rs)
+    sum += x * x;
   return 0.5 * sum;
 }
 

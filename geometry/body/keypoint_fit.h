@@ -18,9 +18,9 @@
 /// ambiguity; weaker on
 /// elbow and knee flexion (visible in 2D), stronger on what 2D joints cannot see (twists, hands,
 /// feet); an elbow whose wrist keypoint is missing is pulled toward a typical 17° flexion instead
-/// of the relaxed pose's 9° (its forearm is seen by nothing but the prior). The fit tries per-limb depth hypotheses (each arm and leg lifted onto its keypoints'
-/// camera rays with its elbow or knee and its wrist or ankle nearer or farther, limb_lift.h) and
-/// lets the objective, priors included, pick the winner.
+/// of the relaxed pose's 9° (its forearm is seen by nothing but the prior). The fit tries per-limb depth hypotheses
+/// (each arm and leg lifted onto its keypoints' camera rays with its elbow or knee and its wrist or ankle nearer or
+/// farther, limb_lift.h) and lets the objective, priors included, pick the winner.
 
 #include <array>
 #include <optional>
@@ -53,7 +53,7 @@ struct KeypointBodyModel {
   Points mean = Points::Zero(); ///< rest points of the average body, β = 0 (m)
   /// Per shape parameter k: the rest points' change per +1 σ of β_k (m per σ).
   std::array<Points, KEYPOINT_SHAPE_PARAMS> basis{};
-  std::array<int, BODY_POINT_COUNT> joint{};   ///< the joint each point moves with
+  std::array<int, BODY_POINT_COUNT> joint{};    ///< the joint each point moves with
   std::array<double, BODY_POINT_COUNT> trust{}; ///< fit weight w_i of a keypoint on that point (0.5 hips, else 1)
 
   /// The measurements of shape β (the average body for β = 0): stature scales every
@@ -79,7 +79,7 @@ const KeypointBodyModel& mannequin_keypoint_model();
 /// A pinhole camera at the origin looking along −Z with Y up (our world convention, so a body
 /// facing +Z faces the camera): u = cx + f X / (−Z), v = cy − f Y / (−Z), pixels with v down.
 struct PinholeCamera {
-  double focal = 1000;                                     ///< px
+  double focal = 1000;                                       ///< px
   Eigen::Vector2d principal_point = Eigen::Vector2d::Zero(); ///< px (the image centre)
   /// Pixel (px, v down) of a point p (m, camera frame) in front of the camera (Z < 0). A point
   /// at or behind the camera plane is projected as if 1e-9 m in front (huge, finite pixels);
@@ -89,12 +89,12 @@ struct PinholeCamera {
 
 /// Settings of fit_keypoints().
 struct KeypointFitOptions {
-  int max_iterations = 60;   ///< per stage and start (Levenberg–Marquardt iterations)
+  int max_iterations = 60; ///< per stage and start (Levenberg–Marquardt iterations)
   /// Ceres threads, at most 2. The residual blocks are small (a limb's keypoints, one prior
   /// term; ~35 µs of evaluation per iteration in all), so a second thread costs more than it
   /// shares: measured slower (keypoint_fit_bench: 31-52 against 39-110 ms per image); default 1.
   int threads = 1;
-  bool fit_shape = true;     ///< stage 3 (shape + pose); false: the average body's shape
+  bool fit_shape = true; ///< stage 3 (shape + pose); false: the average body's shape
   /// A warm start (e.g. the previous video frame's fit, or a known pose in a test): when set,
   /// stage 1 and the multi-start search of stage 2 are skipped and stages 2–3 start from this
   /// pose (T-pose-relative, translation in the camera frame of fit_keypoints()) and
@@ -105,10 +105,10 @@ struct KeypointFitOptions {
 
 /// One stage of the fit, as Ceres reported it.
 struct KeypointFitStage {
-  std::string name;    ///< "camera", "pose", "shape+pose"
-  int iterations = 0;  ///< Ceres iterations (all starts of the stage together)
-  double ms = 0;       ///< wall time
-  double cost = 0;     ///< final cost of the kept start
+  std::string name;   ///< "camera", "pose", "shape+pose"
+  int iterations = 0; ///< Ceres iterations (all starts of the stage together)
+  double ms = 0;      ///< wall time
+  double cost = 0;    ///< final cost of the kept start
 };
 
 /// Result of fit_keypoints(): the body's pose, shape and camera, and how the fit went.
@@ -116,16 +116,16 @@ struct KeypointFit {
   /// T-pose-relative pose (SMPL layout; convert with pose_for_rest()); translation places the
   /// body in the camera's frame (m), so joints = posed_joints(rest_joints, pose).
   Pose pose;
-  KeypointShape shape{};          ///< in population standard deviations
-  BodyMeasurements measurements;  ///< of that shape
-  PinholeCamera camera;           ///< focal = Keypoints::focal, principal point = image centre (px)
+  KeypointShape shape{};         ///< in population standard deviations
+  BodyMeasurements measurements; ///< of that shape
+  PinholeCamera camera;          ///< focal = Keypoints::focal, principal point = image centre (px)
   JointPositions rest_joints = JointPositions::Zero(); ///< T-pose joints of the shape
   JointPositions joints = JointPositions::Zero();      ///< posed joints, camera frame (m)
-  std::vector<Eigen::Vector2d> projected;  ///< the fitted body's pixel for each input keypoint
-  double mean_reprojection_px = 0;         ///< mean |projected − keypoint| over the keypoints
-  bool facing_away = false;                ///< the back-facing start won stage 1
-  std::vector<KeypointFitStage> stages; ///< the stages run, in order
-  double total_ms = 0;                  ///< wall time of the whole fit (ms)
+  std::vector<Eigen::Vector2d> projected;              ///< the fitted body's pixel for each input keypoint
+  double mean_reprojection_px = 0;                     ///< mean |projected − keypoint| over the keypoints
+  bool facing_away = false;                            ///< the back-facing start won stage 1
+  std::vector<KeypointFitStage> stages;                ///< the stages run, in order
+  double total_ms = 0;                                 ///< wall time of the whole fit (ms)
 };
 
 /// Fits the mannequin's pose, shape and position to `keypoints` in three stages (SMPLify):

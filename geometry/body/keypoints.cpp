@@ -15,38 +15,64 @@ namespace {
 constexpr int L(Landmark l) { return static_cast<int>(l); }
 
 constexpr std::array<std::string_view, BODY_POINT_COUNT - JOINT_COUNT> LANDMARK_NAMES = {
-    "nose",     "left_eye", "right_eye", "left_ear",      "right_ear",      "head_top",  "neck_base",      "mid_hip",
-    "left_hip_surface", "right_hip_surface", "left_big_toe", "left_small_toe", "left_heel", "right_big_toe",
-    "right_small_toe", "right_heel"};
+    "nose",      "left_eye",      "right_eye",        "left_ear",          "right_ear",    "head_top",
+    "neck_base", "mid_hip",       "left_hip_surface", "right_hip_surface", "left_big_toe", "left_small_toe",
+    "left_heel", "right_big_toe", "right_small_toe",  "right_heel"};
 
 // OpenPose BODY_25, in its order: Nose, Neck, RShoulder, RElbow, RWrist, LShoulder, LElbow,
 // LWrist, MidHip, RHip, RKnee, RAnkle, LHip, LKnee, LAnkle, REye, LEye, REar, LEar, LBigToe,
 // LSmallToe, LHeel, RBigToe, RSmallToe, RHeel.
 constexpr std::array<std::string_view, 25> BODY25_NAMES = {
-    "Nose",  "Neck", "RShoulder", "RElbow", "RWrist", "LShoulder", "LElbow",    "LWrist", "MidHip",
-    "RHip",  "RKnee", "RAnkle",   "LHip",   "LKnee",  "LAnkle",    "REye",      "LEye",   "REar",
-    "LEar",  "LBigToe", "LSmallToe", "LHeel", "RBigToe", "RSmallToe", "RHeel"};
-const std::array<int, 25> BODY25_POINTS = {
-    L(Landmark::NOSE), L(Landmark::NECK_BASE), idx(Joint::RIGHT_SHOULDER), idx(Joint::RIGHT_ELBOW),
-    idx(Joint::RIGHT_WRIST), idx(Joint::LEFT_SHOULDER), idx(Joint::LEFT_ELBOW), idx(Joint::LEFT_WRIST),
-    L(Landmark::MID_HIP), L(Landmark::RIGHT_HIP_SURFACE), idx(Joint::RIGHT_KNEE), idx(Joint::RIGHT_ANKLE),
-    L(Landmark::LEFT_HIP_SURFACE), idx(Joint::LEFT_KNEE), idx(Joint::LEFT_ANKLE), L(Landmark::RIGHT_EYE),
-    L(Landmark::LEFT_EYE), L(Landmark::RIGHT_EAR), L(Landmark::LEFT_EAR), L(Landmark::LEFT_BIG_TOE),
-    L(Landmark::LEFT_SMALL_TOE), L(Landmark::LEFT_HEEL), L(Landmark::RIGHT_BIG_TOE), L(Landmark::RIGHT_SMALL_TOE),
-    L(Landmark::RIGHT_HEEL)};
+    "Nose", "Neck",    "RShoulder", "RElbow", "RWrist",  "LShoulder", "LElbow", "LWrist", "MidHip",
+    "RHip", "RKnee",   "RAnkle",    "LHip",   "LKnee",   "LAnkle",    "REye",   "LEye",   "REar",
+    "LEar", "LBigToe", "LSmallToe", "LHeel",  "RBigToe", "RSmallToe", "RHeel"};
+const std::array<int, 25> BODY25_POINTS = {L(Landmark::NOSE),
+                                           L(Landmark::NECK_BASE),
+                                           idx(Joint::RIGHT_SHOULDER),
+                                           idx(Joint::RIGHT_ELBOW),
+                                           idx(Joint::RIGHT_WRIST),
+                                           idx(Joint::LEFT_SHOULDER),
+                                           idx(Joint::LEFT_ELBOW),
+                                           idx(Joint::LEFT_WRIST),
+                                           L(Landmark::MID_HIP),
+                                           L(Landmark::RIGHT_HIP_SURFACE),
+                                           idx(Joint::RIGHT_KNEE),
+                                           idx(Joint::RIGHT_ANKLE),
+                                           L(Landmark::LEFT_HIP_SURFACE),
+                                           idx(Joint::LEFT_KNEE),
+                                           idx(Joint::LEFT_ANKLE),
+                                           L(Landmark::RIGHT_EYE),
+                                           L(Landmark::LEFT_EYE),
+                                           L(Landmark::RIGHT_EAR),
+                                           L(Landmark::LEFT_EAR),
+                                           L(Landmark::LEFT_BIG_TOE),
+                                           L(Landmark::LEFT_SMALL_TOE),
+                                           L(Landmark::LEFT_HEEL),
+                                           L(Landmark::RIGHT_BIG_TOE),
+                                           L(Landmark::RIGHT_SMALL_TOE),
+                                           L(Landmark::RIGHT_HEEL)};
 // COCO-18 (OpenPose's COCO model): BODY_25 without MidHip and the feet, in its own order.
 const std::array<int, 18> COCO18_POINTS = {
-    L(Landmark::NOSE), L(Landmark::NECK_BASE), idx(Joint::RIGHT_SHOULDER), idx(Joint::RIGHT_ELBOW),
-    idx(Joint::RIGHT_WRIST), idx(Joint::LEFT_SHOULDER), idx(Joint::LEFT_ELBOW), idx(Joint::LEFT_WRIST),
-    L(Landmark::RIGHT_HIP_SURFACE), idx(Joint::RIGHT_KNEE), idx(Joint::RIGHT_ANKLE), L(Landmark::LEFT_HIP_SURFACE),
-    idx(Joint::LEFT_KNEE), idx(Joint::LEFT_ANKLE), L(Landmark::RIGHT_EYE), L(Landmark::LEFT_EYE),
-    L(Landmark::RIGHT_EAR), L(Landmark::LEFT_EAR)};
-const std::array<int, 14> LSP14_POINTS = {
-    idx(Joint::RIGHT_ANKLE),   idx(Joint::RIGHT_KNEE),  L(Landmark::RIGHT_HIP_SURFACE),
-    L(Landmark::LEFT_HIP_SURFACE), idx(Joint::LEFT_KNEE), idx(Joint::LEFT_ANKLE),
-    idx(Joint::RIGHT_WRIST),   idx(Joint::RIGHT_ELBOW), idx(Joint::RIGHT_SHOULDER),
-    idx(Joint::LEFT_SHOULDER), idx(Joint::LEFT_ELBOW),  idx(Joint::LEFT_WRIST),
-    idx(Joint::NECK),          L(Landmark::HEAD_TOP)};
+    L(Landmark::NOSE),       L(Landmark::NECK_BASE),  idx(Joint::RIGHT_SHOULDER),
+    idx(Joint::RIGHT_ELBOW), idx(Joint::RIGHT_WRIST), idx(Joint::LEFT_SHOULDER),
+    idx(Joint::LEFT_ELBOW),  idx(Joint::LEFT_WRIST),  L(Landmark::RIGHT_HIP_SURFACE),
+    idx(Joint::RIGHT_KNEE),  idx(Joint::RIGHT_ANKLE), L(Landmark::LEFT_HIP_SURFACE),
+    idx(Joint::LEFT_KNEE),   idx(Joint::LEFT_ANKLE),  L(Landmark::RIGHT_EYE),
+    L(Landmark::LEFT_EYE),   L(Landmark::RIGHT_EAR),  L(Landmark::LEFT_EAR)};
+const std::array<int, 14> LSP14_POINTS = {idx(Joint::RIGHT_ANKLE),
+                                          idx(Joint::RIGHT_KNEE),
+                                          L(Landmark::RIGHT_HIP_SURFACE),
+                                          L(Landmark::LEFT_HIP_SURFACE),
+                                          idx(Joint::LEFT_KNEE),
+                                          idx(Joint::LEFT_ANKLE),
+                                          idx(Joint::RIGHT_WRIST),
+                                          idx(Joint::RIGHT_ELBOW),
+                                          idx(Joint::RIGHT_SHOULDER),
+                                          idx(Joint::LEFT_SHOULDER),
+                                          idx(Joint::LEFT_ELBOW),
+                                          idx(Joint::LEFT_WRIST),
+                                          idx(Joint::NECK),
+                                          L(Landmark::HEAD_TOP)};
 
 bool is_torso_point(int p) {
   return p == idx(Joint::LEFT_SHOULDER) || p == idx(Joint::RIGHT_SHOULDER) || p == L(Landmark::LEFT_HIP_SURFACE) ||
@@ -70,7 +96,8 @@ struct RawPerson {
 };
 
 // A flat x, y, c array of `layout`'s keypoints.
-RawPerson read_flat(const nlohmann::json& arr, KeypointLayout layout, const std::string& source, const std::string& element) {
+RawPerson read_flat(const nlohmann::json& arr, KeypointLayout layout, const std::string& source,
+                    const std::string& element) {
   RawPerson p;
   const std::size_t count = arr.size() / 3;
   for (std::size_t i = 0; i < count; ++i) {
@@ -85,16 +112,23 @@ RawPerson read_flat(const nlohmann::json& arr, KeypointLayout layout, const std:
   return p;
 }
 
-KeypointLayout openpose_layout(std::size_t numbers, KeypointLayout forced, const std::string& source, const std::string& element) {
-  const KeypointLayout detected = numbers == 75 ? KeypointLayout::BODY_25 : numbers == 54 ? KeypointLayout::COCO_18 : KeypointLayout::AUTO;
+KeypointLayout openpose_layout(std::size_t numbers, KeypointLayout forced, const std::string& source,
+                               const std::string& element) {
+  const KeypointLayout detected = numbers == 75   ? KeypointLayout::BODY_25
+                                  : numbers == 54 ? KeypointLayout::COCO_18
+                                                  : KeypointLayout::AUTO;
   if (forced != KeypointLayout::AUTO && forced != KeypointLayout::BODY_25 && forced != KeypointLayout::COCO_18)
-    throw Error(source, 0, "an OpenPose file holds BODY_25 or COCO-18 keypoints, not " + std::string(keypoint_layout_name(forced)));
+    throw Error(source, 0,
+                "an OpenPose file holds BODY_25 or COCO-18 keypoints, not " +
+                    std::string(keypoint_layout_name(forced)));
   if (detected == KeypointLayout::AUTO)
-    throw Error(source, 0, element + ": unknown keypoint layout: " + std::to_string(numbers) +
-                               " numbers (expected 75 for BODY_25 or 54 for COCO-18, as x, y, confidence)");
+    throw Error(source, 0,
+                element + ": unknown keypoint layout: " + std::to_string(numbers) +
+                    " numbers (expected 75 for BODY_25 or 54 for COCO-18, as x, y, confidence)");
   if (forced != KeypointLayout::AUTO && forced != detected)
-    throw Error(source, 0, element + ": " + std::to_string(numbers) + " numbers do not match the layout " +
-                               std::string(keypoint_layout_name(forced)));
+    throw Error(source, 0,
+                element + ": " + std::to_string(numbers) + " numbers do not match the layout " +
+                    std::string(keypoint_layout_name(forced)));
   return detected;
 }
 
@@ -102,7 +136,8 @@ KeypointLayout openpose_layout(std::size_t numbers, KeypointLayout forced, const
 
 std::string_view body_point_name(int point) {
   if (point >= 0 && point < JOINT_COUNT) return joint_name(point);
-  if (point >= JOINT_COUNT && point < BODY_POINT_COUNT) return LANDMARK_NAMES[static_cast<std::size_t>(point - JOINT_COUNT)];
+  if (point >= JOINT_COUNT && point < BODY_POINT_COUNT)
+    return LANDMARK_NAMES[static_cast<std::size_t>(point - JOINT_COUNT)];
   return "unknown";
 }
 
@@ -127,7 +162,9 @@ std::optional<KeypointLayout> keypoint_layout_from_name(std::string_view name) {
 }
 
 int keypoint_body_point(KeypointLayout layout, int index) {
-  auto pick = [index](const auto& table) { return index >= 0 && index < static_cast<int>(table.size()) ? table[static_cast<std::size_t>(index)] : -1; };
+  auto pick = [index](const auto& table) {
+    return index >= 0 && index < static_cast<int>(table.size()) ? table[static_cast<std::size_t>(index)] : -1;
+  };
   switch (layout) {
   case KeypointLayout::BODY_25: return pick(BODY25_POINTS);
   case KeypointLayout::COCO_18: return pick(COCO18_POINTS);
@@ -177,13 +214,15 @@ Keypoints parse_keypoints(const std::string& json_text, const std::string& sourc
       }
     }
     if (people.size() > 1)
-      kp.warnings.push_back(source + ": " + std::to_string(people.size()) + " people; using person " + std::to_string(best) +
-                            " (highest summed keypoint confidence), ignoring the others");
+      kp.warnings.push_back(source + ": " + std::to_string(people.size()) + " people; using person " +
+                            std::to_string(best) + " (highest summed keypoint confidence), ignoring the others");
   } else if (doc.contains("keypoints")) {
-    const std::string layout_name = doc.contains("layout") && doc["layout"].is_string() ? doc["layout"].get<std::string>() : "";
+    const std::string layout_name =
+        doc.contains("layout") && doc["layout"].is_string() ? doc["layout"].get<std::string>() : "";
     const auto layout = keypoint_layout_from_name(layout_name);
     if (!layout || *layout != KeypointLayout::LSP_14)
-      throw Error(source, 0, "'layout': unknown keypoint layout '" + layout_name + "' for \"keypoints\" (expected \"lsp\")");
+      throw Error(source, 0,
+                  "'layout': unknown keypoint layout '" + layout_name + "' for \"keypoints\" (expected \"lsp\")");
     if (options.layout != KeypointLayout::AUTO && options.layout != KeypointLayout::LSP_14)
       throw Error(source, 0, "the file holds LSP keypoints, not " + std::string(keypoint_layout_name(options.layout)));
     kp.layout = KeypointLayout::LSP_14;
@@ -192,14 +231,18 @@ Keypoints parse_keypoints(const std::string& json_text, const std::string& sourc
     nlohmann::json flat = nlohmann::json::array();
     if (!arr.empty() && arr[0].is_array()) {
       for (std::size_t i = 0; i < arr.size(); ++i) {
-        if (!arr[i].is_array() || arr[i].size() != 3) throw Error(source, 0, "keypoints[" + std::to_string(i) + "]: expected [x, y, v]");
-        for (const auto& v : arr[i]) flat.push_back(v);
+        if (!arr[i].is_array() || arr[i].size() != 3)
+          throw Error(source, 0, "keypoints[" + std::to_string(i) + "]: expected [x, y, v]");
+        for (const auto& v : arr[i])
+          flat.push_back(v);
       }
     } else {
       flat = arr;
     }
     if (flat.size() != 42)
-      throw Error(source, 0, "'keypoints': unknown keypoint layout: LSP has 14 keypoints (42 numbers), got " + std::to_string(flat.size()) + " numbers");
+      throw Error(source, 0,
+                  "'keypoints': unknown keypoint layout: LSP has 14 keypoints (42 numbers), got " +
+                      std::to_string(flat.size()) + " numbers");
     person = read_flat(flat, KeypointLayout::LSP_14, source, "keypoints");
   } else if (doc.contains("joints")) {
     if (options.layout != KeypointLayout::AUTO && options.layout != KeypointLayout::NAMED)
@@ -209,11 +252,14 @@ Keypoints parse_keypoints(const std::string& json_text, const std::string& sourc
     if (!joints.is_object()) throw Error(source, 0, "'joints': expected an object of name: [x, y, c]");
     for (const auto& [name, v] : joints.items()) {
       const int point = named_body_point(name);
-      if (point < 0) throw Error(source, 0, "joints." + name + ": unknown joint name (use SMPL or OpenPose BODY_25 names)");
-      if (!v.is_array() || (v.size() != 2 && v.size() != 3)) throw Error(source, 0, "joints." + name + ": expected [x, y] or [x, y, c]");
+      if (point < 0)
+        throw Error(source, 0, "joints." + name + ": unknown joint name (use SMPL or OpenPose BODY_25 names)");
+      if (!v.is_array() || (v.size() != 2 && v.size() != 3))
+        throw Error(source, 0, "joints." + name + ": expected [x, y] or [x, y, c]");
       Keypoint2D k;
       k.point = point;
-      k.pixel = {finite_number(v[0], source, "joints." + name + " x"), finite_number(v[1], source, "joints." + name + " y")};
+      k.pixel = {finite_number(v[0], source, "joints." + name + " x"),
+                 finite_number(v[1], source, "joints." + name + " y")};
       k.confidence = v.size() == 3 ? confidence_value(v[2], source, "joints." + name) : 1.0;
       for (const auto& other : person.all)
         if (other.point == point) throw Error(source, 0, "joints." + name + ": the same body point is given twice");
@@ -221,7 +267,9 @@ Keypoints parse_keypoints(const std::string& json_text, const std::string& sourc
       person.all.push_back(k);
     }
   } else {
-    throw Error(source, 0, "unknown keypoint layout: expected \"people\" (OpenPose), \"keypoints\" with \"layout\": \"lsp\", or \"joints\"");
+    throw Error(source, 0,
+                "unknown keypoint layout: expected \"people\" (OpenPose), \"keypoints\" with \"layout\": \"lsp\", or "
+                "\"joints\"");
   }
 
   // Image size and focal length: options, else the file.
@@ -254,10 +302,11 @@ Keypoints parse_keypoints(const std::string& json_text, const std::string& sourc
   }
   const int n = static_cast<int>(kp.points.size());
   if (n < MIN_CONFIDENT_KEYPOINTS || torso < MIN_TORSO_KEYPOINTS)
-    throw Error(source, 0, "too few confident keypoints: " + std::to_string(n) + " above confidence " +
-                               std::to_string(options.min_confidence).substr(0, 4) + " (" + std::to_string(torso) +
-                               " of the 4 shoulders and hips); a fit needs at least " + std::to_string(MIN_CONFIDENT_KEYPOINTS) +
-                               ", including " + std::to_string(MIN_TORSO_KEYPOINTS) + " of the shoulders and hips");
+    throw Error(source, 0,
+                "too few confident keypoints: " + std::to_string(n) + " above confidence " +
+                    std::to_string(options.min_confidence).substr(0, 4) + " (" + std::to_string(torso) +
+                    " of the 4 shoulders and hips); a fit needs at least " + std::to_string(MIN_CONFIDENT_KEYPOINTS) +
+                    ", including " + std::to_string(MIN_TORSO_KEYPOINTS) + " of the shoulders and hips");
   return kp;
 }
 

@@ -41,18 +41,18 @@ enum class Landmark : int {
   RIGHT_EYE,          ///< right eye
   LEFT_EAR,           ///< left ear
   RIGHT_EAR,          ///< right ear
-  HEAD_TOP,          ///< top of the skull (LSP)
-  NECK_BASE,         ///< OpenPose's "Neck": between the shoulders, below SMPL's neck joint
-  MID_HIP,           ///< OpenPose's "MidHip": midway between the two hip landmarks
-  LEFT_HIP_SURFACE,  ///< OpenPose/COCO/LSP hips (see keypoint_body_point())
-  RIGHT_HIP_SURFACE, ///< right counterpart of LEFT_HIP_SURFACE
-  LEFT_BIG_TOE,      ///< BODY_25 "LBigToe"
-  LEFT_SMALL_TOE,    ///< BODY_25 "LSmallToe"
-  LEFT_HEEL,         ///< BODY_25 "LHeel"
-  RIGHT_BIG_TOE,     ///< BODY_25 "RBigToe"
-  RIGHT_SMALL_TOE,   ///< BODY_25 "RSmallToe"
-  RIGHT_HEEL,        ///< BODY_25 "RHeel"
-  END                ///< one past the last landmark (= BODY_POINT_COUNT), not a point
+  HEAD_TOP,           ///< top of the skull (LSP)
+  NECK_BASE,          ///< OpenPose's "Neck": between the shoulders, below SMPL's neck joint
+  MID_HIP,            ///< OpenPose's "MidHip": midway between the two hip landmarks
+  LEFT_HIP_SURFACE,   ///< OpenPose/COCO/LSP hips (see keypoint_body_point())
+  RIGHT_HIP_SURFACE,  ///< right counterpart of LEFT_HIP_SURFACE
+  LEFT_BIG_TOE,       ///< BODY_25 "LBigToe"
+  LEFT_SMALL_TOE,     ///< BODY_25 "LSmallToe"
+  LEFT_HEEL,          ///< BODY_25 "LHeel"
+  RIGHT_BIG_TOE,      ///< BODY_25 "RBigToe"
+  RIGHT_SMALL_TOE,    ///< BODY_25 "RSmallToe"
+  RIGHT_HEEL,         ///< BODY_25 "RHeel"
+  END                 ///< one past the last landmark (= BODY_POINT_COUNT), not a point
 };
 
 /// Number of body points: 24 joints + the landmarks.
@@ -95,9 +95,9 @@ int named_body_point(std::string_view name);
 
 /// One confident 2D observation.
 struct Keypoint2D {
-  int point = 0;            ///< body point in [0, BODY_POINT_COUNT)
-  Eigen::Vector2d pixel;    ///< (x right, y down) px
-  double confidence = 1.0;  ///< in (min_confidence, 1]
+  int point = 0;           ///< body point in [0, BODY_POINT_COUNT)
+  Eigen::Vector2d pixel;   ///< (x right, y down) px
+  double confidence = 1.0; ///< in (min_confidence, 1]
 };
 
 /// Default focal length (px) for an image of `width` × `height` px when the file gives none:
@@ -112,8 +112,8 @@ struct KeypointOptions {
   /// Force a layout (OpenPose: BODY_25/COCO_18); a file of another kind then throws
   /// vfit::Error ("the file holds … keypoints, not …").
   KeypointLayout layout = KeypointLayout::AUTO;
-  std::optional<Eigen::Vector2d> image_size;     ///< overrides the file's (px)
-  std::optional<double> focal;                   ///< overrides the file's (px)
+  std::optional<Eigen::Vector2d> image_size; ///< overrides the file's (px)
+  std::optional<double> focal;               ///< overrides the file's (px)
   /// Keypoints at or below this confidence are treated as missing (OpenPose writes 0 for
   /// undetected joints; its scores below ~0.1 are mostly false detections).
   double min_confidence = 0.1;
@@ -128,13 +128,13 @@ inline constexpr int MIN_TORSO_KEYPOINTS = 3;
 
 /// The keypoints of one person.
 struct Keypoints {
-  KeypointLayout layout = KeypointLayout::AUTO; ///< the layout read (never AUTO)
-  std::vector<Keypoint2D> points;               ///< confident keypoints only, one per body point
+  KeypointLayout layout = KeypointLayout::AUTO;         ///< the layout read (never AUTO)
+  std::vector<Keypoint2D> points;                       ///< confident keypoints only, one per body point
   Eigen::Vector2d image_size = Eigen::Vector2d::Zero(); ///< W, H (px)
-  double focal = 0;                             ///< px
-  bool focal_given = false;                     ///< false: default_focal_length()
-  std::vector<std::string> warnings;            ///< e.g. "3 people in the file; using person 1"
-  std::string source;                           ///< file name, for messages
+  double focal = 0;                                     ///< px
+  bool focal_given = false;                             ///< false: default_focal_length()
+  std::vector<std::string> warnings;                    ///< e.g. "3 people in the file; using person 1"
+  std::string source;                                   ///< file name, for messages
 };
 
 /// Parses keypoints from JSON text; `source` names it in messages. Throws vfit::Error naming

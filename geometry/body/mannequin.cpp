@@ -30,12 +30,14 @@ void project_to_surface(const MannequinShape& shape, Mesh& mesh, int steps) {
         const double h = 1e-4;
         Eigen::Vector3d g((shape.distance(p.x() + h, p.y(), p.z()) - shape.distance(p.x() - h, p.y(), p.z())) / (2 * h),
                           (shape.distance(p.x(), p.y() + h, p.z()) - shape.distance(p.x(), p.y() - h, p.z())) / (2 * h),
-                          (shape.distance(p.x(), p.y(), p.z() + h) - shape.distance(p.x(), p.y(), p.z() - h)) / (2 * h));
+                          (shape.distance(p.x(), p.y(), p.z() + h) - shape.distance(p.x(), p.y(), p.z() - h)) /
+                              (2 * h));
         const double g2 = g.squaredNorm();
         if (g2 < 1e-8) break;
         p -= d * g / g2;
       }
-      for (int k = 0; k < 3; ++k) mesh.positions[3 * v + k] = static_cast<float>(p[k]);
+      for (int k = 0; k < 3; ++k)
+        mesh.positions[3 * v + k] = static_cast<float>(p[k]);
     }
   });
 }
@@ -58,7 +60,8 @@ void relax_on_surface(const MannequinShape& shape, Mesh& mesh, int iterations) {
       for (std::size_t v = b; v < e; ++v) {
         const Eigen::Vector3d p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
         Eigen::Vector3d c = Eigen::Vector3d::Zero();
-        for (std::int32_t u : nbr[v]) c += Eigen::Vector3d(mesh.positions[3 * u], mesh.positions[3 * u + 1], mesh.positions[3 * u + 2]);
+        for (std::int32_t u : nbr[v])
+          c += Eigen::Vector3d(mesh.positions[3 * u], mesh.positions[3 * u + 1], mesh.positions[3 * u + 2]);
         c /= double(std::max<std::size_t>(1, nbr[v].size()));
         const double h = 1e-4;
         Eigen::Vector3d n((shape.distance(p.x() + h, p.y(), p.z()) - shape.distance(p.x() - h, p.y(), p.z())),
@@ -68,7 +71,8 @@ void relax_on_surface(const MannequinShape& shape, Mesh& mesh, int iterations) {
         Eigen::Vector3d d = c - p;
         d -= d.dot(n) * n;
         const Eigen::Vector3d q = p + 0.5 * d;
-        for (int k = 0; k < 3; ++k) next[3 * v + k] = static_cast<float>(q[k]);
+        for (int k = 0; k < 3; ++k)
+          next[3 * v + k] = static_cast<float>(q[k]);
       }
     });
     mesh.positions.swap(next);
@@ -84,8 +88,10 @@ SkinWeights compute_skin_weights(const MannequinShape& shape, const Mesh& mesh) 
     for (std::size_t v = b; v < e; ++v) {
       const auto a = shape.skin_affinity({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]});
       double sum = 0;
-      for (double x : a) sum += x;
-      for (int j = 0; j < JOINT_COUNT; ++j) w[v * JOINT_COUNT + j] = sum > 0 ? a[j] / sum : (j == 0 ? 1.0 : 0.0);
+      for (double x : a)
+        sum += x;
+      for (int j = 0; j < JOINT_COUNT; ++j)
+        w[v * JOINT_COUNT + j] = sum > 0 ? a[j] / sum : (j == 0 ? 1.0 : 0.0);
     }
   });
   // Vertex neighbours (CSR) for smoothing.
@@ -116,7 +122,8 @@ SkinWeights compute_skin_weights(const MannequinShape& shape, const Mesh& mesh) 
       for (std::size_t v = b; v < e; ++v)
         for (int j = 0; j < JOINT_COUNT; ++j) {
           double s = 0;
-          for (std::int32_t u : nbr[v]) s += w[u * JOINT_COUNT + j];
+          for (std::int32_t u : nbr[v])
+            s += w[u * JOINT_COUNT + j];
           const double avg = nbr[v].empty() ? w[v * JOINT_COUNT + j] : s / double(nbr[v].size());
           next[v * JOINT_COUNT + j] = 0.5 * w[v * JOINT_COUNT + j] + 0.5 * avg;
         }
@@ -152,7 +159,8 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
     const MeasuredBody got = measure_body(mesh, jp);
     const BodyLandmarks& lm = got.landmarks;
     auto leg_point = [&](bool left, double y) -> Eigen::Vector3d {
-      const Eigen::Vector3d hip = J(left ? Joint::LEFT_HIP : Joint::RIGHT_HIP), knee = J(left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE),
+      const Eigen::Vector3d hip = J(left ? Joint::LEFT_HIP : Joint::RIGHT_HIP),
+                            knee = J(left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE),
                             ankle = J(left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE);
       const auto& a = y > knee.y() ? hip : knee;
       const auto& b = y > knee.y() ? knee : ankle;
@@ -166,7 +174,8 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
     // own sections at the left's heights came out 14 % wider there).
     const double s_thigh = want.thigh / got.values.thigh, s_calf = want.calf / got.values.calf;
     double worst = 0;
-    for (double s : {s_chest, s_waist, s_hip, s_thigh, s_calf}) worst = std::max(worst, std::abs(s - 1));
+    for (double s : {s_chest, s_waist, s_hip, s_thigh, s_calf})
+      worst = std::max(worst, std::abs(s - 1));
     // The crotch is a saddle that coarse meshes cut low: lift (or lower) the region around it
     // with a smooth bump so the measured crotch height meets the request too.
     const double crotch_error = want.crotch_height - (lm.crotch - lm.floor);
@@ -184,8 +193,10 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
     for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
       float* p = &mesh.positions[3 * v];
       const double y = p[1];
-      const double torso_w = std::min(1.0, joint_weight(body.weights, v, {Joint::PELVIS, Joint::SPINE1, Joint::SPINE2, Joint::SPINE3, Joint::LEFT_HIP, Joint::RIGHT_HIP}) +
-                                                (y > lm.crotch ? 0.0 : 0.0));
+      const double torso_w = std::min(1.0, joint_weight(body.weights, v,
+                                                        {Joint::PELVIS, Joint::SPINE1, Joint::SPINE2, Joint::SPINE3,
+                                                         Joint::LEFT_HIP, Joint::RIGHT_HIP}) +
+                                               (y > lm.crotch ? 0.0 : 0.0));
       const double torso_f = (s_hip - 1) * hat(y, lm.crotch - 0.02, lm.hip, lm.waist) +
                              (s_waist - 1) * hat(y, lm.hip, lm.waist, lm.chest) +
                              (s_chest - 1) * hat(y, lm.waist, lm.chest, shoulder_y);
@@ -196,8 +207,10 @@ void calibrate_girths(const MannequinShape& shape, Body& body) {
       }
       for (int side = 0; side < 2; ++side) {
         const bool left = side == 1;
-        const double leg_w = joint_weight(body.weights, v, {left ? Joint::LEFT_HIP : Joint::RIGHT_HIP, left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE,
-                                                            left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE});
+        const double leg_w =
+            joint_weight(body.weights, v,
+                         {left ? Joint::LEFT_HIP : Joint::RIGHT_HIP, left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE,
+                          left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE});
         if (leg_w <= 0 || (left ? p[0] < 0 : p[0] > 0)) continue;
         const double leg_f = (s_thigh - 1) * hat(y, knee_y, lm.thigh, lm.crotch + 0.01) +
                              (s_calf - 1) * hat(y, ankle_y, lm.calf, knee_y);
@@ -226,8 +239,8 @@ Body make_mannequin(const MannequinOptions& options) {
   const double area = BODY_AREA_AT_170 * s * s;
   // Large targets need less slack: the fine grid already resolves every part.
   const double slack = options.target_vertices > 20000 ? 1.6 : 3.0;
-  const double cell = std::clamp(std::sqrt(MT_VERTICES_PER_UNIT * area / (slack * double(options.target_vertices))),
-                                 0.0025, 0.014 * s);
+  const double cell =
+      std::clamp(std::sqrt(MT_VERTICES_PER_UNIT * area / (slack * double(options.target_vertices))), 0.0025, 0.014 * s);
   const auto [lo, hi] = shape.bounding_box(3 * cell);
   IsosurfaceOptions iso;
   iso.box_min = {lo.x(), lo.y(), lo.z()};

@@ -12,9 +12,9 @@
 namespace vfit {
 
 struct MannequinOptions {
-  BodyMeasurements measurements;          ///< defaults: an average adult
-  RestPose pose = RestPose::APOSE;        ///< TPOSE or APOSE (arms 45° down)
-  std::size_t target_vertices = 7000;     ///< the mesh has this many vertices (exactly, when ≥ 1,000)
+  BodyMeasurements measurements;      ///< defaults: an average adult
+  RestPose pose = RestPose::APOSE;    ///< TPOSE or APOSE (arms 45° down)
+  std::size_t target_vertices = 7000; ///< the mesh has this many vertices (exactly, when ≥ 1,000)
 };
 
 /// Generates the mannequin: distance-function shape (mannequin_shape.h) → marching tetrahedra →

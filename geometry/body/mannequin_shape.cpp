@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <cstdio>
 #include <cstdlib>
+#include <numbers>
 
 #include "cross_section.h"
 #include "kernels/error.h"
@@ -125,7 +125,8 @@ void MannequinShape::place_skeleton() {
     const Eigen::Vector3d d(side * std::cos(drop), -std::sin(drop), 0.0);
     const int sh = side > 0 ? idx(Joint::LEFT_SHOULDER) : idx(Joint::RIGHT_SHOULDER);
     const Eigen::Vector3d shoulder = m_joints.row(sh).transpose();
-    const Eigen::Vector3d elbow = shoulder + upper * d, wrist = elbow + m.forearm_length * d, hand = wrist + 0.050 * H * d;
+    const Eigen::Vector3d elbow = shoulder + upper * d, wrist = elbow + m.forearm_length * d,
+                          hand = wrist + 0.050 * H * d;
     m_joints.row(sh + 2) = elbow.transpose(); // elbow = shoulder + 2 in SMPL order
     m_joints.row(sh + 4) = wrist.transpose();
     m_joints.row(sh + 6) = hand.transpose();
@@ -157,7 +158,8 @@ void MannequinShape::build_shapes() {
       {m_torso_top, 0.55 * m.shoulder_width, 0.55 * cb, -0.010 * s},
   };
   // Keyframes must ascend even for unusual proportions.
-  for (std::size_t i = 1; i < m_torso.size(); ++i) m_torso[i].y = std::max(m_torso[i].y, m_torso[i - 1].y + 0.005);
+  for (std::size_t i = 1; i < m_torso.size(); ++i)
+    m_torso[i].y = std::max(m_torso[i].y, m_torso[i - 1].y + 0.005);
   m_key_y.clear();
   m_key_a.clear();
   m_key_b.clear();
@@ -178,7 +180,8 @@ void MannequinShape::build_shapes() {
     const Eigen::Vector3d hip = J(left ? Joint::LEFT_HIP : Joint::RIGHT_HIP),
                           knee = J(left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE),
                           ankle = J(left ? Joint::LEFT_ANKLE : Joint::RIGHT_ANKLE);
-    const int jh = idx(left ? Joint::LEFT_HIP : Joint::RIGHT_HIP), jk = idx(left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE);
+    const int jh = idx(left ? Joint::LEFT_HIP : Joint::RIGHT_HIP),
+              jk = idx(left ? Joint::LEFT_KNEE : Joint::RIGHT_KNEE);
     // The thigh cone reaches its measured radius a little below the crotch.
     m_cones.push_back({hip + Eigen::Vector3d(0, 0.02 * s, 0), knee, thigh_r * 1.04, knee_r, jh});
     const Eigen::Vector3d calf_pt = knee + 0.33 * (ankle - knee) + Eigen::Vector3d(0, 0, -0.012 * s);
@@ -189,7 +192,8 @@ void MannequinShape::build_shapes() {
     b.axes = Eigen::Matrix3d::Identity();
     b.radii = Eigen::Vector3d(0.078, 0.085, 0.068) * (m.hip * m_scale_hip / 0.98);
     // Kept above the crotch, so sections just below it hold two separate legs.
-    b.centre = Eigen::Vector3d(side * 0.50 * hip.x(), std::max(hip_y - 0.030 * H, m_torso_bottom + 0.9 * b.radii.y()), -0.55 * hb);
+    b.centre = Eigen::Vector3d(side * 0.50 * hip.x(), std::max(hip_y - 0.030 * H, m_torso_bottom + 0.9 * b.radii.y()),
+                               -0.55 * hb);
     b.joint = jh;
     m_ellipsoids.push_back(b);
     // Foot: from the heel behind the ankle to the toes, flat on the floor (y = 0).
@@ -257,7 +261,9 @@ void MannequinShape::build_shapes() {
   bone(Joint::NECK, J(Joint::NECK), J(Joint::HEAD));
   bone(Joint::HEAD, J(Joint::HEAD), Eigen::Vector3d(0, H, 0.01 * s));
   for (int side : {0, 1}) {
-    auto L = [&](Joint left_joint) { return side == 0 ? left_joint : static_cast<Joint>(mirrored_joint(idx(left_joint))); };
+    auto L = [&](Joint left_joint) {
+      return side == 0 ? left_joint : static_cast<Joint>(mirrored_joint(idx(left_joint)));
+    };
     bone(L(Joint::LEFT_HIP), J(L(Joint::LEFT_HIP)), J(L(Joint::LEFT_KNEE)));
     bone(L(Joint::LEFT_KNEE), J(L(Joint::LEFT_KNEE)), J(L(Joint::LEFT_ANKLE)));
     bone(L(Joint::LEFT_ANKLE), J(L(Joint::LEFT_ANKLE)), J(L(Joint::LEFT_FOOT)));
@@ -272,7 +278,8 @@ void MannequinShape::build_shapes() {
 }
 
 TorsoSection MannequinShape::torso_at(double y) const {
-  return {y, monotone_cubic(m_key_y, m_key_a, y), monotone_cubic(m_key_y, m_key_b, y), monotone_cubic(m_key_y, m_key_c, y)};
+  return {y, monotone_cubic(m_key_y, m_key_a, y), monotone_cubic(m_key_y, m_key_b, y),
+          monotone_cubic(m_key_y, m_key_c, y)};
 }
 
 double MannequinShape::torso_centre_z(double y) const { return torso_at(y).c; }
@@ -327,7 +334,8 @@ double MannequinShape::evaluate_distance(double x, double y, double z, const Sha
   for (std::size_t i = 0; i < m_cones.size(); ++i) {
     const RoundCone& c = m_cones[i];
     const Joint j = static_cast<Joint>(c.joint);
-    const bool left_leg = j == Joint::LEFT_HIP || j == Joint::LEFT_KNEE, right_leg = j == Joint::RIGHT_HIP || j == Joint::RIGHT_KNEE;
+    const bool left_leg = j == Joint::LEFT_HIP || j == Joint::LEFT_KNEE,
+               right_leg = j == Joint::RIGHT_HIP || j == Joint::RIGHT_KNEE;
     if (left_leg || right_leg) {
       if (!legs_on) continue;
       double& leg = legs[left_leg ? 0 : 1];
@@ -366,7 +374,8 @@ double MannequinShape::evaluate_distance(double x, double y, double z, const Sha
 std::pair<Eigen::Vector3d, Eigen::Vector3d> MannequinShape::bounding_box(double margin) const {
   // The limbs' and head's joints bound the body; the spine's lie inside the torso.
   JointPositions outer = m_joints;
-  for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3}) outer.row(idx(j)) = m_joints.row(idx(Joint::PELVIS));
+  for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3})
+    outer.row(idx(j)) = m_joints.row(idx(Joint::PELVIS));
   Eigen::Vector3d lo = outer.colwise().minCoeff().transpose(), hi = outer.colwise().maxCoeff().transpose();
   const double s = m_measurements.height / 1.70;
   lo -= Eigen::Vector3d::Constant(0.25 * s);
@@ -387,7 +396,8 @@ std::array<double, JOINT_COUNT> MannequinShape::skin_affinity(const Eigen::Vecto
   auto side_joints = [](int j, std::initializer_list<Joint> names) {
     std::vector<int> out;
     const bool right = joint_name(j).rfind("right_", 0) == 0;
-    for (Joint n : names) out.push_back(right ? mirrored_joint(idx(n)) : idx(n));
+    for (Joint n : names)
+      out.push_back(right ? mirrored_joint(idx(n)) : idx(n));
     return out;
   };
   parts.push_back({torso_distance(p.x(), p.y(), p.z()),
@@ -397,11 +407,26 @@ std::array<double, JOINT_COUNT> MannequinShape::skin_affinity(const Eigen::Vecto
     const Joint j = static_cast<Joint>(c.joint);
     std::vector<int> cand;
     switch (j) {
-    case Joint::LEFT_HIP: case Joint::RIGHT_HIP: cand = side_joints(c.joint, {Joint::LEFT_HIP, Joint::LEFT_KNEE}); cand.push_back(idx(Joint::PELVIS)); break;
-    case Joint::LEFT_KNEE: case Joint::RIGHT_KNEE: cand = side_joints(c.joint, {Joint::LEFT_KNEE, Joint::LEFT_ANKLE, Joint::LEFT_HIP}); break;
-    case Joint::LEFT_COLLAR: case Joint::RIGHT_COLLAR: cand = side_joints(c.joint, {Joint::LEFT_COLLAR, Joint::LEFT_SHOULDER}); cand.push_back(idx(Joint::SPINE3)); break;
-    case Joint::LEFT_SHOULDER: case Joint::RIGHT_SHOULDER: cand = side_joints(c.joint, {Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW, Joint::LEFT_COLLAR}); break;
-    case Joint::LEFT_ELBOW: case Joint::RIGHT_ELBOW: cand = side_joints(c.joint, {Joint::LEFT_ELBOW, Joint::LEFT_WRIST, Joint::LEFT_SHOULDER}); break;
+    case Joint::LEFT_HIP:
+    case Joint::RIGHT_HIP:
+      cand = side_joints(c.joint, {Joint::LEFT_HIP, Joint::LEFT_KNEE});
+      cand.push_back(idx(Joint::PELVIS));
+      break;
+    case Joint::LEFT_KNEE:
+    case Joint::RIGHT_KNEE: cand = side_joints(c.joint, {Joint::LEFT_KNEE, Joint::LEFT_ANKLE, Joint::LEFT_HIP}); break;
+    case Joint::LEFT_COLLAR:
+    case Joint::RIGHT_COLLAR:
+      cand = side_joints(c.joint, {Joint::LEFT_COLLAR, Joint::LEFT_SHOULDER});
+      cand.push_back(idx(Joint::SPINE3));
+      break;
+    case Joint::LEFT_SHOULDER:
+    case Joint::RIGHT_SHOULDER:
+      cand = side_joints(c.joint, {Joint::LEFT_SHOULDER, Joint::LEFT_ELBOW, Joint::LEFT_COLLAR});
+      break;
+    case Joint::LEFT_ELBOW:
+    case Joint::RIGHT_ELBOW:
+      cand = side_joints(c.joint, {Joint::LEFT_ELBOW, Joint::LEFT_WRIST, Joint::LEFT_SHOULDER});
+      break;
     case Joint::NECK: cand = {idx(Joint::NECK), idx(Joint::HEAD), idx(Joint::SPINE3)}; break;
     default: cand = {c.joint}; break;
     }
@@ -411,16 +436,20 @@ std::array<double, JOINT_COUNT> MannequinShape::skin_affinity(const Eigen::Vecto
     const Joint j = static_cast<Joint>(e.joint);
     std::vector<int> cand;
     switch (j) {
-    case Joint::LEFT_HIP: case Joint::RIGHT_HIP: cand = {e.joint, idx(Joint::PELVIS)}; break;
-    case Joint::LEFT_FOOT: case Joint::RIGHT_FOOT: cand = side_joints(e.joint, {Joint::LEFT_FOOT, Joint::LEFT_ANKLE}); break;
-    case Joint::LEFT_WRIST: case Joint::RIGHT_WRIST: cand = side_joints(e.joint, {Joint::LEFT_WRIST, Joint::LEFT_HAND}); break;
+    case Joint::LEFT_HIP:
+    case Joint::RIGHT_HIP: cand = {e.joint, idx(Joint::PELVIS)}; break;
+    case Joint::LEFT_FOOT:
+    case Joint::RIGHT_FOOT: cand = side_joints(e.joint, {Joint::LEFT_FOOT, Joint::LEFT_ANKLE}); break;
+    case Joint::LEFT_WRIST:
+    case Joint::RIGHT_WRIST: cand = side_joints(e.joint, {Joint::LEFT_WRIST, Joint::LEFT_HAND}); break;
     case Joint::HEAD: cand = {idx(Joint::HEAD), idx(Joint::NECK)}; break;
     default: cand = {e.joint}; break;
     }
     parts.push_back({ellipsoid_distance(p, e), cand});
   }
   double dmin = INFINITY;
-  for (const auto& part : parts) dmin = std::min(dmin, part.d);
+  for (const auto& part : parts)
+    dmin = std::min(dmin, part.d);
   // Bone distance per joint (nearest of its segments).
   std::array<double, JOINT_COUNT> bone_d;
   bone_d.fill(INFINITY);
@@ -435,14 +464,16 @@ std::array<double, JOINT_COUNT> MannequinShape::skin_affinity(const Eigen::Vecto
     const double share = std::exp(-(part.d - dmin) / tau);
     if (share < 1e-4) continue;
     double nearest = INFINITY;
-    for (int j : part.joints) nearest = std::min(nearest, bone_d[j]);
+    for (int j : part.joints)
+      nearest = std::min(nearest, bone_d[j]);
     double total = 0;
     std::array<double, JOINT_COUNT> local{};
     for (int j : part.joints) {
       local[j] = std::pow(nearest / std::max(bone_d[j], 1e-6), 6.0);
       total += local[j];
     }
-    for (int j : part.joints) w[j] += share * local[j] / total;
+    for (int j : part.joints)
+      w[j] += share * local[j] / total;
   }
   return w;
 }
@@ -503,15 +534,20 @@ void MannequinShape::calibrate() {
       return best;
     };
     const double chest = section_girth(spine3.y(), 0, torso_axis_z(spine3.y()));
-    const double waist = extreme(hips.y() + 0.25 * (spine3.y() - hips.y()), hips.y() + 0.85 * (spine3.y() - hips.y()), false, false);
+    const double waist =
+        extreme(hips.y() + 0.25 * (spine3.y() - hips.y()), hips.y() + 0.85 * (spine3.y() - hips.y()), false, false);
     const double hip = extreme(crotch + 0.005, pelvis.y(), true, false);
     const double thigh = extreme(crotch - 0.08, crotch - 0.005, true, true);
-    const double calf = extreme(lknee.y() - 0.6 * (lknee.y() - lankle.y()), lknee.y() - 0.15 * (lknee.y() - lankle.y()), true, true);
-    const double errors[] = {chest / m.chest - 1, waist / m.waist - 1, hip / m.hip - 1, thigh / m.thigh - 1,
-                             calf / m.calf - 1, (crotch - m.crotch_height) / m.height};
+    const double calf =
+        extreme(lknee.y() - 0.6 * (lknee.y() - lankle.y()), lknee.y() - 0.15 * (lknee.y() - lankle.y()), true, true);
+    const double errors[] = {chest / m.chest - 1, waist / m.waist - 1, hip / m.hip - 1,
+                             thigh / m.thigh - 1, calf / m.calf - 1,   (crotch - m.crotch_height) / m.height};
     double worst = 0;
-    for (double e : errors) worst = std::max(worst, std::abs(e));
-    if (std::getenv("VFIT_DEBUG_MANNEQUIN")) std::fprintf(stderr, "calib %d: chest %.4f waist %.4f hip %.4f thigh %.4f calf %.4f crotch %.4f\n", iter, chest, waist, hip, thigh, calf, crotch);
+    for (double e : errors)
+      worst = std::max(worst, std::abs(e));
+    if (std::getenv("VFIT_DEBUG_MANNEQUIN"))
+      std::fprintf(stderr, "calib %d: chest %.4f waist %.4f hip %.4f thigh %.4f calf %.4f crotch %.4f\n", iter, chest,
+                   waist, hip, thigh, calf, crotch);
     if (worst < 0.002) break;
     m_scale_chest *= m.chest / chest;
     m_scale_waist *= m.waist / waist;

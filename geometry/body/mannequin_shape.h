@@ -123,7 +123,7 @@ private:
   BodyMeasurements m_measurements;
   RestPose m_pose;
   JointPositions m_joints = JointPositions::Zero();
-  std::vector<TorsoSection> m_torso; ///< keyframes, ascending y
+  std::vector<TorsoSection> m_torso;                      ///< keyframes, ascending y
   std::vector<double> m_key_y, m_key_a, m_key_b, m_key_c; ///< the keyframes as columns
   double m_torso_bottom = 0, m_torso_top = 0;
   std::vector<RoundCone> m_cones;

@@ -52,24 +52,22 @@ std::pair<double, double> search_girth(const Mesh& mesh, double lo, double hi, i
 } // namespace
 
 const std::vector<std::string_view>& BodyMeasurements::names() {
-  static const std::vector<std::string_view> n = {"height", "crotch_height", "knee_height", "arm_length",
-                                                  "forearm_length", "shoulder_width", "chest", "waist",
-                                                  "hip", "thigh", "calf"};
+  static const std::vector<std::string_view> n = {
+      "height", "crotch_height", "knee_height", "arm_length", "forearm_length", "shoulder_width", "chest",
+      "waist",  "hip",           "thigh",       "calf"};
   return n;
 }
 
 double& BodyMeasurements::operator[](std::string_view name) {
-  double* fields[] = {&height, &crotch_height, &knee_height, &arm_length, &forearm_length, &shoulder_width,
-                      &chest, &waist, &hip, &thigh, &calf};
+  double* fields[] = {&height, &crotch_height, &knee_height, &arm_length, &forearm_length, &shoulder_width, &chest,
+                      &waist,  &hip,           &thigh,       &calf};
   const auto& n = names();
   for (std::size_t i = 0; i < n.size(); ++i)
     if (n[i] == name) return *fields[i];
   throw Error("measurements", 0, "unknown measurement '" + std::string(name) + "'");
 }
 
-double BodyMeasurements::operator[](std::string_view name) const {
-  return const_cast<BodyMeasurements&>(*this)[name];
-}
+double BodyMeasurements::operator[](std::string_view name) const { return const_cast<BodyMeasurements&>(*this)[name]; }
 
 BodyMeasurements body_preset(std::string_view name) {
   BodyMeasurements m;
@@ -90,7 +88,8 @@ BodyMeasurements body_preset(std::string_view name) {
     m.shoulder_width = 0.32, m.chest = 0.86, m.waist = 0.70, m.hip = 0.92, m.thigh = 0.52, m.calf = 0.34;
   } else {
     std::string all;
-    for (const auto& n : body_preset_names()) all += (all.empty() ? "" : ", ") + n;
+    for (const auto& n : body_preset_names())
+      all += (all.empty() ? "" : ", ") + n;
     throw Error("--preset", 0, "unknown body preset '" + std::string(name) + "' (expected one of " + all + ")");
   }
   return m;
@@ -151,7 +150,8 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
     return false;
   };
   double lo = lknee.y(), hi = pelvis.y();
-  if (inside(lo) || !inside(hi)) throw Error("body", 0, "cannot find the crotch: the legs are not separate below the pelvis");
+  if (inside(lo) || !inside(hi))
+    throw Error("body", 0, "cannot find the crotch: the legs are not separate below the pelvis");
   for (int i = 0; i < 30; ++i) {
     const double mid = 0.5 * (lo + hi);
     (inside(mid) ? hi : lo) = mid;
@@ -200,7 +200,8 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
   need(std::isfinite(v.waist) ? v.waist : 0, "waist");
   std::tie(v.hip, lm.hip) = search_girth(mesh, lm.crotch + 0.005, pelvis.y(), 40, true, torso_axis);
   need(v.hip, "hip");
-  std::tie(v.thigh, lm.thigh) = search_girth(mesh, lm.crotch - 0.08, lm.crotch - 0.005, 30, true, leg_axis, other_leg_axis);
+  std::tie(v.thigh, lm.thigh) =
+      search_girth(mesh, lm.crotch - 0.08, lm.crotch - 0.005, 30, true, leg_axis, other_leg_axis);
   need(v.thigh, "thigh");
   const double clo = lknee.y() - 0.6 * (lknee.y() - lankle.y()), chi = lknee.y() - 0.15 * (lknee.y() - lankle.y());
   std::tie(v.calf, lm.calf) = search_girth(mesh, clo, chi, 40, true, leg_axis);

@@ -38,7 +38,8 @@ void lower_arms(Pose& p, double degrees, RestPose rest) {
 } // namespace
 
 std::vector<std::string> named_pose_names() {
-  return {"rest", "tpose", "apose", "arms_down", "arms_raised", "elbows_bent", "walking", "knee_bent", "legs_apart", "demo", "contrapposto"};
+  return {"rest",    "tpose",     "apose",      "arms_down", "arms_raised", "elbows_bent",
+          "walking", "knee_bent", "legs_apart", "demo",      "contrapposto"};
 }
 
 Pose named_pose(std::string_view name, RestPose rest) {
@@ -82,7 +83,8 @@ Pose named_pose(std::string_view name, RestPose rest) {
     p.axis_angle.row(idx(Joint::LEFT_ELBOW)) << 0, -30 * DEG, 0;
   } else {
     std::string all;
-    for (const auto& n : named_pose_names()) all += (all.empty() ? "" : ", ") + n;
+    for (const auto& n : named_pose_names())
+      all += (all.empty() ? "" : ", ") + n;
     throw Error("--pose", 0, "unknown pose '" + std::string(name) + "' (expected a JSON file or one of " + all + ")");
   }
   return p;
@@ -100,14 +102,16 @@ Pose read_pose_json(const std::filesystem::path& path) {
     } else if (key == "pose") {
       if (!value.is_array() || value.size() != 3 * JOINT_COUNT) throw Error(file, 0, "'pose': expected 72 numbers");
       for (int k = 0; k < 3 * JOINT_COUNT; ++k) {
-        if (!value[k].is_number() || !std::isfinite(value[k].get<double>())) throw Error(file, 0, "'pose': not a finite number at " + std::to_string(k));
+        if (!value[k].is_number() || !std::isfinite(value[k].get<double>()))
+          throw Error(file, 0, "'pose': not a finite number at " + std::to_string(k));
         p.axis_angle(k / 3, k % 3) = value[k].get<double>();
       }
     } else {
       const auto joint = key == "global_orient" ? std::optional<int>(0) : joint_from_name(key);
       if (!joint) throw Error(file, 0, "unknown joint '" + key + "' (expected SMPL joint names such as left_elbow)");
       const Eigen::Vector3d r = vec3(key, value);
-      if (r.norm() > 2 * std::numbers::pi) throw Error(file, 0, "'" + key + "': rotation angle above 2π (radians expected)");
+      if (r.norm() > 2 * std::numbers::pi)
+        throw Error(file, 0, "'" + key + "': rotation angle above 2π (radians expected)");
       p.axis_angle.row(*joint) = r.transpose();
     }
   }
@@ -118,7 +122,8 @@ std::string pose_json(const Pose& pose) {
   nlohmann::ordered_json j;
   for (int k = 0; k < JOINT_COUNT; ++k)
     if (!pose.axis_angle.row(k).isZero(0.0))
-      j[k == 0 ? std::string("global_orient") : std::string(joint_name(k))] = {pose.axis_angle(k, 0), pose.axis_angle(k, 1), pose.axis_angle(k, 2)};
+      j[k == 0 ? std::string("global_orient") : std::string(joint_name(k))] = {
+          pose.axis_angle(k, 0), pose.axis_angle(k, 1), pose.axis_angle(k, 2)};
   j["translation"] = {pose.translation.x(), pose.translation.y(), pose.translation.z()};
   return j.dump(2) + "\n";
 }

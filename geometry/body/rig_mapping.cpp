@@ -144,7 +144,8 @@ RigMapping parse_rig_mapping(std::string_view json_text, const std::string& path
   for (const auto& [key, value] : root.items()) {
     const std::optional<int> joint = joint_from_name(key);
     if (!joint)
-      throw Error(path, 0, "key " + json_quoted(key) + " is not a canonical joint name (pelvis, left_hip, ..., right_hand)");
+      throw Error(path, 0,
+                  "key " + json_quoted(key) + " is not a canonical joint name (pelvis, left_hip, ..., right_hand)");
     std::string bone;
     if (value.is_object()) {
       const auto where = [&] { return "key " + json_quoted(key) + ": "; };
@@ -159,8 +160,9 @@ RigMapping parse_rig_mapping(std::string_view json_text, const std::string& path
           throw Error(path, 0, where() + "\"toward\" must be a non-empty bone name when \"at\" is given");
         if (!value.contains("at") || !value["at"].is_number() || !(value["at"].get<double>() >= 0.0) ||
             !(value["at"].get<double>() <= 1.0))
-          throw Error(path, 0, where() + "\"at\" must be a number in [0, 1], the fraction of the way toward \"" +
-                                   value["toward"].get<std::string>() + "\"");
+          throw Error(path, 0,
+                      where() + "\"at\" must be a number in [0, 1], the fraction of the way toward \"" +
+                          value["toward"].get<std::string>() + "\"");
         mapping.anchors[*joint] = {value["toward"].get<std::string>(), value["at"].get<double>()};
       }
     } else if (value.is_string() && !value.get<std::string>().empty()) {
@@ -171,7 +173,8 @@ RigMapping parse_rig_mapping(std::string_view json_text, const std::string& path
                       "\"toward\": ..., \"at\": ...}, got " + value.dump());
     }
     if (const auto [it, inserted] = joint_of_bone.try_emplace(bone, key); !inserted)
-      throw Error(path, 0, "key " + json_quoted(key) + ": bone " + json_quoted(bone) + " is already mapped to " + it->second);
+      throw Error(path, 0,
+                  "key " + json_quoted(key) + ": bone " + json_quoted(bone) + " is already mapped to " + it->second);
     mapping.bone_for_joint[*joint] = bone;
   }
   std::string missing;

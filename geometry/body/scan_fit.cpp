@@ -516,12 +516,12 @@ ScanFit fit_scan(const Mesh& scan, const std::string& source, const ScanFitOptio
       for (Joint j : {Joint::NECK, Joint::HEAD, Joint::LEFT_COLLAR, Joint::RIGHT_COLLAR, Joint::LEFT_ANKLE,
                       Joint::RIGHT_ANKLE, Joint::LEFT_FOOT, Joint::RIGHT_FOOT})
         apose.axis_angle.row(idx(j)) = fit.pose.axis_angle.row(idx(j));
-      for (const auto& [collar, shoulder, sign] :
-           {std::tuple{Joint::LEFT_COLLAR, Joint::LEFT_SHOULDER, -1.0},
-            std::tuple{Joint::RIGHT_COLLAR, Joint::RIGHT_SHOULDER, 1.0}}) {
+      for (const auto& [collar, shoulder, sign] : {std::tuple{Joint::LEFT_COLLAR, Joint::LEFT_SHOULDER, -1.0},
+                                                   std::tuple{Joint::RIGHT_COLLAR, Joint::RIGHT_SHOULDER, 1.0}}) {
         const Eigen::Matrix3d girdle = axis_angle_to_matrix(fit.pose.axis_angle.row(idx(collar)).transpose());
         const Eigen::Matrix3d arm = axis_angle_to_matrix(Vec3(0, 0, sign * drop));
-        apose.axis_angle.row(idx(shoulder)) = matrix_to_axis_angle(Eigen::Matrix3d(girdle.transpose() * arm)).transpose();
+        apose.axis_angle.row(idx(shoulder)) =
+            matrix_to_axis_angle(Eigen::Matrix3d(girdle.transpose() * arm)).transpose();
       }
       A = skinning_transforms(fit.rest_joints, fit.pose);
       const auto B = skinning_transforms(fit.rest_joints, apose);

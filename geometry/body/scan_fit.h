@@ -33,7 +33,7 @@ struct ScanFitOptions {
   /// Pairs farther apart than this (m) are rejected in the first round; the limit shrinks to
   /// half of it by the last round as the fit closes in.
   double reject_distance = 0.10;
-  int threads = 2; ///< threads of the Ceres solves, clamped to [1, 2] (the result does not depend on it)
+  int threads = 2;              ///< threads of the Ceres solves, clamped to [1, 2] (the result does not depend on it)
   ScanPoseSearchOptions search; ///< stage 2, the starting pose's search (scan_pose_search.h)
 };
 

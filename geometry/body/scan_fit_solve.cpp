@@ -174,7 +174,8 @@ private:
   };
   // A chunk's share of the normal equations: JᵀJ (lower triangle), Jᵀr, rᵀr.
   struct Normal {
-    Eigen::Matrix<double, PARAMS, PARAMS, Eigen::RowMajor> H = Eigen::Matrix<double, PARAMS, PARAMS, Eigen::RowMajor>::Zero();
+    Eigen::Matrix<double, PARAMS, PARAMS, Eigen::RowMajor> H =
+        Eigen::Matrix<double, PARAMS, PARAMS, Eigen::RowMajor>::Zero();
     Eigen::Matrix<double, PARAMS, 1> g = Eigen::Matrix<double, PARAMS, 1>::Zero();
     double c = 0;
   };
@@ -206,8 +207,8 @@ private:
     std::array<Vec3, JOINT_COUNT> xs;
     std::array<double, JOINT_COUNT> ms;
     std::vector<int> touched;
-    std::array<int, PARAMS> column{};               // the compact rows' columns in the full Jacobian
-    Eigen::Matrix<double, 3, PARAMS> rows;          // a pair's rows, compact (first `m` columns)
+    std::array<int, PARAMS> column{};      // the compact rows' columns in the full Jacobian
+    Eigen::Matrix<double, 3, PARAMS> rows; // a pair's rows, compact (first `m` columns)
     for (std::size_t i = begin; i < end; ++i) {
       const Pair& q = m_pairs[i];
       const Eigen::Matrix3d P = projector(q);

@@ -85,7 +85,8 @@ ScanCoverage scan_fit_coverage(const ScanFit& fit, const Mesh& scan) {
   for (std::size_t v = 0; v < tmpl.mesh.vertex_count(); ++v) {
     Eigen::Vector3d p(tmpl.mesh.positions[3 * v], tmpl.mesh.positions[3 * v + 1], tmpl.mesh.positions[3 * v + 2]);
     for (int k = 0; k < 4; ++k)
-      p += double(tmpl.weights.weights[4 * v + std::size_t(k)]) * dJ.row(tmpl.weights.joints[4 * v + std::size_t(k)]).transpose();
+      p += double(tmpl.weights.weights[4 * v + std::size_t(k)]) *
+           dJ.row(tmpl.weights.joints[4 * v + std::size_t(k)]).transpose();
     for (int a = 0; a < 3; ++a)
       shaped[3 * v + std::size_t(a)] = static_cast<float>(s * p[a]);
   }
@@ -99,7 +100,8 @@ ScanCoverage scan_fit_coverage(const ScanFit& fit, const Mesh& scan) {
     if (hits.triangles[i] >= 0) d.push_back(std::abs(hits.signed_distances[i]));
   if (d.empty()) return {};
   ScanCoverage c;
-  for (double x : d) c.mean += x / double(d.size());
+  for (double x : d)
+    c.mean += x / double(d.size());
   const auto k = static_cast<std::size_t>(0.95 * double(d.size() - 1));
   std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(k), d.end());
   c.p95 = d[k];

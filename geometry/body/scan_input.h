@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "body.h"
-#include "scan_fit.h"
 #include "geometry/mesh/mesh.h"
 #include "geometry/mesh/up_axis.h"
+#include "scan_fit.h"
 
 namespace vfit {
 
@@ -25,9 +25,9 @@ struct PreparedScan {
   /// or labels (kept below).
   Mesh mesh;
   std::size_t vertex_count = 0, face_count = 0; ///< the scan's own, before the caps
-  Mesh attributes;                   ///< the scan's UVs, normals and labels (after any re-winding)
-  Facing facing = Facing::POS_Z;     ///< where the scan faced (turned to +Z)
-  std::vector<std::string> warnings; ///< one per change, naming `source`
+  Mesh attributes;                              ///< the scan's UVs, normals and labels (after any re-winding)
+  Facing facing = Facing::POS_Z;                ///< where the scan faced (turned to +Z)
+  std::vector<std::string> warnings;            ///< one per change, naming `source`
 };
 
 /// Prepares `scan` (metres, Y up; a mesh or a point cloud) for fit_scan():

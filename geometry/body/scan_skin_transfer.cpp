@@ -212,8 +212,7 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
       // other: until stop 24 a chain within 0.1 mm of the closest point counted as the closest,
       // which handed elbows_bent's wrists the other hand's weights: re-posed 94 cm off).
       const int closest_chain = triangle_chain[static_cast<std::size_t>(closest.triangles[v])];
-      const bool own_closest = c == UNSURE || hits[static_cast<std::size_t>(c)].triangles[v] < 0 ||
-                               closest_chain == c;
+      const bool own_closest = c == UNSURE || hits[static_cast<std::size_t>(c)].triangles[v] < 0 || closest_chain == c;
       if (own_closest)
         blend_at(source, source_weights, closest, v, out, v);
       else

@@ -10,13 +10,13 @@ namespace vfit {
 namespace {
 
 constexpr std::array<std::string_view, JOINT_COUNT> NAMES = {
-    "pelvis",      "left_hip",       "right_hip",      "spine1",     "left_knee",   "right_knee",
-    "spine2",      "left_ankle",     "right_ankle",    "spine3",     "left_foot",   "right_foot",
-    "neck",        "left_collar",    "right_collar",   "head",       "left_shoulder", "right_shoulder",
-    "left_elbow",  "right_elbow",    "left_wrist",     "right_wrist", "left_hand",  "right_hand"};
+    "pelvis",     "left_hip",    "right_hip",    "spine1",      "left_knee",     "right_knee",
+    "spine2",     "left_ankle",  "right_ankle",  "spine3",      "left_foot",     "right_foot",
+    "neck",       "left_collar", "right_collar", "head",        "left_shoulder", "right_shoulder",
+    "left_elbow", "right_elbow", "left_wrist",   "right_wrist", "left_hand",     "right_hand"};
 
-constexpr std::array<int, JOINT_COUNT> PARENTS = {-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8,
-                                                  9, 9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21};
+constexpr std::array<int, JOINT_COUNT> PARENTS = {-1, 0, 0, 0,  1,  2,  3,  4,  5,  6,  7,  8,
+                                                  9,  9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21};
 
 constexpr std::size_t LBS_GRAIN = 2048;
 
@@ -35,8 +35,10 @@ int joint_parent(int joint) { return PARENTS.at(static_cast<std::size_t>(joint))
 int mirrored_joint(int joint) {
   const std::string_view n = joint_name(joint);
   std::string m(n);
-  if (n.rfind("left_", 0) == 0) m = "right_" + std::string(n.substr(5));
-  else if (n.rfind("right_", 0) == 0) m = "left_" + std::string(n.substr(6));
+  if (n.rfind("left_", 0) == 0)
+    m = "right_" + std::string(n.substr(5));
+  else if (n.rfind("right_", 0) == 0)
+    m = "left_" + std::string(n.substr(6));
   return *joint_from_name(m);
 }
 
@@ -45,7 +47,8 @@ Pose Pose::from_smpl_vector(std::span<const double> theta72, const Eigen::Vector
     throw Error("pose", 0, "expected 72 pose numbers (24 joints × 3), got " + std::to_string(theta72.size()));
   Pose p;
   for (int j = 0; j < JOINT_COUNT; ++j)
-    for (int k = 0; k < 3; ++k) p.axis_angle(j, k) = theta72[3 * j + k];
+    for (int k = 0; k < 3; ++k)
+      p.axis_angle(j, k) = theta72[3 * j + k];
   p.translation = translation;
   return p;
 }
@@ -81,13 +84,15 @@ std::array<Eigen::Isometry3d, JOINT_COUNT> joint_world_transforms(const JointPos
 JointPositions posed_joints(const JointPositions& rest, const Pose& pose) {
   const auto g = joint_world_transforms(rest, pose);
   JointPositions out;
-  for (int j = 0; j < JOINT_COUNT; ++j) out.row(j) = g[j].translation().transpose();
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    out.row(j) = g[j].translation().transpose();
   return out;
 }
 
 std::array<Eigen::Isometry3d, JOINT_COUNT> skinning_transforms(const JointPositions& rest, const Pose& pose) {
   auto a = joint_world_transforms(rest, pose);
-  for (int j = 0; j < JOINT_COUNT; ++j) a[j].translation() -= a[j].linear() * rest.row(j).transpose();
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    a[j].translation() -= a[j].linear() * rest.row(j).transpose();
   return a;
 }
 
@@ -99,12 +104,14 @@ SkinWeights SkinWeights::from_dense(std::span<const double> dense, int joint_cou
   std::vector<int> order(static_cast<std::size_t>(joint_count));
   for (std::size_t v = 0; v < nv; ++v) {
     const double* row = dense.data() + v * static_cast<std::size_t>(joint_count);
-    for (int j = 0; j < joint_count; ++j) order[j] = j;
+    for (int j = 0; j < joint_count; ++j)
+      order[j] = j;
     const int keep = std::min(4, joint_count);
     std::partial_sort(order.begin(), order.begin() + keep, order.end(),
                       [&](int a, int b) { return row[a] > row[b] || (row[a] == row[b] && a < b); });
     double sum = 0;
-    for (int k = 0; k < keep; ++k) sum += std::max(0.0, row[order[k]]);
+    for (int k = 0; k < keep; ++k)
+      sum += std::max(0.0, row[order[k]]);
     if (sum <= 0) {
       w.joints[4 * v] = fallback_joint;
       w.weights[4 * v] = 1.0f;
@@ -124,7 +131,8 @@ void linear_blend_skinning(std::span<const float> rest, const SkinWeights& weigh
   posed.resize(rest.size());
   // Float 3×4 copies of the transforms: the blend runs in double per vertex for accuracy.
   std::array<Eigen::Matrix<double, 3, 4>, JOINT_COUNT> m;
-  for (int j = 0; j < JOINT_COUNT; ++j) m[j] = transforms[j].matrix().topRows<3>();
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    m[j] = transforms[j].matrix().topRows<3>();
   parallel_for_range(nv, LBS_GRAIN, [&](std::size_t b, std::size_t e) {
     for (std::size_t v = b; v < e; ++v) {
       Eigen::Matrix<double, 3, 4> blend = Eigen::Matrix<double, 3, 4>::Zero();
@@ -152,13 +160,15 @@ void validate_skin_weights(const SkinWeights& weights, std::size_t vertex_count,
       const int j = weights.joints[4 * v + k];
       const float w = weights.weights[4 * v + k];
       if (j < 0 || j >= JOINT_COUNT)
-        throw Error(source, 0, "vertex " + std::to_string(v + 1) + ": joint index " + std::to_string(j) + " out of range");
+        throw Error(source, 0,
+                    "vertex " + std::to_string(v + 1) + ": joint index " + std::to_string(j) + " out of range");
       if (!std::isfinite(w) || w < 0)
         throw Error(source, 0, "vertex " + std::to_string(v + 1) + ": skin weight is negative or not finite");
       sum += w;
     }
     if (std::abs(sum - 1.0) > 1e-3)
-      throw Error(source, 0, "vertex " + std::to_string(v + 1) + ": skin weights sum to " + std::to_string(sum) + ", not 1");
+      throw Error(source, 0,
+                  "vertex " + std::to_string(v + 1) + ": skin weights sum to " + std::to_string(sum) + ", not 1");
   }
 }
 

@@ -23,9 +23,30 @@ inline constexpr int JOINT_COUNT = 24;
 
 /// The canonical joints, in SMPL's order.
 enum class Joint : int {
-  PELVIS, LEFT_HIP, RIGHT_HIP, SPINE1, LEFT_KNEE, RIGHT_KNEE, SPINE2, LEFT_ANKLE, RIGHT_ANKLE, SPINE3,
-  LEFT_FOOT, RIGHT_FOOT, NECK, LEFT_COLLAR, RIGHT_COLLAR, HEAD, LEFT_SHOULDER, RIGHT_SHOULDER,
-  LEFT_ELBOW, RIGHT_ELBOW, LEFT_WRIST, RIGHT_WRIST, LEFT_HAND, RIGHT_HAND
+  PELVIS,
+  LEFT_HIP,
+  RIGHT_HIP,
+  SPINE1,
+  LEFT_KNEE,
+  RIGHT_KNEE,
+  SPINE2,
+  LEFT_ANKLE,
+  RIGHT_ANKLE,
+  SPINE3,
+  LEFT_FOOT,
+  RIGHT_FOOT,
+  NECK,
+  LEFT_COLLAR,
+  RIGHT_COLLAR,
+  HEAD,
+  LEFT_SHOULDER,
+  RIGHT_SHOULDER,
+  LEFT_ELBOW,
+  RIGHT_ELBOW,
+  LEFT_WRIST,
+  RIGHT_WRIST,
+  LEFT_HAND,
+  RIGHT_HAND
 };
 
 /// SMPL's joint names: "pelvis", "left_hip", ..., "right_hand".
@@ -45,11 +66,13 @@ using JointPositions = Eigen::Matrix<double, JOINT_COUNT, 3, Eigen::RowMajor>;
 /// A pose: per-joint axis-angle rotations relative to the parent (SMPL's 72 numbers; row 0 is
 /// the global orientation about the pelvis) and a global translation (m).
 struct Pose {
-  Eigen::Matrix<double, JOINT_COUNT, 3, Eigen::RowMajor> axis_angle = Eigen::Matrix<double, JOINT_COUNT, 3, Eigen::RowMajor>::Zero();
+  Eigen::Matrix<double, JOINT_COUNT, 3, Eigen::RowMajor> axis_angle =
+      Eigen::Matrix<double, JOINT_COUNT, 3, Eigen::RowMajor>::Zero();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
 
   /// The 72-number layout (joint-major, x y z per joint).
-  static Pose from_smpl_vector(std::span<const double> theta72, const Eigen::Vector3d& translation = Eigen::Vector3d::Zero());
+  static Pose from_smpl_vector(std::span<const double> theta72,
+                               const Eigen::Vector3d& translation = Eigen::Vector3d::Zero());
   bool is_rest() const { return axis_angle.isZero(0.0) && translation.isZero(0.0); }
 };
 

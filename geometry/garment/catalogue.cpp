@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <set>
 #include <numbers>
+#include <set>
 
 #include "garment_shape.h"
 #include "geometry/mesh/clip.h"
@@ -49,7 +49,8 @@ Eigen::Vector3d project(const GarmentShape& g, Eigen::Vector3d p, int steps) {
 // cuts the short sleeve's cuff crosses the torso's side in a few small patches. A mesh with no
 // more holes than openings, or with per-face attributes, is returned unchanged.
 void fill_extra_holes(Mesh& mesh, std::size_t openings) {
-  if (!mesh.face_labels.empty() || !mesh.uv_triangles.empty() || !mesh.normal_triangles.empty()) return; // clip output has none
+  if (!mesh.face_labels.empty() || !mesh.uv_triangles.empty() || !mesh.normal_triangles.empty())
+    return; // clip output has none
   // The common case, no extra hole, costs one topology pass; the loops are walked only past it.
   if (analyse_topology(mesh.triangle_view(), mesh.vertex_count()).boundary_loops <= openings) return;
   std::map<std::pair<std::int32_t, std::int32_t>, int> uses;
@@ -81,10 +82,12 @@ void fill_extra_holes(Mesh& mesh, std::size_t openings) {
   const std::size_t small = std::max<std::size_t>(8, loops[loops.size() / 2].size() / 5);
   for (std::size_t i = 0; i + openings < loops.size() && loops[i].size() <= small; ++i) {
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (std::int32_t v : loops[i]) c += Eigen::Vector3d(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+    for (std::int32_t v : loops[i])
+      c += Eigen::Vector3d(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
     c /= double(loops[i].size());
     const auto centre = std::int32_t(mesh.vertex_count());
-    for (int k = 0; k < 3; ++k) mesh.positions.push_back(static_cast<float>(c[k]));
+    for (int k = 0; k < 3; ++k)
+      mesh.positions.push_back(static_cast<float>(c[k]));
     // The faces run a -> b along the hole; the fan runs b -> a to continue their orientation.
     for (std::size_t j = 0; j < loops[i].size(); ++j) {
       const std::int32_t a = loops[i][j], b = loops[i][(j + 1) % loops[i].size()];
@@ -108,7 +111,8 @@ void relax(const GarmentShape& g, Mesh& mesh, int iterations) {
     std::sort(edges.begin(), edges.end());
     for (std::size_t i = 0; i < edges.size();) {
       std::size_t j = i;
-      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      while (j < edges.size() && edges[j].first == edges[i].first)
+        ++j;
       if (j - i == 1) {
         boundary[edges[i].first >> 32] = 1;
         boundary[edges[i].first & 0xffffffffu] = 1;
@@ -124,7 +128,8 @@ void relax(const GarmentShape& g, Mesh& mesh, int iterations) {
         Eigen::Vector3d q = p;
         if (!boundary[v] && !nbr[v].empty()) {
           Eigen::Vector3d c = Eigen::Vector3d::Zero();
-          for (std::int32_t u : nbr[v]) c += Eigen::Vector3d(mesh.positions[3 * u], mesh.positions[3 * u + 1], mesh.positions[3 * u + 2]);
+          for (std::int32_t u : nbr[v])
+            c += Eigen::Vector3d(mesh.positions[3 * u], mesh.positions[3 * u + 1], mesh.positions[3 * u + 2]);
           c /= double(nbr[v].size());
           Eigen::Vector3d n = g.gradient(p);
           if (n.squaredNorm() > 0) n.normalize();
@@ -132,7 +137,8 @@ void relax(const GarmentShape& g, Mesh& mesh, int iterations) {
           d -= d.dot(n) * n;
           q = project(g, p + 0.5 * d, 3);
         }
-        for (int k = 0; k < 3; ++k) next[3 * v + k] = static_cast<float>(q[k]);
+        for (int k = 0; k < 3; ++k)
+          next[3 * v + k] = static_cast<float>(q[k]);
       }
     });
     mesh.positions.swap(next);
@@ -173,15 +179,20 @@ Garment make_garment(const GarmentOptions& options) {
     iso.cell_size = cell;
     Mesh closed = extract_isosurface([&](double x, double y, double z) { return shape.distance({x, y, z}); }, iso);
     Mesh kept = largest_component(clip_mesh(
-        closed, [&](double x, double y, double z) { return shape.keep({x, y, z}); }, 0.35 * cell));
+        closed,
+        [&](double x, double y, double z) {
+          return shape.keep({x, y, z});
+        },
+        0.35 * cell));
     fill_extra_holes(kept, expected_openings(options.type));
     return kept;
   };
   const double max_cell = 0.016 * s, min_cell = 0.0015;
   const double trial_cell = max_cell;
   const Mesh trial = build(trial_cell);
-  double cell = std::clamp(trial_cell * std::sqrt(double(trial.vertex_count()) / (1.15 * double(options.target_vertices))),
-                           min_cell, max_cell);
+  double cell =
+      std::clamp(trial_cell * std::sqrt(double(trial.vertex_count()) / (1.15 * double(options.target_vertices))),
+                 min_cell, max_cell);
   Mesh mesh = cell == trial_cell ? trial : build(cell);
   if (mesh.vertex_count() < options.target_vertices && cell > min_cell) {
     cell = std::max(min_cell, cell * std::sqrt(double(mesh.vertex_count()) / (1.25 * double(options.target_vertices))));
@@ -190,18 +201,22 @@ Garment make_garment(const GarmentOptions& options) {
   while (mesh.vertex_count() < options.target_vertices) {
     mesh = subdivide_midpoints(mesh);
     for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
-      const Eigen::Vector3d q = project(shape, {mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]}, 3);
+      const Eigen::Vector3d q =
+          project(shape, {mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]}, 3);
       // Points on the openings stay on the cut: only move those well inside the kept region.
       if (shape.keep(q) > 0.5 * cell)
-        for (int k = 0; k < 3; ++k) mesh.positions[3 * v + k] = static_cast<float>(q[k]);
+        for (int k = 0; k < 3; ++k)
+          mesh.positions[3 * v + k] = static_cast<float>(q[k]);
     }
   }
   mesh = decimate_to_vertex_count(mesh, options.target_vertices, true);
   relax(shape, mesh, 3);
   parallel_for_range(mesh.vertex_count(), 512, [&](std::size_t b, std::size_t e) {
     for (std::size_t v = b; v < e; ++v) {
-      const Eigen::Vector3d q = shape.clear_of_body({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]});
-      for (int k = 0; k < 3; ++k) mesh.positions[3 * v + k] = static_cast<float>(q[k]);
+      const Eigen::Vector3d q =
+          shape.clear_of_body({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]});
+      for (int k = 0; k < 3; ++k)
+        mesh.positions[3 * v + k] = static_cast<float>(q[k]);
     }
   });
 

@@ -17,10 +17,10 @@ namespace vfit {
 
 struct GarmentOptions {
   GarmentType type = GarmentType::TEE;
-  BodyMeasurements body;             ///< the body the garment is sized for
-  std::string size = "M";            ///< XS … XXL, or P1 … P4 (trousers and shorts)
-  std::optional<Ease> ease;          ///< overrides the size's ease when set
-  RestPose pose = RestPose::TPOSE;   ///< TPOSE or APOSE (independent of any body's pose)
+  BodyMeasurements body;              ///< the body the garment is sized for
+  std::string size = "M";             ///< XS … XXL, or P1 … P4 (trousers and shorts)
+  std::optional<Ease> ease;           ///< overrides the size's ease when set
+  RestPose pose = RestPose::TPOSE;    ///< TPOSE or APOSE (independent of any body's pose)
   std::size_t target_vertices = 5000; ///< the mesh has exactly this many (1,000 – 2,000,000)
 };
 

@@ -152,8 +152,7 @@ Eigen::Vector3d contact_translation(std::span<const float> points, const Proximi
     // A garment touching the body nowhere where its key joints put it (loose all round, like
     // the catalogue's eased trousers) has no contact to level: it stays.
     if (round == 0 && std::none_of(lin.s.begin(), lin.s.end(), [](double s) { return s < 0; })) break;
-    const Eigen::Vector3d step =
-        fit_envelope(lin, options.envelope_weight);
+    const Eigen::Vector3d step = fit_envelope(lin, options.envelope_weight);
     total += step;
     for (std::size_t i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c)

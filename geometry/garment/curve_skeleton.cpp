@@ -89,8 +89,10 @@ SparseMatrix contraction_system(const SparseMatrix& laplacian, double contractio
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(std::size_t(laplacian.nonZeros() + n));
   for (Eigen::Index r = 0; r < n; ++r)
-    for (SparseMatrix::InnerIterator it(laplacian, r); it; ++it) entries.emplace_back(r, it.col(), contraction * it.value());
-  for (Eigen::Index r = 0; r < n; ++r) entries.emplace_back(n + r, r, attraction);
+    for (SparseMatrix::InnerIterator it(laplacian, r); it; ++it)
+      entries.emplace_back(r, it.col(), contraction * it.value());
+  for (Eigen::Index r = 0; r < n; ++r)
+    entries.emplace_back(n + r, r, attraction);
   SparseMatrix a(2 * n, n);
   a.setFromTriplets(entries.begin(), entries.end());
   return a;
@@ -114,8 +116,11 @@ CollapsedGraph collapse_to_graph(const Eigen::MatrixXd& x, const std::vector<std
   DisjointSets sets(nv);
   std::vector<Eigen::Vector3d> sum(nv);
   std::vector<double> count(nv, 1.0);
-  for (std::size_t v = 0; v < nv; ++v) sum[v] = x.row(Eigen::Index(v));
-  auto position = [&](std::int32_t root) -> Eigen::Vector3d { return sum[std::size_t(root)] / count[std::size_t(root)]; };
+  for (std::size_t v = 0; v < nv; ++v)
+    sum[v] = x.row(Eigen::Index(v));
+  auto position = [&](std::int32_t root) -> Eigen::Vector3d {
+    return sum[std::size_t(root)] / count[std::size_t(root)];
+  };
 
   std::vector<std::vector<std::int32_t>> node_faces(nv);
   std::vector<char> alive(nf, 0);
@@ -165,7 +170,8 @@ CollapsedGraph collapse_to_graph(const Eigen::MatrixXd& x, const std::vector<std
       if ((r0 == ra || r1 == ra || r2 == ra)) shared.push_back(f);
     }
     if (shared.empty()) continue; // a bare edge: it stays in the skeleton
-    for (std::int32_t f : shared) alive[std::size_t(f)] = 0;
+    for (std::int32_t f : shared)
+      alive[std::size_t(f)] = 0;
     alive_count -= shared.size();
     sets.attach(rb, ra);
     sum[std::size_t(ra)] += sum[std::size_t(rb)];
@@ -233,7 +239,8 @@ std::vector<double> graph_distances(const std::vector<std::vector<WeightedEdge>>
 
 // The longest path of the graph's minimum spanning tree, as node ids in order, within the
 // component of `seed`.
-std::vector<std::int32_t> longest_path(std::int32_t node_count, const std::vector<std::pair<std::int32_t, std::int32_t>>& edges,
+std::vector<std::int32_t> longest_path(std::int32_t node_count,
+                                       const std::vector<std::pair<std::int32_t, std::int32_t>>& edges,
                                        const std::vector<Eigen::Vector3d>& rest, std::int32_t seed) {
   std::vector<std::pair<double, std::size_t>> order(edges.size());
   for (std::size_t e = 0; e < edges.size(); ++e)
@@ -259,7 +266,8 @@ std::vector<std::int32_t> longest_path(std::int32_t node_count, const std::vecto
   const std::int32_t a = farthest(seed);
   const std::int32_t b = farthest(a);
   std::vector<std::int32_t> path;
-  for (std::int32_t v = b; v >= 0; v = parent[std::size_t(v)]) path.push_back(v);
+  for (std::int32_t v = b; v >= 0; v = parent[std::size_t(v)])
+    path.push_back(v);
   return path; // from b to a
 }
 
@@ -269,7 +277,8 @@ Eigen::Vector3d rest_point(const Mesh& mesh, std::size_t v) {
 
 // Centroids of the nodes' vertices (seed 000 eq. 12); nodes left without vertices are dropped
 // and the rest renumbered in order.
-std::vector<Eigen::Vector3d> recentre(const Mesh& mesh, std::vector<std::int32_t>& vertex_node, std::size_t node_count) {
+std::vector<Eigen::Vector3d> recentre(const Mesh& mesh, std::vector<std::int32_t>& vertex_node,
+                                      std::size_t node_count) {
   std::vector<Eigen::Vector3d> sum(node_count, Eigen::Vector3d::Zero());
   std::vector<double> count(node_count, 0.0);
   for (std::size_t v = 0; v < vertex_node.size(); ++v) {
@@ -283,7 +292,8 @@ std::vector<Eigen::Vector3d> recentre(const Mesh& mesh, std::vector<std::int32_t
       renumber[i] = std::int32_t(nodes.size());
       nodes.push_back(sum[i] / count[i]);
     }
-  for (std::int32_t& n : vertex_node) n = renumber[std::size_t(n)];
+  for (std::int32_t& n : vertex_node)
+    n = renumber[std::size_t(n)];
   return nodes;
 }
 
@@ -299,7 +309,8 @@ void refine_slabs(const Mesh& mesh, std::vector<std::int32_t>& vertex_node, std:
   for (int sweep = 0; sweep < 3 && nodes.size() > 2; ++sweep) {
     for (bool trimmed = true; trimmed && nodes.size() > 2;) {
       std::vector<std::size_t> count(nodes.size(), 0);
-      for (std::int32_t n : vertex_node) ++count[std::size_t(n)];
+      for (std::int32_t n : vertex_node)
+        ++count[std::size_t(n)];
       std::vector<std::size_t> sorted = count;
       std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
       const double sliver = 0.5 * double(sorted[sorted.size() / 2]);
@@ -307,8 +318,10 @@ void refine_slabs(const Mesh& mesh, std::vector<std::int32_t>& vertex_node, std:
       const bool first_thin = double(count[0]) < sliver, last_thin = double(count[std::size_t(last)]) < sliver;
       trimmed = first_thin || last_thin;
       for (std::int32_t& n : vertex_node) {
-        if (n == 0 && first_thin) n = 1;
-        else if (n == last && last_thin) n = last - 1;
+        if (n == 0 && first_thin)
+          n = 1;
+        else if (n == last && last_thin)
+          n = last - 1;
       }
       if (trimmed) nodes = recentre(mesh, vertex_node, nodes.size());
     }
@@ -317,7 +330,8 @@ void refine_slabs(const Mesh& mesh, std::vector<std::int32_t>& vertex_node, std:
     std::vector<Eigen::Vector3d> line = nodes;
     for (int it = 0; it < 16; ++it) {
       std::vector<Eigen::Vector3d> next = line;
-      for (std::size_t i = 1; i + 1 < m; ++i) next[i] = 0.25 * line[i - 1] + 0.5 * line[i] + 0.25 * line[i + 1];
+      for (std::size_t i = 1; i + 1 < m; ++i)
+        next[i] = 0.25 * line[i - 1] + 0.5 * line[i] + 0.25 * line[i + 1];
       // The end centroids are the least trustworthy (caps, slanted cuts): the ends continue
       // the line's direction instead, so the end slabs are cut square to it.
       if (m > 3) {
@@ -327,7 +341,8 @@ void refine_slabs(const Mesh& mesh, std::vector<std::int32_t>& vertex_node, std:
       line = std::move(next);
     }
     std::vector<double> arc(m, 0.0);
-    for (std::size_t i = 1; i < m; ++i) arc[i] = arc[i - 1] + (line[i] - line[i - 1]).norm();
+    for (std::size_t i = 1; i < m; ++i)
+      arc[i] = arc[i - 1] + (line[i] - line[i - 1]).norm();
     const double total = arc[m - 1];
     if (!(total > 0)) break;
     std::vector<double> position(vertex_node.size());
@@ -371,7 +386,8 @@ Eigen::MatrixXd contract_mesh(const Mesh& mesh, const ContractionOptions& option
   const auto n = Eigen::Index(mesh.vertex_count());
   Eigen::MatrixXd x(n, 3);
   for (Eigen::Index v = 0; v < n; ++v)
-    for (int k = 0; k < 3; ++k) x(v, k) = mesh.positions[std::size_t(3 * v + k)];
+    for (int k = 0; k < 3; ++k)
+      x(v, k) = mesh.positions[std::size_t(3 * v + k)];
   ContractionStats s;
   const double area0 = surface_area(x, mesh.triangles);
   const double wh = options.attraction_weight;
@@ -419,7 +435,8 @@ Eigen::MatrixXd contract_mesh(const Mesh& mesh, const ContractionOptions& option
     if (it > 0) wl *= options.cotangent_growth;
     current.resize(std::size_t(3 * n));
     for (Eigen::Index v = 0; v < n; ++v)
-      for (int k = 0; k < 3; ++k) current[std::size_t(3 * v + k)] = float(x(v, k));
+      for (int k = 0; k < 3; ++k)
+        current[std::size_t(3 * v + k)] = float(x(v, k));
     solver.emplace(contraction_system(cotangent_laplacian(current, mesh.triangles), wl, wh));
     ++s.factorisations;
     // AᵀA = w_L²LᵀL + w_H²I is positive definite for w_H > 0; a failure means w_H ≤ 0 or NaNs.
@@ -434,7 +451,8 @@ Eigen::MatrixXd contract_mesh(const Mesh& mesh, const ContractionOptions& option
   return x;
 }
 
-CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vertices, const CurveSkeletonOptions& options) {
+CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vertices,
+                                     const CurveSkeletonOptions& options) {
   check_mesh(mesh, "curve skeleton");
   if (original_vertices == 0 || original_vertices > mesh.vertex_count())
     throw Error("curve skeleton", 0,
@@ -455,7 +473,8 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
   skeleton.graph_nodes = k;
   // Graph node of each input vertex.
   std::vector<std::int32_t> node_of(mesh.vertex_count());
-  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) node_of[v] = graph.vertex_node[std::size_t(proxy.vertex_proxy[v])];
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v)
+    node_of[v] = graph.vertex_node[std::size_t(proxy.vertex_proxy[v])];
 
   // Rest position of each graph node: the mean of its input vertices before contraction.
   std::vector<Eigen::Vector3d> rest(k, Eigen::Vector3d::Zero());
@@ -466,7 +485,8 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
     members[g] += 1;
     if (v < original_vertices) originals[g] += 1;
   }
-  for (std::size_t g = 0; g < k; ++g) rest[g] /= members[g];
+  for (std::size_t g = 0; g < k; ++g)
+    rest[g] /= members[g];
 
   const auto seed = std::int32_t(std::max_element(originals.begin(), originals.end()) - originals.begin());
   const std::vector<std::int32_t> path = longest_path(graph.node_count, graph.edges, rest, seed);
@@ -478,7 +498,8 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
   const std::size_t proxy_count = proxy.mesh.vertex_count();
   std::vector<Eigen::Vector3d> line(path.size(), Eigen::Vector3d::Zero());
   std::vector<double> line_members(path.size(), 0.0), on_path(k, -1.0);
-  for (std::size_t i = 0; i < path.size(); ++i) on_path[std::size_t(path[i])] = double(i);
+  for (std::size_t i = 0; i < path.size(); ++i)
+    on_path[std::size_t(path[i])] = double(i);
   for (std::size_t p = 0; p < proxy_count; ++p) {
     const double i = on_path[std::size_t(graph.vertex_node[p])];
     if (i < 0) continue;
@@ -505,7 +526,8 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
   skeleton.timings.graph_ms = ms_since(stage);
   stage = Clock::now();
   skeleton.vertex_node.resize(original_vertices);
-  for (std::size_t v = 0; v < original_vertices; ++v) skeleton.vertex_node[v] = chain_of[std::size_t(proxy.vertex_proxy[v])];
+  for (std::size_t v = 0; v < original_vertices; ++v)
+    skeleton.vertex_node[v] = chain_of[std::size_t(proxy.vertex_proxy[v])];
   skeleton.nodes = recentre(mesh, skeleton.vertex_node, path.size());
   // Full-resolution contraction clusters are already clean slabs; refining them can only cut.
   if (proxy.mesh.vertex_count() < mesh.vertex_count()) refine_slabs(mesh, skeleton.vertex_node, skeleton.nodes);
@@ -516,7 +538,8 @@ CurveSkeleton extract_curve_skeleton(const Mesh& mesh, std::size_t original_vert
   return skeleton;
 }
 
-std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positions, std::span<const std::int32_t> vertices,
+std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positions,
+                                                   std::span<const std::int32_t> vertices,
                                                    std::span<const std::int32_t> vertex_node,
                                                    const std::vector<Eigen::Vector3d>& nodes) {
   const std::size_t m = nodes.size();
@@ -524,15 +547,19 @@ std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positi
   if (m < 2) return centres;
   // Vertices grouped by node (counting sort).
   std::vector<std::size_t> start(m + 1, 0);
-  for (std::int32_t n : vertex_node) ++start[std::size_t(n) + 1];
-  for (std::size_t n = 0; n < m; ++n) start[n + 1] += start[n];
+  for (std::int32_t n : vertex_node)
+    ++start[std::size_t(n) + 1];
+  for (std::size_t n = 0; n < m; ++n)
+    start[n + 1] += start[n];
   std::vector<std::int32_t> members(vertex_node.size());
   {
     std::vector<std::size_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < vertex_node.size(); ++i) members[fill[std::size_t(vertex_node[i])]++] = vertices[i];
+    for (std::size_t i = 0; i < vertex_node.size(); ++i)
+      members[fill[std::size_t(vertex_node[i])]++] = vertices[i];
   }
   auto at = [&](std::int32_t v) {
-    return Eigen::Vector3d(positions[3 * std::size_t(v)], positions[3 * std::size_t(v) + 1], positions[3 * std::size_t(v) + 2]);
+    return Eigen::Vector3d(positions[3 * std::size_t(v)], positions[3 * std::size_t(v) + 1],
+                           positions[3 * std::size_t(v) + 2]);
   };
   std::vector<std::pair<double, Eigen::Vector3d>> ring; // (angle about the axis, position)
   for (std::size_t n = 0; n < m; ++n) {
@@ -543,7 +570,8 @@ std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positi
     // A frame normal to the axis.
     const Eigen::Vector3d u = axis.unitOrthogonal(), w = axis.cross(u);
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (std::size_t i = start[n]; i < start[n + 1]; ++i) centre += at(members[i]);
+    for (std::size_t i = start[n]; i < start[n + 1]; ++i)
+      centre += at(members[i]);
     centre /= double(start[n + 1] - start[n]);
     // A slab longer along the axis than its mean radius (an end cut slantwise, like a trouser
     // leg's top at the crotch) is no cross-section: it keeps its centroid.
@@ -600,7 +628,8 @@ void orient_chain(CurveSkeleton& skeleton, const Eigen::Vector3d& start) {
   if ((skeleton.nodes.back() - start).squaredNorm() >= (skeleton.nodes.front() - start).squaredNorm()) return;
   std::reverse(skeleton.nodes.begin(), skeleton.nodes.end());
   const auto last = std::int32_t(skeleton.nodes.size()) - 1;
-  for (std::int32_t& node : skeleton.vertex_node) node = last - node;
+  for (std::int32_t& node : skeleton.vertex_node)
+    node = last - node;
 }
 
 } // namespace vfit

@@ -42,20 +42,20 @@ struct ContractionOptions {
   /// COTANGENT: w_L at the first iteration (the weights follow the surface, so the flow is
   /// faster per step and a large first step overshoots the axis).
   double cotangent_weight = 2.0;
-  double attraction_weight = 1.0;  ///< w_H: ties each iteration to the previous positions
-  double area_ratio = 0.01;        ///< stop once the surface area is below this share of the original
-  int max_iterations = 40;         ///< and in any case after this many solves
+  double attraction_weight = 1.0; ///< w_H: ties each iteration to the previous positions
+  double area_ratio = 0.01;       ///< stop once the surface area is below this share of the original
+  int max_iterations = 40;        ///< and in any case after this many solves
   /// UNIFORM: solves per factorisation before w_L is multiplied by 4 and AᵀA refactored
   /// (the flow is too slow for this mesh's resolution).
   int iterations_per_factor = 8;
-  double cotangent_growth = 2.0;   ///< COTANGENT: w_L multiplier per iteration (Au et al.: s_L)
+  double cotangent_growth = 2.0; ///< COTANGENT: w_L multiplier per iteration (Au et al.: s_L)
 };
 
 /// What the contraction did.
 struct ContractionStats {
-  int iterations = 0;           ///< solves
-  int factorisations = 0;       ///< AᵀA factorisations
-  double final_area_ratio = 1;  ///< contracted area / original area
+  int iterations = 0;          ///< solves
+  int factorisations = 0;      ///< AᵀA factorisations
+  double final_area_ratio = 1; ///< contracted area / original area
 };
 
 /// Contracts a closed mesh (#V × 3 positions, #F × 3 triangles): returns #V × 3 contracted
@@ -88,7 +88,7 @@ struct CurveSkeletonTimings {
 struct CurveSkeleton {
   std::vector<Eigen::Vector3d> nodes;    ///< #N, in order from one end of the chain to the other (mesh units)
   std::vector<std::int32_t> vertex_node; ///< #original vertices: the node each belongs to, in [0, #N)
-  std::size_t proxy_vertices = 0;         ///< vertices the contraction ran on (the proxy, or the whole mesh)
+  std::size_t proxy_vertices = 0;        ///< vertices the contraction ran on (the proxy, or the whole mesh)
   std::size_t graph_nodes = 0;           ///< nodes of the collapsed graph (≥ #N: branches fold into the chain)
   ContractionStats contraction;
   CurveSkeletonTimings timings;
@@ -119,16 +119,15 @@ CurveSkeleton extract_curve_skeleton(const Mesh& closed_mesh, std::size_t origin
 /// weigh half the angle between their angular neighbours (at most twice the mean spacing), and
 /// the node is their weighted mean, twice (the second time about the first result): the
 /// centroid of the cross-section curve by trapezoidal quadrature over the angle, which angles
-/// about an off-centre point skew, so the second round removes most of the first's offset. A plain centroid is pulled towards the side where the
-/// node's slab is thicker or its mesh denser: through a proxy, whose clusters leave ragged slab
-/// borders, by up to 0.2 of the radius on a tube. A node with fewer than 3 vertices, or whose
-/// vertices leave an angular gap wider than 90° (a sliver, a cap-like end) or span more along
-/// the axis than their mean distance from it (an end cut slantwise, like a trouser leg's top at
-/// the crotch), keeps its entry.
-/// positions: #P × 3 (mesh units); vertices: ids into positions; vertex_node: per entry of
-/// `vertices`, its node in [0, #N); nodes: #N current centres in chain order (their centroids
-/// do). Returns #N centres.
-std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positions, std::span<const std::int32_t> vertices,
+/// about an off-centre point skew, so the second round removes most of the first's offset. A plain centroid is pulled
+/// towards the side where the node's slab is thicker or its mesh denser: through a proxy, whose clusters leave ragged
+/// slab borders, by up to 0.2 of the radius on a tube. A node with fewer than 3 vertices, or whose vertices leave an
+/// angular gap wider than 90° (a sliver, a cap-like end) or span more along the axis than their mean distance from it
+/// (an end cut slantwise, like a trouser leg's top at the crotch), keeps its entry. positions: #P × 3 (mesh units);
+/// vertices: ids into positions; vertex_node: per entry of `vertices`, its node in [0, #N); nodes: #N current centres
+/// in chain order (their centroids do). Returns #N centres.
+std::vector<Eigen::Vector3d> cross_section_centres(std::span<const float> positions,
+                                                   std::span<const std::int32_t> vertices,
                                                    std::span<const std::int32_t> vertex_node,
                                                    const std::vector<Eigen::Vector3d>& nodes);
 

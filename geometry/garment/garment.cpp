@@ -29,7 +29,8 @@ GarmentType parse_garment_type(std::string_view name) {
   if (s == "dress") return GarmentType::DRESS;
   if (s == "skirt") return GarmentType::SKIRT;
   throw Error("garment", 0,
-              "unknown garment type '" + std::string(name) + "' (expected tee, long-sleeve, trousers, shorts, dress or skirt)");
+              "unknown garment type '" + std::string(name) +
+                  "' (expected tee, long-sleeve, trousers, shorts, dress or skirt)");
 }
 
 std::string garment_part_name(GarmentPart part) {
@@ -59,7 +60,8 @@ Ease size_ease(std::string_view size) {
   if (s == "P2") return {0.06, 0.03, 0.06, 0.04};
   if (s == "P3") return {0.14, 0.10, 0.14, 0.10};
   if (s == "P4") return {0.30, 0.30, 0.30, 0.16};
-  throw Error("--size", 0, "unknown size '" + std::string(size) + "' (expected XS, S, M, L, XL, XXL, or P1-P4 for trousers)");
+  throw Error("--size", 0,
+              "unknown size '" + std::string(size) + "' (expected XS, S, M, L, XL, XXL, or P1-P4 for trousers)");
 }
 
 } // namespace vfit

@@ -23,7 +23,9 @@ double lerp_clamped(double y, double y0, double v0, double y1, double v1) {
 }
 
 bool is_top(GarmentType t) { return t == GarmentType::TEE || t == GarmentType::LONG_SLEEVE || t == GarmentType::DRESS; }
-bool is_bottom(GarmentType t) { return t == GarmentType::TROUSERS || t == GarmentType::SHORTS || t == GarmentType::SKIRT; }
+bool is_bottom(GarmentType t) {
+  return t == GarmentType::TROUSERS || t == GarmentType::SHORTS || t == GarmentType::SKIRT;
+}
 
 } // namespace
 
@@ -173,7 +175,8 @@ double GarmentShape::sleeve_keep(const Eigen::Vector3d& p, bool left, double len
   const Eigen::Vector3d d = (joint(left ? Joint::LEFT_ELBOW : Joint::RIGHT_ELBOW) - sh).normalized();
   const double t = (p - sh).dot(d), r = ((p - sh) - t * d).norm();
   // Cut only within a cylinder around the arm: the torso beside it keeps its cloth.
-  const double reach = 0.047 * std::sqrt(m_body.measurements().chest / 0.96) * m_scale + m_inflation.arm_offset + 0.035 * m_scale;
+  const double reach =
+      0.047 * std::sqrt(m_body.measurements().chest / 0.96) * m_scale + m_inflation.arm_offset + 0.035 * m_scale;
   return std::max(length - t, r - reach);
 }
 
@@ -232,7 +235,7 @@ double GarmentShape::closed_area_estimate() const {
   case GarmentType::DRESS: return 1.50 * s2;       // torso, arms and the skirt tube
   case GarmentType::SKIRT: return 1.10 * s2;
   case GarmentType::TROUSERS:
-  case GarmentType::SHORTS: return 1.45 * s2;      // torso and legs
+  case GarmentType::SHORTS: return 1.45 * s2; // torso and legs
   }
   return 1.5 * s2;
 }
@@ -257,7 +260,8 @@ void GarmentShape::assign_uvs_and_face_labels(Garment& g) const {
     if (chart_of_part[p] == 0) chart_of_part[p] = charts++;
   m.face_labels.assign(nf, 0);
   m.label_names.clear();
-  for (int p = 0; p < GARMENT_PART_COUNT; ++p) m.label_names.push_back(garment_part_name(static_cast<GarmentPart>(p)));
+  for (int p = 0; p < GARMENT_PART_COUNT; ++p)
+    m.label_names.push_back(garment_part_name(static_cast<GarmentPart>(p)));
   // Height ranges per part, for v.
   std::vector<double> lo(GARMENT_PART_COUNT, INFINITY), hi(GARMENT_PART_COUNT, -INFINITY);
   auto axial = [&](GarmentPart part, const Eigen::Vector3d& p, double& around, double& along) {
@@ -297,7 +301,8 @@ void GarmentShape::assign_uvs_and_face_labels(Garment& g) const {
   m.uv_triangles.assign(3 * nf, 0);
   for (std::size_t f = 0; f < nf; ++f) {
     int votes[GARMENT_PART_COUNT] = {};
-    for (int k = 0; k < 3; ++k) ++votes[int(g.vertex_parts[m.triangles[3 * f + k]])];
+    for (int k = 0; k < 3; ++k)
+      ++votes[int(g.vertex_parts[m.triangles[3 * f + k]])];
     const int part = int(std::max_element(votes, votes + GARMENT_PART_COUNT) - votes);
     m.face_labels[f] = part;
     // Each corner in the face's chart; corners across the seam get u + 1 so the face is whole.

@@ -5,7 +5,8 @@
 
 namespace vfit {
 
-std::vector<double> geodesic_distance(const SurfaceGraph& graph, const std::vector<GeodesicSeed>& seeds, std::int32_t stop) {
+std::vector<double> geodesic_distance(const SurfaceGraph& graph, const std::vector<GeodesicSeed>& seeds,
+                                      std::int32_t stop) {
   std::vector<double> dist(graph.vertex_count(), std::numeric_limits<double>::infinity());
   using Entry = std::pair<double, std::int32_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;

@@ -48,7 +48,8 @@ std::vector<std::vector<std::int32_t>> boundary_loops(const Mesh& mesh) {
       if (std::binary_search(directed.begin(), directed.end(), directed_key(b, a))) continue;
       if (next[a] >= 0 && next[a] != b)
         throw Error("hole filling", 0,
-                    "vertex " + std::to_string(a) + " starts two boundary edges (non-manifold or inconsistently oriented)");
+                    "vertex " + std::to_string(a) +
+                        " starts two boundary edges (non-manifold or inconsistently oriented)");
       next[a] = b;
     }
   std::vector<std::vector<std::int32_t>> loops;
@@ -81,7 +82,7 @@ void add_cap(const std::vector<std::int32_t>& polygon, const HoleFillOptions& op
   }
   centroid /= double(n);
   Eigen::Vector3d area = Eigen::Vector3d::Zero(); // Newell: twice the vector area
-  std::vector<double> param(n + 1, 0.0);           // arc length along the rim, normalised
+  std::vector<double> param(n + 1, 0.0);          // arc length along the rim, normalised
   double radius = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d& a = rim[i];
@@ -92,7 +93,8 @@ void add_cap(const std::vector<std::int32_t>& polygon, const HoleFillOptions& op
   }
   radius /= double(n);
   const double perimeter = param[n];
-  for (double& s : param) s = perimeter > 0 ? s / perimeter : 0.0;
+  for (double& s : param)
+    s = perimeter > 0 ? s / perimeter : 0.0;
   param[n] = 1.0;
   const double area_norm = area.norm();
   // A loop with no area (collinear) has no outward side: its cap is flat.
@@ -101,7 +103,8 @@ void add_cap(const std::vector<std::int32_t>& polygon, const HoleFillOptions& op
 
   auto rim_at = [&](double u) {
     const auto it = std::upper_bound(param.begin(), param.end(), u);
-    const std::size_t i = std::min<std::size_t>(n - 1, std::size_t(std::max<std::ptrdiff_t>(0, it - param.begin() - 1)));
+    const std::size_t i =
+        std::min<std::size_t>(n - 1, std::size_t(std::max<std::ptrdiff_t>(0, it - param.begin() - 1)));
     const double span = param[i + 1] - param[i];
     const double t = span > 0 ? (u - param[i]) / span : 0.0;
     return Eigen::Vector3d((1 - t) * rim[i] + t * rim[(i + 1) % n]);

@@ -46,11 +46,11 @@ struct FilledMesh {
 /// rings thin out towards the apex (about n·cos θ_k vertices for a loop of n) and neighbouring
 /// rings are zipped by arc-length parameter, so caps have no slivers. R ≈ n/4 (at least 1):
 /// about square triangles; options.max_ring_vertices and options.edge_length bound both for
-/// long or finely sampled loops (the rim is then zipped to a first ring with fewer vertices). The caps' triangles are oriented like the
-/// input's, so an outward-oriented part gives an outward-oriented closed surface. A mesh without boundary is
-/// returned unchanged. Throws vfit::Error("hole filling", …) naming the vertex where a boundary
-/// is not a simple loop (a vertex with two outgoing boundary edges: non-manifold or
-/// inconsistently oriented input) and for a bad index.
+/// long or finely sampled loops (the rim is then zipped to a first ring with fewer vertices). The caps' triangles are
+/// oriented like the input's, so an outward-oriented part gives an outward-oriented closed surface. A mesh without
+/// boundary is returned unchanged. Throws vfit::Error("hole filling", …) naming the vertex where a boundary is not a
+/// simple loop (a vertex with two outgoing boundary edges: non-manifold or inconsistently oriented input) and for a bad
+/// index.
 FilledMesh fill_holes(const Mesh& open_mesh, const HoleFillOptions& options = {});
 
 } // namespace vfit

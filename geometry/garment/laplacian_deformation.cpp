@@ -26,8 +26,10 @@ SparseMatrix stacked_system(const SparseMatrix& L, std::span<const std::int32_t>
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(static_cast<std::size_t>(L.nonZeros() + c));
   for (Eigen::Index r = 0; r < L.outerSize(); ++r)
-    for (SparseMatrix::InnerIterator it(L, r); it; ++it) t.emplace_back(it.row(), it.col(), it.value());
-  for (Eigen::Index k = 0; k < c; ++k) t.emplace_back(n + k, constrained[static_cast<std::size_t>(k)], weight);
+    for (SparseMatrix::InnerIterator it(L, r); it; ++it)
+      t.emplace_back(it.row(), it.col(), it.value());
+  for (Eigen::Index k = 0; k < c; ++k)
+    t.emplace_back(n + k, constrained[static_cast<std::size_t>(k)], weight);
   SparseMatrix A(n + c, n);
   A.setFromTriplets(t.begin(), t.end());
   return A;
@@ -138,7 +140,8 @@ struct BandLaplacianDeformer::Piece {
   }
 };
 
-LaplacianDeformer::LaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> constrained, double weight, bool uniform)
+LaplacianDeformer::LaplacianDeformer(const Mesh& mesh, std::span<const std::int32_t> constrained, double weight,
+                                     bool uniform)
     : m_laplacian(uniform ? uniform_laplacian(mesh.triangle_view(), mesh.vertex_count())
                           : cotangent_laplacian(mesh.position_view(), mesh.triangle_view())),
       m_constrained(constrained.begin(), constrained.end()), m_weight(weight),
@@ -152,7 +155,8 @@ Eigen::MatrixXd LaplacianDeformer::laplacian_coordinates(std::span<const float> 
   const Eigen::Index n = m_laplacian.rows();
   Eigen::MatrixXd x(n, 3);
   for (Eigen::Index v = 0; v < n; ++v)
-    for (int k = 0; k < 3; ++k) x(v, k) = positions[static_cast<std::size_t>(3 * v + k)];
+    for (int k = 0; k < 3; ++k)
+      x(v, k) = positions[static_cast<std::size_t>(3 * v + k)];
   return m_laplacian * x;
 }
 
@@ -164,7 +168,8 @@ std::vector<float> LaplacianDeformer::deform(const Eigen::MatrixXd& delta, const
   const Eigen::MatrixXd x = m_solver.solve(b);
   std::vector<float> out(static_cast<std::size_t>(3 * n));
   for (Eigen::Index v = 0; v < n; ++v)
-    for (int k = 0; k < 3; ++k) out[static_cast<std::size_t>(3 * v + k)] = static_cast<float>(x(v, k));
+    for (int k = 0; k < 3; ++k)
+      out[static_cast<std::size_t>(3 * v + k)] = static_cast<float>(x(v, k));
   return out;
 }
 
@@ -195,7 +200,8 @@ BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const s
     const std::int32_t* t = &mesh.triangles[3 * f];
     if (column[static_cast<std::size_t>(t[0])] >= 0 || column[static_cast<std::size_t>(t[1])] >= 0 ||
         column[static_cast<std::size_t>(t[2])] >= 0)
-      for (int k = 0; k < 3; ++k) in_band[static_cast<std::size_t>(t[k])] = 1;
+      for (int k = 0; k < 3; ++k)
+        in_band[static_cast<std::size_t>(t[k])] = 1;
   }
   std::vector<std::int32_t> band_triangles;
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
@@ -204,8 +210,10 @@ BandLaplacianDeformer::BandLaplacianDeformer(const Mesh& mesh, std::span<const s
         in_band[static_cast<std::size_t>(t[2])])
       band_triangles.insert(band_triangles.end(), t, t + 3);
   }
-  m_laplacian = uniform ? uniform_laplacian(band_triangles, nv) : cotangent_laplacian(mesh.position_view(), band_triangles);
-  m_laplacian.prune([&](Eigen::Index row, Eigen::Index, double) { return in_band[static_cast<std::size_t>(row)] != 0; });
+  m_laplacian =
+      uniform ? uniform_laplacian(band_triangles, nv) : cotangent_laplacian(mesh.position_view(), band_triangles);
+  m_laplacian.prune(
+      [&](Eigen::Index row, Eigen::Index, double) { return in_band[static_cast<std::size_t>(row)] != 0; });
   if (m_free.empty()) return;
   std::vector<Eigen::Triplet<double>> free_entries, handle_entries;
   for (Eigen::Index r = 0; r < m_laplacian.outerSize(); ++r) {
@@ -266,7 +274,9 @@ void BandLaplacianDeformer::factor_pieces(BandSolver solver, std::span<const flo
   }
   for (Eigen::Index r = 0; r < m_free_block.outerSize(); ++r) {
     SparseMatrix::InnerIterator it(m_free_block, r);
-    if (it) m_pieces[static_cast<std::size_t>(piece[static_cast<std::size_t>(it.col())])].rows.push_back(static_cast<std::int32_t>(r));
+    if (it)
+      m_pieces[static_cast<std::size_t>(piece[static_cast<std::size_t>(it.col())])].rows.push_back(
+          static_cast<std::int32_t>(r));
   }
   parallel_for_range(m_pieces.size(), PIECES_PER_TASK, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
@@ -333,7 +343,8 @@ std::vector<float> BandLaplacianDeformer::deform(const Eigen::MatrixXd& delta, c
   Eigen::MatrixXd x(static_cast<Eigen::Index>(m_free.size()), b.cols());
   std::vector<IterativeSolveStats> piece_stats(m_pieces.size());
   parallel_for_range(m_pieces.size(), PIECES_PER_TASK, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) m_pieces[i].solve_into(b, x, guess, m_iteration_limit, piece_stats[i]);
+    for (std::size_t i = begin; i < end; ++i)
+      m_pieces[i].solve_into(b, x, guess, m_iteration_limit, piece_stats[i]);
   });
   if (stats && iterative()) {
     stats->converged = true;

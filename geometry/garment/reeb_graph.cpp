@@ -24,7 +24,8 @@ ReebGraph build_reeb_graph(const SurfaceGraph& graph, const std::vector<double>&
     }
   if (!(top > bottom)) top = bottom + 1; // constant or empty: one band holds everything
   const double width = (top - bottom) / bands;
-  for (int b = 0; b <= bands; ++b) rg.levels.push_back(bottom + b * width);
+  for (int b = 0; b <= bands; ++b)
+    rg.levels.push_back(bottom + b * width);
   std::vector<int> band(nv, -1);
   for (std::size_t v = 0; v < nv; ++v)
     if (std::isfinite(f[v])) band[v] = std::clamp(int((f[v] - bottom) / width), 0, bands - 1);
@@ -32,7 +33,8 @@ ReebGraph build_reeb_graph(const SurfaceGraph& graph, const std::vector<double>&
   UnionFind sets(nv);
   for (std::size_t v = 0; v < nv; ++v)
     for (std::int32_t i = graph.offsets[v]; i < graph.offsets[v + 1]; ++i)
-      if (band[v] >= 0 && band[v] == band[graph.neighbours[i]]) sets.unite(std::uint32_t(v), std::uint32_t(graph.neighbours[i]));
+      if (band[v] >= 0 && band[v] == band[graph.neighbours[i]])
+        sets.unite(std::uint32_t(v), std::uint32_t(graph.neighbours[i]));
 
   // Nodes ordered by band, then by their root vertex.
   std::vector<std::pair<int, std::uint32_t>> keys;
@@ -56,18 +58,21 @@ ReebGraph build_reeb_graph(const SurfaceGraph& graph, const std::vector<double>&
     ++rg.nodes[n].vertex_count;
     rg.nodes[n].centroid += graph.points[v];
   }
-  for (ReebNode& n : rg.nodes) n.centroid /= double(std::max<std::size_t>(n.vertex_count, 1));
+  for (ReebNode& n : rg.nodes)
+    n.centroid /= double(std::max<std::size_t>(n.vertex_count, 1));
 
   std::vector<std::uint64_t> pairs;
   for (std::size_t v = 0; v < nv; ++v)
     for (std::int32_t i = graph.offsets[v]; i < graph.offsets[v + 1]; ++i) {
       const std::int32_t a = rg.vertex_node[v], b = rg.vertex_node[graph.neighbours[i]];
-      if (a >= 0 && b >= 0 && rg.nodes[a].band < rg.nodes[b].band) pairs.push_back((std::uint64_t(a) << 32) | std::uint32_t(b));
+      if (a >= 0 && b >= 0 && rg.nodes[a].band < rg.nodes[b].band)
+        pairs.push_back((std::uint64_t(a) << 32) | std::uint32_t(b));
     }
   std::sort(pairs.begin(), pairs.end());
   for (std::size_t i = 0; i < pairs.size();) {
     std::size_t j = i;
-    while (j < pairs.size() && pairs[j] == pairs[i]) ++j;
+    while (j < pairs.size() && pairs[j] == pairs[i])
+      ++j;
     rg.arcs.push_back({std::int32_t(pairs[i] >> 32), std::int32_t(pairs[i] & 0xffffffffu), j - i});
     i = j;
   }
@@ -135,13 +140,16 @@ std::vector<MergeEvent> merge_tree(const SurfaceGraph& graph, const std::vector<
       merged.count += c.count;
       merged.sum += c.sum;
       merged.min_y = std::min(merged.min_y, c.min_y);
-      if (merged.tags.empty()) merged.tags.swap(c.tags);
+      if (merged.tags.empty())
+        merged.tags.swap(c.tags);
       else
-        for (std::size_t k = 0; k < c.tags.size(); ++k) merged.tags[k] += c.tags[k];
+        for (std::size_t k = 0; k < c.tags.size(); ++k)
+          merged.tags[k] += c.tags[k];
       std::vector<std::uint32_t>().swap(c.tags);
     }
     std::uint32_t root = std::uint32_t(v);
-    for (std::uint32_t r : roots) root = sets.unite(root, r);
+    for (std::uint32_t r : roots)
+      root = sets.unite(root, r);
     comp[root] = std::move(merged);
   }
   return events;

@@ -15,8 +15,8 @@ namespace vfit {
 
 /// A node: one connected component of the vertices whose value lies in one band.
 struct ReebNode {
-  int band = 0;                 ///< band index, 0 at the source
-  double level_min = 0;         ///< the band's range of function values [level_min, level_max)
+  int band = 0;         ///< band index, 0 at the source
+  double level_min = 0; ///< the band's range of function values [level_min, level_max)
   double level_max = 0;
   std::size_t vertex_count = 0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero(); ///< mean position of its vertices
@@ -29,8 +29,8 @@ struct ReebArc {
 };
 
 struct ReebGraph {
-  std::vector<double> levels;            ///< K + 1 band boundaries, ascending
-  std::vector<ReebNode> nodes;           ///< ordered by band
+  std::vector<double> levels;  ///< K + 1 band boundaries, ascending
+  std::vector<ReebNode> nodes; ///< ordered by band
   std::vector<ReebArc> arcs;
   std::vector<std::int32_t> vertex_node; ///< #V node of each vertex; −1 where the value is not finite
 
@@ -49,7 +49,7 @@ struct MergeBranch {
   double birth_value = 0;
   std::size_t vertex_count = 0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  double min_y = 0;               ///< lowest height of its vertices
+  double min_y = 0;                      ///< lowest height of its vertices
   std::vector<std::uint32_t> tag_counts; ///< per tag: how many of its vertices carry it (see merge_tree)
 };
 

@@ -24,16 +24,16 @@ double ms_since(Clock::time_point& t) {
 
 [[noreturn]] void reject(const std::string& why) { throw Error("garment", 0, "cannot segment: " + why); }
 
-constexpr double MIN_OPENING = 0.05;        // of the garment's extent: smaller openings are holes, pockets
-constexpr double BOTTOM_REACH = 0.05;       // of the height: a leg's hem is at the garment's bottom
-constexpr double SLEEVE_RADII = 0.5;        // without a branch, an opening this many radii from its armpit ends a sleeve
-constexpr double HANGING = 0.1;             // ... and hangs this many radii below it
-constexpr double DRESS_LENGTH = 2;          // armhole depths below the armholes: a dress
-constexpr double SKIRT_DIAMETERS = 5;       // a skirt is at most this many waist diameters tall
-constexpr double MIN_PERSISTENCE = 0.02;    // of the largest distance: shallower branches are noise
-constexpr double MIN_BRANCH_SHARE = 0.005;  // of the vertices
-constexpr double LOOP_SHARE = 0.2;          // share of an opening's vertices that puts it in a branch
-constexpr double LOOP_SHARED = 0.05;        // share held by other branches that makes it a hole instead
+constexpr double MIN_OPENING = 0.05;       // of the garment's extent: smaller openings are holes, pockets
+constexpr double BOTTOM_REACH = 0.05;      // of the height: a leg's hem is at the garment's bottom
+constexpr double SLEEVE_RADII = 0.5;       // without a branch, an opening this many radii from its armpit ends a sleeve
+constexpr double HANGING = 0.1;            // ... and hangs this many radii below it
+constexpr double DRESS_LENGTH = 2;         // armhole depths below the armholes: a dress
+constexpr double SKIRT_DIAMETERS = 5;      // a skirt is at most this many waist diameters tall
+constexpr double MIN_PERSISTENCE = 0.02;   // of the largest distance: shallower branches are noise
+constexpr double MIN_BRANCH_SHARE = 0.005; // of the vertices
+constexpr double LOOP_SHARE = 0.2;         // share of an opening's vertices that puts it in a branch
+constexpr double LOOP_SHARED = 0.05;       // share held by other branches that makes it a hole instead
 
 double loop_radius(const BoundaryLoop& l) { return l.perimeter / (2 * std::numbers::pi); }
 
@@ -52,8 +52,10 @@ Openings find_openings(const GarmentFrame& fr, GarmentSegmentation& out) {
   std::size_t small = 0;
   for (int i = 0; i < int(g.loops.size()); ++i) {
     if (!fr.main[g.loops[i].vertices.front()]) continue;
-    if (g.loops[i].perimeter >= MIN_OPENING * fr.extent && g.loops[i].vertices.size() >= 3) o.main.push_back(i);
-    else ++small;
+    if (g.loops[i].perimeter >= MIN_OPENING * fr.extent && g.loops[i].vertices.size() >= 3)
+      o.main.push_back(i);
+    else
+      ++small;
   }
   if (small > 0)
     out.warnings.push_back(std::to_string(small) + " small opening(s) (under 5 % of the garment's size) ignored");
@@ -87,8 +89,10 @@ std::vector<Limb> find_limbs(const GarmentFrame& fr, const Openings& open, const
       }
       const double n = double(l.vertices.size());
       if (holder < 0 || double(best) < LOOP_SHARE * n || double(others) > LOOP_SHARED * n) continue;
-      if (is_central(fr, l)) central[holder] = 1;
-      else if (lateral[holder] < 0 || l.perimeter > g.loops[lateral[holder]].perimeter) lateral[holder] = li;
+      if (is_central(fr, l))
+        central[holder] = 1;
+      else if (lateral[holder] < 0 || l.perimeter > g.loops[lateral[holder]].perimeter)
+        lateral[holder] = li;
     }
     for (std::size_t i = 0; i < e.branches.size(); ++i) {
       if (lateral[i] < 0 || central[i]) continue;
@@ -107,11 +111,14 @@ std::vector<Limb> find_limbs(const GarmentFrame& fr, const Openings& open, const
       // A limb merging at several saddles (first into noise, then into the torso) is kept
       // at its last, lowest-valued one: there it is whole.
       auto same = std::find_if(limbs.begin(), limbs.end(), [&](const Limb& l) { return l.loop == limb.loop; });
-      if (same == limbs.end()) limbs.push_back(std::move(limb));
-      else if (limb.saddle_value < same->saddle_value) *same = std::move(limb);
+      if (same == limbs.end())
+        limbs.push_back(std::move(limb));
+      else if (limb.saddle_value < same->saddle_value)
+        *same = std::move(limb);
     }
   }
-  for (Limb& l : limbs) l.vertices = superlevel_component(g, *fr.f, l.birth, l.saddle_value);
+  for (Limb& l : limbs)
+    l.vertices = superlevel_component(g, *fr.f, l.birth, l.saddle_value);
   return limbs;
 }
 
@@ -125,7 +132,8 @@ std::vector<Limb> pair_up(std::vector<Limb> limbs, const char* what, GarmentSegm
         ++count;
         if (pick < 0 || limbs[i].vertices.size() > limbs[pick].vertices.size()) pick = i;
       }
-    if (count > 1) out.warnings.push_back(std::to_string(count) + " " + what + " branches on one side; kept the largest");
+    if (count > 1)
+      out.warnings.push_back(std::to_string(count) + " " + what + " branches on one side; kept the largest");
     if (pick >= 0) best.push_back(std::move(limbs[pick]));
   }
   return best;
@@ -133,23 +141,28 @@ std::vector<Limb> pair_up(std::vector<Limb> limbs, const char* what, GarmentSegm
 
 // Tops and tubes: sleeves, a sleeveless top or dress, or a skirt; fills type, labels and key
 // points (the §4.2 refinement of sleeves happens here too).
-void classify_top(const GarmentFrame& fr, const Openings& open, const std::vector<Limb>& limbs, GarmentSegmentation& out) {
+void classify_top(const GarmentFrame& fr, const Openings& open, const std::vector<Limb>& limbs,
+                  GarmentSegmentation& out) {
   const SurfaceGraph& g = *fr.graph;
   const BoundaryLoop& src = g.loops[fr.source];
   std::vector<int> lateral;
   int hem = -1;
   for (int li : open.main) {
     if (li == fr.source) continue;
-    if (!is_central(fr, g.loops[li])) lateral.push_back(li);
-    else if (hem < 0 || g.loops[li].centroid.y() < g.loops[hem].centroid.y()) hem = li;
+    if (!is_central(fr, g.loops[li]))
+      lateral.push_back(li);
+    else if (hem < 0 || g.loops[li].centroid.y() < g.loops[hem].centroid.y())
+      hem = li;
   }
   if (hem >= 0 && g.loops[hem].centroid.y() >= src.centroid.y()) hem = -1;
   // The garment's bottom: its hem, or (open at the front) its lowest band.
   std::vector<std::int32_t> bottom;
-  if (hem >= 0) bottom = g.loops[hem].vertices;
+  if (hem >= 0)
+    bottom = g.loops[hem].vertices;
   else
     for (std::size_t v = 0; v < g.vertex_count(); ++v)
-      if (fr.main[v] && g.points[v].y() <= fr.min_y + BOTTOM_REACH * (fr.max_y - fr.min_y)) bottom.push_back(std::int32_t(v));
+      if (fr.main[v] && g.points[v].y() <= fr.min_y + BOTTOM_REACH * (fr.max_y - fr.min_y))
+        bottom.push_back(std::int32_t(v));
 
   std::vector<Arm> arms = find_arms(fr, lateral, limbs, bottom), sleeves;
   for (Arm& a : arms) {
@@ -165,7 +178,8 @@ void classify_top(const GarmentFrame& fr, const Openings& open, const std::vecto
     for (const Limb& l : limbs)
       for (const Arm& a : sleeves)
         if (l.loop == a.loop && l.joins_trunk)
-          for (std::int32_t v : l.vertices) out.coarse_parts[v] = a.side > 0 ? GarmentPart::LEFT_SLEEVE : GarmentPart::RIGHT_SLEEVE;
+          for (std::int32_t v : l.vertices)
+            out.coarse_parts[v] = a.side > 0 ? GarmentPart::LEFT_SLEEVE : GarmentPart::RIGHT_SLEEVE;
     refine_sleeves(fr, sleeves, out);
     return;
   }
@@ -246,7 +260,8 @@ GarmentSegmentation segment_garment(const Mesh& garment, const SegmentOptions& o
   const BoundaryLoop& src = g.loops[fr.source];
   out.key_points.source = src.centroid;
   std::vector<GeodesicSeed> seeds;
-  for (std::int32_t v : src.vertices) seeds.push_back({v, (g.points[v] - src.centroid).norm()});
+  for (std::int32_t v : src.vertices)
+    seeds.push_back({v, (g.points[v] - src.centroid).norm()});
   out.geodesic = geodesic_distance(g, seeds);
   fr.f = &out.geodesic;
   double f_max = 0;
@@ -254,15 +269,16 @@ GarmentSegmentation segment_garment(const Mesh& garment, const SegmentOptions& o
     if (std::isfinite(d)) f_max = std::max(f_max, d);
   out.timings.geodesic_ms = ms_since(t);
 
-  const int levels = options.reeb_levels > 0 ? options.reeb_levels
-                                             : std::clamp(int(std::lround(f_max / (3 * g.mean_edge))), 8, 64);
+  const int levels =
+      options.reeb_levels > 0 ? options.reeb_levels : std::clamp(int(std::lround(f_max / (3 * g.mean_edge))), 8, 64);
   out.reeb_graph = build_reeb_graph(g, out.geodesic, levels);
   std::vector<std::int32_t> opening_of(nv, -1);
   for (std::size_t k = 0; k < open.main.size(); ++k)
-    for (std::int32_t v : g.loops[open.main[k]].vertices) opening_of[v] = std::int32_t(k);
+    for (std::int32_t v : g.loops[open.main[k]].vertices)
+      opening_of[v] = std::int32_t(k);
   const auto events = merge_tree(g, out.geodesic, MIN_PERSISTENCE * f_max,
-                                 std::max<std::size_t>(3, std::size_t(MIN_BRANCH_SHARE * double(main_count))), opening_of,
-                                 int(open.main.size()));
+                                 std::max<std::size_t>(3, std::size_t(MIN_BRANCH_SHARE * double(main_count))),
+                                 opening_of, int(open.main.size()));
   out.timings.reeb_ms = ms_since(t);
 
   const std::vector<Limb> limbs = find_limbs(fr, open, events);
@@ -277,7 +293,8 @@ GarmentSegmentation segment_garment(const Mesh& garment, const SegmentOptions& o
   if (legs.size() == 1) reject("a single leg-like branch: neither trousers nor a top");
   if (legs.size() == 2) {
     for (const Limb& l : legs)
-      for (std::int32_t v : l.vertices) out.coarse_parts[v] = l.side > 0 ? GarmentPart::LEFT_LEG : GarmentPart::RIGHT_LEG;
+      for (std::int32_t v : l.vertices)
+        out.coarse_parts[v] = l.side > 0 ? GarmentPart::LEFT_LEG : GarmentPart::RIGHT_LEG;
     out.timings.classify_ms = ms_since(t);
     refine_legs(fr, legs, options.leg_slope, out);
   } else {
@@ -296,8 +313,10 @@ UprightSegmentation segment_upright(const std::string& name, Mesh& mesh, std::op
   // back by 0.06-0.30; the margin is two thirds of the smallest).
   constexpr double FORWARD_LEAN = 0.04;
   std::vector<UpAxis> tries = {UpAxis::POS_Y, UpAxis::POS_Z};
-  if (up) tries = {*up};
-  else if (detect_up_axis(mesh.positions, mesh.triangles) == UpAxis::POS_Z) tries = {UpAxis::POS_Z, UpAxis::POS_Y};
+  if (up)
+    tries = {*up};
+  else if (detect_up_axis(mesh.positions, mesh.triangles) == UpAxis::POS_Z)
+    tries = {UpAxis::POS_Z, UpAxis::POS_Y};
   // The surface gives the up axis but not its sign (detect_up_axis()): a garment recognised
   // neither way is tried upside down along the axis tried first (trousers stored upside down
   // read as a top with two armholes and no hem).

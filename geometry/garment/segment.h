@@ -36,8 +36,8 @@
 namespace vfit {
 
 struct SegmentOptions {
-  int reeb_levels = 0;   ///< K bands of the Reeb graph; 0: about one band per 3 mean edge lengths, in [8, 64]
-  double leg_slope = 1;  ///< k_l of seed 000 eq. 4: rise of the leg boundary planes per unit of |x − Pt(x)|
+  int reeb_levels = 0;  ///< K bands of the Reeb graph; 0: about one band per 3 mean edge lengths, in [8, 64]
+  double leg_slope = 1; ///< k_l of seed 000 eq. 4: rise of the leg boundary planes per unit of |x − Pt(x)|
 };
 
 /// A boundary plane: the part lies where (p − point)·normal > 0 (mesh units; normal is unit).
@@ -49,11 +49,13 @@ struct BoundaryPlane {
 /// Key points of §4.2 (mesh units). Unset when the garment has no such feature.
 struct SegmentationKeyPoints {
   Eigen::Vector3d source = Eigen::Vector3d::Zero(); ///< centre of the source opening (collar or waistband)
-  std::optional<Eigen::Vector3d> p1;     ///< right armpit (−X side): the saddle where the right sleeve (or armhole) meets the torso
+  std::optional<Eigen::Vector3d>
+      p1; ///< right armpit (−X side): the saddle where the right sleeve (or armhole) meets the torso
   std::optional<Eigen::Vector3d> p2;     ///< left armpit (+X side)
   std::optional<BoundaryPlane> s1;       ///< right sleeve's boundary plane S1 (eq. 2, generalised)
   std::optional<BoundaryPlane> s2;       ///< left sleeve's boundary plane S2
-  std::optional<Eigen::Vector3d> crotch; ///< Pt of eq. 3: x = mean x of the coarse torso; y = the crotch (the height saddle where the legs part) raised to the body's crotch
+  std::optional<Eigen::Vector3d> crotch; ///< Pt of eq. 3: x = mean x of the coarse torso; y = the crotch (the height
+                                         ///< saddle where the legs part) raised to the body's crotch
   std::optional<double> waist_height;    ///< dresses: where the skirt starts (y)
 };
 
@@ -75,7 +77,7 @@ struct GarmentSegmentation {
   SegmentationKeyPoints key_points;
   ReebGraph reeb_graph;
   SegmentationTimings timings;
-  std::vector<std::string> warnings;     ///< e.g. "sleeveless top", extra components or openings
+  std::vector<std::string> warnings; ///< e.g. "sleeveless top", extra components or openings
 };
 
 /// Segments a garment mesh (#V × 3 positions, #F × 3 triangles, any orientation of faces).

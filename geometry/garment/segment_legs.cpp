@@ -30,8 +30,8 @@ double width_at(const GarmentFrame& fr, double y) {
 
 } // namespace
 
-std::int32_t height_saddle(const GarmentFrame& fr, const std::vector<std::int32_t>& a, const std::vector<std::int32_t>& b,
-                           const std::vector<char>* within) {
+std::int32_t height_saddle(const GarmentFrame& fr, const std::vector<std::int32_t>& a,
+                           const std::vector<std::int32_t>& b, const std::vector<char>* within) {
   const SurfaceGraph& g = *fr.graph;
   if (a.empty() || b.empty()) return -1;
   UnionFind sets(g.vertex_count());
@@ -65,12 +65,14 @@ std::int32_t height_saddle(const GarmentFrame& fr, const std::vector<std::int32_
 std::int32_t crotch_vertex(const GarmentFrame& fr, const ReebGraph& rg) {
   const SurfaceGraph& g = *fr.graph;
   std::vector<char> at_source(g.vertex_count(), 0);
-  for (std::int32_t v : g.loops[fr.source].vertices) at_source[v] = 1;
+  for (std::int32_t v : g.loops[fr.source].vertices)
+    at_source[v] = 1;
   std::vector<char> touches_source(rg.nodes.size(), 0);
   for (std::size_t v = 0; v < g.vertex_count(); ++v)
     if (at_source[v] && rg.vertex_node[v] >= 0) touches_source[rg.vertex_node[v]] = 1;
   std::size_t main_count = 0;
-  for (char m : fr.main) main_count += m;
+  for (char m : fr.main)
+    main_count += m;
   const std::size_t significant = std::max<std::size_t>(3, main_count / 500);
   // Per band: does it hold significant nodes on the left, on the right, in the middle?
   const int bands = int(rg.levels.size()) - 1;
@@ -80,7 +82,8 @@ std::int32_t crotch_vertex(const GarmentFrame& fr, const ReebGraph& rg) {
     return std::abs(dx) < 0.25 * fr.half_width ? 2 : dx > 0 ? 1 : 0;
   };
   for (std::size_t n = 0; n < rg.nodes.size(); ++n)
-    if (!touches_source[n] && rg.nodes[n].vertex_count >= significant) has[rg.nodes[n].band] |= 1 << side_of(rg.nodes[n]);
+    if (!touches_source[n] && rg.nodes[n].vertex_count >= significant)
+      has[rg.nodes[n].band] |= 1 << side_of(rg.nodes[n]);
   // The legs have split where a band and the next two hold a left and a right node and nothing
   // in the middle (near the waist a ring can break into arcs for a band or two).
   for (int band = 0; band + 2 < bands; ++band) {
@@ -92,7 +95,8 @@ std::int32_t crotch_vertex(const GarmentFrame& fr, const ReebGraph& rg) {
         sides[side_of(rg.nodes[n])].push_back(std::int32_t(v));
     }
     std::vector<char> above(g.vertex_count(), 0);
-    for (std::size_t v = 0; v < g.vertex_count(); ++v) above[v] = (*fr.f)[v] < rg.levels[band + 1];
+    for (std::size_t v = 0; v < g.vertex_count(); ++v)
+      above[v] = (*fr.f)[v] < rg.levels[band + 1];
     return height_saddle(fr, sides[0], sides[1], &above);
   }
   return -1;
@@ -119,7 +123,8 @@ void refine_legs(const GarmentFrame& fr, const std::vector<Limb>& legs, double s
     const Eigen::Vector3d& p = g.points[v];
     const double dx = p.x() - crotch.x();
     // Eq. 4: S1: −k x + y = −k Pt(x) + Pt(y) (right leg), S2: k x + y = k Pt(x) + Pt(y) (left).
-    if (p.y() < crotch.y() + slope * std::abs(dx)) out.vertex_parts[v] = dx > 0 ? GarmentPart::LEFT_LEG : GarmentPart::RIGHT_LEG;
+    if (p.y() < crotch.y() + slope * std::abs(dx))
+      out.vertex_parts[v] = dx > 0 ? GarmentPart::LEFT_LEG : GarmentPart::RIGHT_LEG;
   }
   keep_largest_pieces(fr, {GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}, GarmentPart::TORSO, out.vertex_parts);
   const double leg = crotch.y() - fr.min_y;
@@ -130,7 +135,8 @@ double narrowest_girth_height(const GarmentFrame& frame, double top, double bott
   const SurfaceGraph& g = *frame.graph;
   // About 30 vertices per slab, so that each slab's girth is an average, not a sample.
   std::size_t inside = 0;
-  for (std::size_t v = 0; v < g.vertex_count(); ++v) inside += frame.main[v] && g.points[v].y() >= bottom && g.points[v].y() < top;
+  for (std::size_t v = 0; v < g.vertex_count(); ++v)
+    inside += frame.main[v] && g.points[v].y() >= bottom && g.points[v].y() < top;
   const int SLABS = std::clamp(int(inside / 30), 16, 64), HALF_WINDOW = 2;
   const double h = (top - bottom) / SLABS;
   // Girth of a slab as 2π × the RMS distance of its vertices from their centre in XZ: every
@@ -153,7 +159,8 @@ double narrowest_girth_height(const GarmentFrame& frame, double top, double bott
   double least = INFINITY;
   for (int s = HALF_WINDOW; s + HALF_WINDOW < SLABS; ++s) {
     double sum = 0;
-    for (int k = -HALF_WINDOW; k <= HALF_WINDOW; ++k) sum += radius[s + k];
+    for (int k = -HALF_WINDOW; k <= HALF_WINDOW; ++k)
+      sum += radius[s + k];
     if (std::isfinite(sum)) smooth[s] = sum / (2 * HALF_WINDOW + 1);
     least = std::min(least, smooth[s]);
   }

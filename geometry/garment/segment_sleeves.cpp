@@ -23,7 +23,8 @@ struct Axis {
 };
 
 // Centroid of the vertices whose distance d lies within width/2 of level; count: how many.
-Eigen::Vector3d ring_centroid(const SurfaceGraph& g, const std::vector<double>& d, double level, double width, int& count) {
+Eigen::Vector3d ring_centroid(const SurfaceGraph& g, const std::vector<double>& d, double level, double width,
+                              int& count) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   count = 0;
   for (std::size_t v = 0; v < g.vertex_count(); ++v)
@@ -43,8 +44,8 @@ Axis sleeve_axis(const GarmentFrame& fr, const Arm& arm) {
   const Eigen::Vector3d armpit = g.points[arm.armpit];
   Axis axis{cuff.centroid, cuff.normal};
   // Point away from the mid-plane (or, for an arm pointing down or forwards, the armpit).
-  const double lateral = std::abs(axis.direction.x()) > 0.2 ? axis.direction.x() * arm.side
-                                                            : axis.direction.dot(cuff.centroid - armpit);
+  const double lateral =
+      std::abs(axis.direction.x()) > 0.2 ? axis.direction.x() * arm.side : axis.direction.dot(cuff.centroid - armpit);
   if (lateral < 0) axis.direction = -axis.direction;
   const double cuff_radius = cuff.perimeter / (2 * std::numbers::pi);
   if (arm.length < LONG_SLEEVE_RADII * cuff_radius) return axis;
@@ -122,7 +123,8 @@ std::vector<Arm> find_arms(const GarmentFrame& fr, const std::vector<int>& openi
     Arm arm;
     arm.side = side;
     for (int li : openings)
-      if (side * (g.loops[li].centroid.x() - fr.mid_x) > 0 && (arm.loop < 0 || g.loops[li].perimeter > g.loops[arm.loop].perimeter))
+      if (side * (g.loops[li].centroid.x() - fr.mid_x) > 0 &&
+          (arm.loop < 0 || g.loops[li].perimeter > g.loops[arm.loop].perimeter))
         arm.loop = li;
     if (arm.loop < 0) continue;
     const BoundaryLoop& cuff = g.loops[arm.loop];
@@ -134,7 +136,8 @@ std::vector<Arm> find_arms(const GarmentFrame& fr, const std::vector<int>& openi
     if (arm.armpit < 0) {
       // No branch: a sleeve hanging down, or an armhole. Keep the opening out of the bottom.
       std::vector<char> in_cuff(g.vertex_count(), 0);
-      for (std::int32_t v : cuff.vertices) in_cuff[v] = 1;
+      for (std::int32_t v : cuff.vertices)
+        in_cuff[v] = 1;
       std::vector<std::int32_t> base;
       for (std::int32_t v : bottom)
         if (!in_cuff[v]) base.push_back(v);
@@ -142,7 +145,8 @@ std::vector<Arm> find_arms(const GarmentFrame& fr, const std::vector<int>& openi
     }
     if (arm.armpit < 0) continue;
     std::vector<GeodesicSeed> seeds;
-    for (std::int32_t v : cuff.vertices) seeds.push_back({v, 0.0});
+    for (std::int32_t v : cuff.vertices)
+      seeds.push_back({v, 0.0});
     arm.from_cuff = geodesic_distance(g, seeds, arm.armpit); // exact up to the armpit, enough for the axis
     arm.length = arm.from_cuff[arm.armpit];
     if (std::isfinite(arm.length)) arms.push_back(std::move(arm));
@@ -153,14 +157,16 @@ std::vector<Arm> find_arms(const GarmentFrame& fr, const std::vector<int>& openi
 void refine_sleeves(const GarmentFrame& fr, const std::vector<Arm>& sleeves, GarmentSegmentation& out) {
   const SurfaceGraph& g = *fr.graph;
   double armpit_reach = 0;
-  for (const Arm& l : sleeves) armpit_reach += l.side * (g.points[l.armpit].x() - fr.mid_x) / double(sleeves.size());
+  for (const Arm& l : sleeves)
+    armpit_reach += l.side * (g.points[l.armpit].x() - fr.mid_x) / double(sleeves.size());
   double reach = 0;
   for (const Arm& l : sleeves) {
     const SleeveBoundary b = sleeve_boundary(fr, l, armpit_reach);
     (l.side > 0 ? out.key_points.s2 : out.key_points.s1) = b.plane;
     (l.side > 0 ? out.key_points.p2 : out.key_points.p1) = g.points[l.armpit];
     label_sleeve(fr, l, b, l.side > 0 ? GarmentPart::LEFT_SLEEVE : GarmentPart::RIGHT_SLEEVE, out.vertex_parts);
-    for (std::int32_t v : g.loops[l.loop].vertices) reach = std::max(reach, (g.points[v] - b.plane.point).dot(b.plane.normal));
+    for (std::int32_t v : g.loops[l.loop].vertices)
+      reach = std::max(reach, (g.points[v] - b.plane.point).dot(b.plane.normal));
   }
   double torso_bottom = INFINITY;
   for (std::size_t v = 0; v < g.vertex_count(); ++v)

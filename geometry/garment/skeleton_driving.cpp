@@ -771,9 +771,9 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
   return out;
 }
 
-Eigen::MatrixXd SkeletonDriver::blended_guess(const Eigen::MatrixXd& rigid, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
-                                             const std::vector<DrivenLimb>& limbs,
-                                             const std::vector<std::vector<Eigen::Vector3d>>& node_feet) const {
+Eigen::MatrixXd SkeletonDriver::blended_guess(const Eigen::MatrixXd& rigid, const Eigen::Matrix3d& R,
+                                              const Eigen::Vector3d& t, const std::vector<DrivenLimb>& limbs,
+                                              const std::vector<std::vector<Eigen::Vector3d>>& node_feet) const {
   Eigen::MatrixXd guess = rigid;
   const std::span<const float> x = m_garment.positions;
   const double r = m_options.seam_radius;

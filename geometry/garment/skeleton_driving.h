@@ -71,8 +71,7 @@ struct SkeletonDriving {
   /// (coarse_move.h, default ContactMoveOptions) over all the torso's vertices (those of no
   /// sleeve or leg skeleton); zero when drive() was given no body surface. The crotch alignment
   /// and the pocket offset of trousers are not included.
-  Eigen::Vector3d contact_translation =
-      Eigen::Vector3d::Zero();
+  Eigen::Vector3d contact_translation = Eigen::Vector3d::Zero();
   /// Trousers and shorts with a body surface: the offset along the body's trunk (m, + towards
   /// the neck) after the contact translation, to the height of the most clearance (see
   /// SkeletonDriver::drive()); included in torso_translation; zero otherwise.

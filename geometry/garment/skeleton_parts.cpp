@@ -62,19 +62,22 @@ PartPiece cut_part(const Mesh& garment, const std::vector<std::int32_t>& faces) 
   std::vector<HalfEdge> half_edges(3 * nf);
   for (std::size_t c = 0; c < 3 * nf; ++c) {
     const std::int32_t a = corner_vertex(c), b = corner_vertex(c - c % 3 + (c + 1) % 3);
-    half_edges[c] = {(std::uint64_t(std::uint32_t(std::min(a, b))) << 32) | std::uint32_t(std::max(a, b)), std::uint32_t(c)};
+    half_edges[c] = {(std::uint64_t(std::uint32_t(std::min(a, b))) << 32) | std::uint32_t(std::max(a, b)),
+                     std::uint32_t(c)};
   }
-  std::sort(half_edges.begin(), half_edges.end(),
-            [](const HalfEdge& x, const HalfEdge& y) { return x.key < y.key || (x.key == y.key && x.corner < y.corner); });
+  std::sort(half_edges.begin(), half_edges.end(), [](const HalfEdge& x, const HalfEdge& y) {
+    return x.key < y.key || (x.key == y.key && x.corner < y.corner);
+  });
   DisjointSets fans(3 * nf), pieces(nf);
   auto next_corner = [](std::uint32_t c) { return c - c % 3 + (c + 1) % 3; };
   for (std::size_t i = 0; i < half_edges.size();) {
     std::size_t j = i;
-    while (j < half_edges.size() && half_edges[j].key == half_edges[i].key) ++j;
+    while (j < half_edges.size() && half_edges[j].key == half_edges[i].key)
+      ++j;
     if (j - i > 2)
       throw Error("part skeleton", 0,
-                  "edge " + std::to_string(half_edges[i].key >> 32) + "–" + std::to_string(half_edges[i].key & 0xffffffffu) +
-                      " is shared by more than two faces");
+                  "edge " + std::to_string(half_edges[i].key >> 32) + "–" +
+                      std::to_string(half_edges[i].key & 0xffffffffu) + " is shared by more than two faces");
     if (j - i == 2) {
       const std::uint32_t c0 = half_edges[i].corner, c1 = half_edges[i + 1].corner;
       // Consistently oriented faces traverse the edge in opposite directions, so c0's start
@@ -87,7 +90,8 @@ PartPiece cut_part(const Mesh& garment, const std::vector<std::int32_t>& faces) 
     i = j;
   }
   std::vector<std::size_t> piece_size(nf, 0);
-  for (std::size_t f = 0; f < nf; ++f) ++piece_size[std::size_t(pieces.find(std::int32_t(f)))];
+  for (std::size_t f = 0; f < nf; ++f)
+    ++piece_size[std::size_t(pieces.find(std::int32_t(f)))];
   const auto largest = std::int32_t(std::max_element(piece_size.begin(), piece_size.end()) - piece_size.begin());
 
   PartPiece piece;
@@ -100,7 +104,8 @@ PartPiece cut_part(const Mesh& garment, const std::vector<std::int32_t>& faces) 
       if (fresh) {
         const std::int32_t g = corner_vertex(3 * f + std::size_t(k));
         piece.garment_vertex.push_back(g);
-        for (int d = 0; d < 3; ++d) piece.mesh.positions.push_back(garment.positions[3 * std::size_t(g) + std::size_t(d)]);
+        for (int d = 0; d < 3; ++d)
+          piece.mesh.positions.push_back(garment.positions[3 * std::size_t(g) + std::size_t(d)]);
       }
       piece.mesh.triangles.push_back(it->second);
     }
@@ -167,7 +172,8 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
   std::vector<std::int32_t> faces;
   for (std::size_t f = 0; f < garment.face_count(); ++f) {
     const std::int32_t* t = &garment.triangles[3 * f];
-    if (vertex_parts[std::size_t(t[0])] == part && vertex_parts[std::size_t(t[1])] == part && vertex_parts[std::size_t(t[2])] == part)
+    if (vertex_parts[std::size_t(t[0])] == part && vertex_parts[std::size_t(t[1])] == part &&
+        vertex_parts[std::size_t(t[2])] == part)
       faces.push_back(std::int32_t(f));
   }
   if (faces.empty()) throw Error("part skeleton", 0, "no face lies in the " + garment_part_name(part));
@@ -226,14 +232,16 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
       result.nodes.push_back(sum[n] / count[n]);
     }
   result.vertex_node.reserve(result.vertices.size());
-  for (std::int32_t v : result.vertices) result.vertex_node.push_back(renumber[std::size_t(garment_node[std::size_t(v)])]);
+  for (std::int32_t v : result.vertices)
+    result.vertex_node.push_back(renumber[std::size_t(garment_node[std::size_t(v)])]);
   result.nodes = cross_section_centres(garment.positions, result.vertices, result.vertex_node, result.nodes);
 
   // Attachment end: nearest the seam with the rest of the garment.
   std::vector<char> seam(nv, 0);
   for (std::size_t f = 0; f < garment.face_count(); ++f)
     for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = garment.triangles[3 * f + std::size_t(k)], b = garment.triangles[3 * f + std::size_t(k + 1) % 3];
+      const std::int32_t a = garment.triangles[3 * f + std::size_t(k)],
+                         b = garment.triangles[3 * f + std::size_t(k + 1) % 3];
       if ((vertex_parts[std::size_t(a)] == part) != (vertex_parts[std::size_t(b)] == part))
         seam[std::size_t(vertex_parts[std::size_t(a)] == part ? a : b)] = 1;
     }
@@ -249,7 +257,8 @@ PartSkeleton extract_part_skeleton(const Mesh& garment, std::span<const GarmentP
     if ((result.nodes.back() - seam_centre).squaredNorm() < (result.nodes.front() - seam_centre).squaredNorm()) {
       std::reverse(result.nodes.begin(), result.nodes.end());
       const auto last = std::int32_t(result.nodes.size()) - 1;
-      for (std::int32_t& n : result.vertex_node) n = last - n;
+      for (std::int32_t& n : result.vertex_node)
+        n = last - n;
     }
     result.tube_start = tube_start(seam, result);
   }
@@ -262,7 +271,8 @@ std::vector<PartSkeleton> extract_limb_skeletons(const Mesh& garment, std::span<
                                                  const PartSkeletonOptions& options) {
   if (vertex_parts.size() != garment.vertex_count())
     throw Error("part skeleton", 0,
-                std::to_string(vertex_parts.size()) + " part labels for " + std::to_string(garment.vertex_count()) + " vertices");
+                std::to_string(vertex_parts.size()) + " part labels for " + std::to_string(garment.vertex_count()) +
+                    " vertices");
   std::vector<GarmentPart> parts;
   for (GarmentPart part :
        {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {

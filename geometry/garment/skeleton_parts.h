@@ -14,8 +14,8 @@
 
 #include "curve_skeleton.h"
 #include "garment.h"
-#include "hole_fill.h"
 #include "geometry/mesh/mesh.h"
+#include "hole_fill.h"
 
 namespace vfit {
 
@@ -37,11 +37,11 @@ struct PartSkeletonOptions {
 
 /// Wall-clock time per stage of one part (ms).
 struct PartSkeletonTimings {
-  double cut_ms = 0;      ///< cut the part out, split non-manifold vertices, keep the largest piece
-  double fill_ms = 0;     ///< hole filling at full resolution
-  double skeleton_ms = 0; ///< proxy, contraction, collapse, chain (extract_curve_skeleton)
+  double cut_ms = 0;                    ///< cut the part out, split non-manifold vertices, keep the largest piece
+  double fill_ms = 0;                   ///< hole filling at full resolution
+  double skeleton_ms = 0;               ///< proxy, contraction, collapse, chain (extract_curve_skeleton)
   CurveSkeletonTimings skeleton_stages; ///< skeleton_ms split by stage
-  double map_ms = 0;      ///< garment vertices → nodes, recentring, orientation
+  double map_ms = 0;                    ///< garment vertices → nodes, recentring, orientation
   double total_ms = 0;
 };
 

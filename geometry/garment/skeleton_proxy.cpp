@@ -46,8 +46,10 @@ std::size_t collapse_independent_edges(Clusters& clusters, std::vector<std::int3
   const std::size_t nv = clusters.sum.size(), nf = tris.size() / 3;
   // Neighbours per vertex (CSR), from both other corners of each face, sorted and deduplicated.
   std::vector<std::int32_t> offset(nv + 1, 0);
-  for (std::int32_t v : tris) offset[std::size_t(v) + 1] += 2;
-  for (std::size_t v = 0; v < nv; ++v) offset[v + 1] += offset[v];
+  for (std::int32_t v : tris)
+    offset[std::size_t(v) + 1] += 2;
+  for (std::size_t v = 0; v < nv; ++v)
+    offset[v + 1] += offset[v];
   std::vector<std::int32_t> all(static_cast<std::size_t>(offset[nv]));
   {
     std::vector<std::int32_t> fill(offset.begin(), offset.end() - 1);
@@ -67,7 +69,8 @@ std::size_t collapse_independent_edges(Clusters& clusters, std::vector<std::int3
     first[v + 1] = std::int32_t(neighbours.size());
   }
   std::vector<std::int32_t> valence(nv);
-  for (std::size_t v = 0; v < nv; ++v) valence[v] = first[v + 1] - first[v];
+  for (std::size_t v = 0; v < nv; ++v)
+    valence[v] = first[v + 1] - first[v];
 
   // Edges a < b keyed by (length as float bits, edge index): positive floats order as their bits.
   std::vector<std::pair<std::int32_t, std::int32_t>> edges;
@@ -104,8 +107,10 @@ std::size_t collapse_independent_edges(Clusters& clusters, std::vector<std::int3
   // leaves a pattern of low valences that the shortest-first collapses then cannot continue from.
   const std::uint64_t longest =
       keys.empty() ? 0
-                   : std::uint64_t(std::bit_cast<std::uint32_t>(ROUND_LENGTH_FACTOR * std::bit_cast<float>(std::uint32_t(keys[keys.size() / 4] >> 32))))
-                         << 32 | 0xffffffffu;
+                   : std::uint64_t(std::bit_cast<std::uint32_t>(
+                         ROUND_LENGTH_FACTOR * std::bit_cast<float>(std::uint32_t(keys[keys.size() / 4] >> 32))))
+                             << 32 |
+                         0xffffffffu;
   for (std::uint64_t key : keys) {
     if (key > longest) break;
     const auto [a, b] = edges[std::size_t(key & 0xffffffffu)];
@@ -147,7 +152,8 @@ std::size_t collapse_independent_edges(Clusters& clusters, std::vector<std::int3
       kept.sum.push_back(clusters.sum[v]);
       kept.count.push_back(clusters.count[v]);
     }
-  for (std::size_t v = 0; v < nv; ++v) renumber[v] = renumber[std::size_t(merged_into[v])];
+  for (std::size_t v = 0; v < nv; ++v)
+    renumber[v] = renumber[std::size_t(merged_into[v])];
   std::size_t out = 0;
   for (std::size_t f = 0; f < nf; ++f) {
     const std::int32_t x = renumber[std::size_t(tris[3 * f])], y = renumber[std::size_t(tris[3 * f + 1])],
@@ -158,7 +164,8 @@ std::size_t collapse_independent_edges(Clusters& clusters, std::vector<std::int3
     tris[out++] = z;
   }
   tris.resize(out);
-  for (std::int32_t& v : input_vertex) v = renumber[std::size_t(v)];
+  for (std::int32_t& v : input_vertex)
+    v = renumber[std::size_t(v)];
   clusters = std::move(kept);
   return collapses;
 }
@@ -167,15 +174,16 @@ std::size_t collapse_independent_edges(Clusters& clusters, std::vector<std::int3
 // `target_vertices`, as simplify_for_skeleton() describes: fills `proxy` with one vertex per
 // surviving cluster (at its mean) and `vertex_proxy` with the proxy vertex of each current
 // vertex.
-void collapse_shortest_edges(Clusters clusters, std::vector<std::int32_t> tris, std::size_t target_vertices, Mesh& proxy,
-                             std::vector<std::int32_t>& vertex_proxy) {
+void collapse_shortest_edges(Clusters clusters, std::vector<std::int32_t> tris, std::size_t target_vertices,
+                             Mesh& proxy, std::vector<std::int32_t>& vertex_proxy) {
   const std::size_t nv = clusters.sum.size(), nf = tris.size() / 3;
   std::vector<Eigen::Vector3d>& sum = clusters.sum;
   std::vector<double>& count = clusters.count;
   std::vector<std::int32_t> parent(nv);
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](std::int32_t x) {
-    while (parent[std::size_t(x)] != x) x = parent[std::size_t(x)] = parent[std::size_t(parent[std::size_t(x)])];
+    while (parent[std::size_t(x)] != x)
+      x = parent[std::size_t(x)] = parent[std::size_t(parent[std::size_t(x)])];
     return x;
   };
   // Collapses are ordered by the distance between the means of the current vertices merged
@@ -184,8 +192,11 @@ void collapse_shortest_edges(Clusters clusters, std::vector<std::int32_t> tris, 
   // pre-coarsening both are the same numbers.
   std::vector<Eigen::Vector3d> guide_sum(nv);
   std::vector<double> guide_count(nv, 1.0);
-  for (std::size_t v = 0; v < nv; ++v) guide_sum[v] = sum[v] / count[v];
-  auto position = [&](std::int32_t r) -> Eigen::Vector3d { return guide_sum[std::size_t(r)] / guide_count[std::size_t(r)]; };
+  for (std::size_t v = 0; v < nv; ++v)
+    guide_sum[v] = sum[v] / count[v];
+  auto position = [&](std::int32_t r) -> Eigen::Vector3d {
+    return guide_sum[std::size_t(r)] / guide_count[std::size_t(r)];
+  };
 
   std::vector<char> alive(nf, 1);
   std::vector<std::vector<std::int32_t>> faces(nv), neighbours(nv);
@@ -231,7 +242,8 @@ void collapse_shortest_edges(Clusters clusters, std::vector<std::int32_t> tris, 
     for (std::int32_t w : nb)
       if (w != a && std::find(na.begin(), na.end(), w) != na.end()) shared.push_back(w);
     if (shared.size() != 2) continue;
-    if (faces[std::size_t(a)].size() < faces[std::size_t(b)].size()) std::swap(a, b); // merge the smaller into the larger
+    if (faces[std::size_t(a)].size() < faces[std::size_t(b)].size())
+      std::swap(a, b); // merge the smaller into the larger
     for (std::int32_t f : faces[std::size_t(b)]) {
       std::int32_t* t = &tris[3 * std::size_t(f)];
       if (t[0] == a || t[1] == a || t[2] == a) {
@@ -274,7 +286,8 @@ void collapse_shortest_edges(Clusters clusters, std::vector<std::int32_t> tris, 
   }
   for (std::size_t f = 0; f < nf; ++f)
     if (alive[f])
-      for (int k = 0; k < 3; ++k) proxy.triangles.push_back(compact[std::size_t(tris[3 * f + std::size_t(k)])]);
+      for (int k = 0; k < 3; ++k)
+        proxy.triangles.push_back(compact[std::size_t(tris[3 * f + std::size_t(k)])]);
 }
 
 } // namespace
@@ -303,12 +316,14 @@ SkeletonProxy simplify_for_skeleton(const Mesh& mesh, std::size_t target_vertice
   if (nv > PRECOARSEN_ABOVE * target_vertices)
     while (clusters.sum.size() > PRECOARSEN_TO * target_vertices) {
       const std::size_t before = clusters.sum.size();
-      if (double(collapse_independent_edges(clusters, tris, input_vertex)) < PRECOARSEN_MIN_PROGRESS * double(before)) break;
+      if (double(collapse_independent_edges(clusters, tris, input_vertex)) < PRECOARSEN_MIN_PROGRESS * double(before))
+        break;
     }
   std::vector<std::int32_t> vertex_proxy;
   collapse_shortest_edges(std::move(clusters), std::move(tris), target_vertices, proxy.mesh, vertex_proxy);
   proxy.vertex_proxy.resize(nv);
-  for (std::size_t v = 0; v < nv; ++v) proxy.vertex_proxy[v] = vertex_proxy[std::size_t(input_vertex[v])];
+  for (std::size_t v = 0; v < nv; ++v)
+    proxy.vertex_proxy[v] = vertex_proxy[std::size_t(input_vertex[v])];
   return proxy;
 }
 

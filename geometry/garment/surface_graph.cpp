@@ -62,10 +62,12 @@ SurfaceGraph build_surface_graph(const Mesh& mesh) {
     for (int k = 0; k < 3; ++k) {
       const std::int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
       if (a < 0 || b < 0 || std::size_t(a) >= nv || std::size_t(b) >= nv)
-        throw Error("garment", 0, "face " + std::to_string(f) + " has a vertex index outside [0, " + std::to_string(nv) + ")");
+        throw Error("garment", 0,
+                    "face " + std::to_string(f) + " has a vertex index outside [0, " + std::to_string(nv) + ")");
       if (a != b) ++first[std::min(a, b) + 1];
     }
-  for (std::size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
+  for (std::size_t v = 0; v < nv; ++v)
+    first[v + 1] += first[v];
   {
     std::vector<std::int32_t> fill(first.begin(), first.end() - 1);
     for (std::size_t f = 0; f < nf; ++f)
@@ -81,7 +83,8 @@ SurfaceGraph build_surface_graph(const Mesh& mesh) {
     std::sort(begin, end);
     for (auto i = begin; i != end;) {
       auto j = i;
-      while (j != end && *j == *i) ++j;
+      while (j != end && *j == *i)
+        ++j;
       edges.push_back(edge_key(std::uint32_t(v), std::uint32_t(*i)));
       if (j - i == 1) boundary.push_back({std::int32_t(v), *i});
       i = j;
@@ -93,7 +96,8 @@ SurfaceGraph build_surface_graph(const Mesh& mesh) {
     ++g.offsets[(e >> 32) + 1];
     ++g.offsets[(e & 0xffffffffu) + 1];
   }
-  for (std::size_t v = 0; v < nv; ++v) g.offsets[v + 1] += g.offsets[v];
+  for (std::size_t v = 0; v < nv; ++v)
+    g.offsets[v + 1] += g.offsets[v];
   g.neighbours.resize(2 * edges.size());
   g.lengths.resize(2 * edges.size());
   std::vector<std::int32_t> fill(g.offsets.begin(), g.offsets.end() - 1);
@@ -131,7 +135,8 @@ SurfaceGraph build_surface_graph(const Mesh& mesh) {
 
   // Boundary loops: connected sets of boundary edges (robust to pinched, non-manifold loops).
   UnionFind loop_sets(nv);
-  for (auto [a, b] : boundary) loop_sets.unite(std::uint32_t(a), std::uint32_t(b));
+  for (auto [a, b] : boundary)
+    loop_sets.unite(std::uint32_t(a), std::uint32_t(b));
   std::vector<std::int32_t> loop_of(nv, -1);
   std::vector<std::vector<std::pair<std::int32_t, std::int32_t>>> loop_edges;
   for (auto [a, b] : boundary) {
@@ -164,7 +169,8 @@ SurfaceGraph build_surface_graph(const Mesh& mesh) {
     loop.normal = loop_normal(g, le, loop.centroid);
     g.loops.push_back(std::move(loop));
   }
-  std::stable_sort(g.loops.begin(), g.loops.end(), [](const auto& a, const auto& b) { return a.perimeter > b.perimeter; });
+  std::stable_sort(g.loops.begin(), g.loops.end(),
+                   [](const auto& a, const auto& b) { return a.perimeter > b.perimeter; });
   return g;
 }
 

@@ -42,24 +42,25 @@ private:
 
 /// One opening of a garment: a connected set of boundary edges (edges used by one face).
 struct BoundaryLoop {
-  std::vector<std::int32_t> vertices; ///< the loop's vertices (unordered)
-  double perimeter = 0;               ///< total length of its edges (mesh units)
+  std::vector<std::int32_t> vertices;                 ///< the loop's vertices (unordered)
+  double perimeter = 0;                               ///< total length of its edges (mesh units)
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero(); ///< length-weighted centre of its edges
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitY();  ///< unit area vector (Newell; best-fit plane normal for a pinched loop); sign arbitrary
-  double min_y = 0, max_y = 0;        ///< height range
+  Eigen::Vector3d normal =
+      Eigen::Vector3d::UnitY(); ///< unit area vector (Newell; best-fit plane normal for a pinched loop); sign arbitrary
+  double min_y = 0, max_y = 0;  ///< height range
 };
 
 /// Undirected edge graph of a mesh in CSR form.
 struct SurfaceGraph {
-  std::vector<Eigen::Vector3d> points;   ///< #V positions
-  std::vector<std::int32_t> offsets;     ///< #V + 1: neighbours of v are [offsets[v], offsets[v+1])
-  std::vector<std::int32_t> neighbours;  ///< 2·#E neighbour indices
-  std::vector<float> lengths;            ///< 2·#E edge lengths, parallel to `neighbours`
-  std::vector<std::int32_t> component;   ///< #V component index (0 = largest); −1: unreferenced
+  std::vector<Eigen::Vector3d> points;  ///< #V positions
+  std::vector<std::int32_t> offsets;    ///< #V + 1: neighbours of v are [offsets[v], offsets[v+1])
+  std::vector<std::int32_t> neighbours; ///< 2·#E neighbour indices
+  std::vector<float> lengths;           ///< 2·#E edge lengths, parallel to `neighbours`
+  std::vector<std::int32_t> component;  ///< #V component index (0 = largest); −1: unreferenced
   std::size_t component_count = 0;
   std::vector<std::size_t> component_sizes; ///< vertices per component, largest first
-  std::vector<BoundaryLoop> loops;       ///< every boundary loop, largest perimeter first
-  double mean_edge = 0;                  ///< mean edge length
+  std::vector<BoundaryLoop> loops;          ///< every boundary loop, largest perimeter first
+  double mean_edge = 0;                     ///< mean edge length
 
   std::size_t vertex_count() const { return points.size(); }
 };

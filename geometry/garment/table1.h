@@ -22,11 +22,11 @@
 namespace vfit {
 
 struct Table1Row {
-  std::string garment;   ///< the paper's name: "Dress", "Shirt 1", "Pant 1 (P1)", ...
-  std::string image;     ///< the paper's body image: "I_1" ... "I_5"
+  std::string garment; ///< the paper's name: "Dress", "Shirt 1", "Pant 1 (P1)", ...
+  std::string image;   ///< the paper's body image: "I_1" ... "I_5"
   GarmentType type;
   std::string size;
-  std::size_t vertices;  ///< the paper's vertex count (ours matches it exactly)
+  std::size_t vertices; ///< the paper's vertex count (ours matches it exactly)
   std::size_t paper_faces;
   std::string body_pose; ///< the named pose (pose_io.h) standing in for the image's body
   double paper_segmentation_ms, paper_deformation_ms, paper_penetration_ms, paper_total_ms;

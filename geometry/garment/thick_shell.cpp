@@ -56,7 +56,8 @@ int face_pieces(std::span<const std::int32_t> triangles, const std::vector<char>
   std::vector<std::int32_t> parent(nf);
   std::iota(parent.begin(), parent.end(), 0);
   auto root = [&](std::int32_t f) {
-    while (parent[std::size_t(f)] != f) f = parent[std::size_t(f)] = parent[std::size_t(parent[std::size_t(f)])];
+    while (parent[std::size_t(f)] != f)
+      f = parent[std::size_t(f)] = parent[std::size_t(parent[std::size_t(f)])];
     return f;
   };
   for (std::size_t f = 0; f < nf; ++f) {
@@ -83,11 +84,14 @@ bool has_open_fan(std::span<const std::int32_t> t, std::size_t nv, std::int32_t 
                   const std::vector<std::int32_t>& piece_of) {
   const std::size_t nf = t.size() / 3;
   std::vector<std::int32_t> offsets(nv + 1, 0), corners(t.size());
-  for (const std::int32_t v : t) ++offsets[std::size_t(v) + 1];
-  for (std::size_t v = 0; v < nv; ++v) offsets[v + 1] += offsets[v];
+  for (const std::int32_t v : t)
+    ++offsets[std::size_t(v) + 1];
+  for (std::size_t v = 0; v < nv; ++v)
+    offsets[v + 1] += offsets[v];
   std::vector<std::int32_t> fill(offsets.begin(), offsets.end() - 1);
   for (std::size_t f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) corners[std::size_t(fill[std::size_t(t[3 * f + std::size_t(k)])]++)] = std::int32_t(3 * f) + k;
+    for (int k = 0; k < 3; ++k)
+      corners[std::size_t(fill[std::size_t(t[3 * f + std::size_t(k)])]++)] = std::int32_t(3 * f) + k;
   std::vector<std::int32_t> around;
   for (std::size_t v = 0; v < nv; ++v) {
     if (offsets[v] == offsets[v + 1] || piece_of[v] != piece) continue;
@@ -100,7 +104,8 @@ bool has_open_fan(std::span<const std::int32_t> t, std::size_t nv, std::int32_t 
     std::sort(around.begin(), around.end());
     for (std::size_t i = 0; i < around.size();) {
       std::size_t j = i;
-      while (j < around.size() && around[j] == around[i]) ++j;
+      while (j < around.size() && around[j] == around[i])
+        ++j;
       if (j - i == 1) return true;
       i = j;
     }
@@ -134,9 +139,11 @@ std::optional<ThickShell> find_thick_shell(const Mesh& garment, const ThickShell
   // lining.
   {
     std::unordered_map<std::int32_t, std::size_t> faces_of_piece;
-    for (std::size_t f = 0; f < nf; ++f) ++faces_of_piece[root(t[3 * f])];
+    for (std::size_t f = 0; f < nf; ++f)
+      ++faces_of_piece[root(t[3 * f])];
     std::vector<std::pair<std::size_t, std::int32_t>> sizes;
-    for (const auto& [r, count] : faces_of_piece) sizes.emplace_back(count, r);
+    for (const auto& [r, count] : faces_of_piece)
+      sizes.emplace_back(count, r);
     std::sort(sizes.rbegin(), sizes.rend());
     const bool lined = sizes.size() >= 2 && double(sizes[1].first) >= 0.2 * double(nf);
     if (!lined && has_open_fan(t, nv, sizes[0].second, piece_of)) return std::nullopt;
@@ -175,7 +182,8 @@ std::optional<ThickShell> find_thick_shell(const Mesh& garment, const ThickShell
 
   // The two sheets: the paired faces fall into two pieces once the rims are left out.
   std::vector<char> keep(nf, 0);
-  for (std::size_t f = 0; f < nf; ++f) keep[f] = partner[f] >= 0;
+  for (std::size_t f = 0; f < nf; ++f)
+    keep[f] = partner[f] >= 0;
   std::vector<int> piece;
   const int pieces = face_pieces(t, keep, piece);
   if (pieces < 2) return std::nullopt;
@@ -184,7 +192,8 @@ std::optional<ThickShell> find_thick_shell(const Mesh& garment, const ThickShell
     if (piece[f] >= 0) piece_area[std::size_t(piece[f])] += faces[f].area;
   std::vector<int> by_area(static_cast<std::size_t>(pieces));
   std::iota(by_area.begin(), by_area.end(), 0);
-  std::sort(by_area.begin(), by_area.end(), [&](int a, int b) { return piece_area[std::size_t(a)] > piece_area[std::size_t(b)]; });
+  std::sort(by_area.begin(), by_area.end(),
+            [&](int a, int b) { return piece_area[std::size_t(a)] > piece_area[std::size_t(b)]; });
   const int big = by_area[0], second = by_area[1];
   if (piece_area[std::size_t(big)] + piece_area[std::size_t(second)] < options.min_paired_area * total_area)
     return std::nullopt;
@@ -271,7 +280,8 @@ std::vector<float> place_thick_shell(const ThickShell& shell, std::span<const fl
   const std::span<const std::int32_t> st = shell.sheet.triangles;
   for (std::size_t k = 0; k < shell.carried.size(); ++k) {
     const auto f = 3 * std::size_t(shell.carried_triangle[k]);
-    const Vec a = point(sheet_positions, st[f]), b = point(sheet_positions, st[f + 1]), c = point(sheet_positions, st[f + 2]);
+    const Vec a = point(sheet_positions, st[f]), b = point(sheet_positions, st[f + 1]),
+              c = point(sheet_positions, st[f + 2]);
     const double u = shell.carried_barycentric[2 * k], v = shell.carried_barycentric[2 * k + 1];
     const Vec at = (1 - u - v) * a + u * b + v * c;
     Eigen::Matrix3d frame;
@@ -280,7 +290,8 @@ std::vector<float> place_thick_shell(const ThickShell& shell, std::span<const fl
                            ? Vec(frame * local)
                            : point(shell.carried_world_offset, std::int32_t(k));
     const Vec x = at + offset;
-    for (int d = 0; d < 3; ++d) out[3 * std::size_t(shell.carried[k]) + std::size_t(d)] = float(x[d]);
+    for (int d = 0; d < 3; ++d)
+      out[3 * std::size_t(shell.carried[k]) + std::size_t(d)] = float(x[d]);
   }
   return out;
 }

@@ -35,8 +35,8 @@ struct ThickShellOptions {
 /// A garment found to be two sheets: the inner one as a mesh of its own, and how every other
 /// vertex hangs on it.
 struct ThickShell {
-  double thickness = 0;  ///< median distance between the paired faces (m)
-  Mesh sheet;            ///< the inner sheet (positions, triangles; no UVs or normals)
+  double thickness = 0;                       ///< median distance between the paired faces (m)
+  Mesh sheet;                                 ///< the inner sheet (positions, triangles; no UVs or normals)
   std::vector<std::int32_t> sheet_vertices;   ///< sheet vertex k → its vertex in the whole mesh
   std::vector<std::int32_t> carried;          ///< the whole mesh's other vertices, ascending
   std::vector<std::int32_t> carried_triangle; ///< per carried vertex: the sheet triangle it hangs on
@@ -45,18 +45,17 @@ struct ThickShell {
   /// (edge 0's direction, the normal × it, the unit normal) (m).
   std::vector<float> carried_offset;
   std::vector<float> carried_world_offset; ///< per carried vertex × 3: the same offset in the mesh's axes (m)
-  std::size_t whole_vertex_count = 0; ///< #V of the whole mesh
+  std::size_t whole_vertex_count = 0;      ///< #V of the whole mesh
 };
 
 /// Finds the two sheets of a garment modelled with thickness. From each face's centroid a ray
 /// is cast along its normal both ways; the first face it meets within max_thickness facing the
 /// opposite way (or either way, when it belongs to another connected piece of the mesh: a
-/// separate lining may be wound like its shell) is its partner. When the paired faces cover min_paired_area of the surface
-/// and, once the unpaired ones (the rims that join the sheets) are left out, fall into two
-/// connected pieces paired with each other, the smaller piece by area is the inner sheet (a
-/// sheet offset outwards around the body is the larger). Returns nullopt for any other mesh
-/// (a single sheet, the usual garment; a closed surface that is no shell): the caller's path is
-/// then unchanged. garment: triangles indexing its positions (m), consistently wound per piece.
+/// separate lining may be wound like its shell) is its partner. When the paired faces cover min_paired_area of the
+/// surface and, once the unpaired ones (the rims that join the sheets) are left out, fall into two connected pieces
+/// paired with each other, the smaller piece by area is the inner sheet (a sheet offset outwards around the body is the
+/// larger). Returns nullopt for any other mesh (a single sheet, the usual garment; a closed surface that is no shell):
+/// the caller's path is then unchanged. garment: triangles indexing its positions (m), consistently wound per piece.
 std::optional<ThickShell> find_thick_shell(const Mesh& garment, const ThickShellOptions& options = {});
 
 /// The whole mesh's positions (#V × 3, m) from the inner sheet's (sheet_positions: #V_sheet × 3,

@@ -67,7 +67,8 @@ std::string read_file_bytes(const std::filesystem::path& path) {
     if (n <= 0) {
       const int e = errno;
       close(fd);
-      throw Error(path.string(), 0, std::string("cannot read: ") + (n == 0 ? "file shrank while reading" : std::strerror(e)));
+      throw Error(path.string(), 0,
+                  std::string("cannot read: ") + (n == 0 ? "file shrank while reading" : std::strerror(e)));
     }
     got += static_cast<std::size_t>(n);
   }

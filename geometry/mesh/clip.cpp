@@ -31,7 +31,8 @@ Mesh clip_mesh(const Mesh& mesh, const KeepFunction& keep, double snap) {
   std::vector<float> pos = mesh.positions;
   const std::size_t nv = mesh.vertex_count();
   std::vector<double> k(nv);
-  for (std::size_t v = 0; v < nv; ++v) k[v] = keep(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
+  for (std::size_t v = 0; v < nv; ++v)
+    k[v] = keep(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
   // Snap: a vertex close to the cut slides onto it along the edge towards its neighbour on the
   // other side (staying on the surface), so the split never makes a sliver.
   for (std::size_t f = 0; f < mesh.face_count(); ++f)
@@ -40,12 +41,14 @@ Mesh clip_mesh(const Mesh& mesh, const KeepFunction& keep, double snap) {
       if ((k[a] >= 0) == (k[b] >= 0) || k[a] == 0 || k[b] == 0) continue;
       const double t = k[a] / (k[a] - k[b]);
       double len = 0;
-      for (int c = 0; c < 3; ++c) len += double(pos[3 * b + c] - pos[3 * a + c]) * (pos[3 * b + c] - pos[3 * a + c]);
+      for (int c = 0; c < 3; ++c)
+        len += double(pos[3 * b + c] - pos[3 * a + c]) * (pos[3 * b + c] - pos[3 * a + c]);
       len = std::sqrt(len);
       const std::int32_t near = t < 0.5 ? a : b;
       const double dist = (t < 0.5 ? t : 1 - t) * len;
       if (dist > snap || dist > 0.3 * len) continue;
-      for (int c = 0; c < 3; ++c) pos[3 * near + c] = static_cast<float>(pos[3 * a + c] + t * (pos[3 * b + c] - pos[3 * a + c]));
+      for (int c = 0; c < 3; ++c)
+        pos[3 * near + c] = static_cast<float>(pos[3 * a + c] + t * (pos[3 * b + c] - pos[3 * a + c]));
       k[near] = 0;
     }
   // Split. Crossing points are shared through an edge-keyed map.
@@ -56,7 +59,8 @@ Mesh clip_mesh(const Mesh& mesh, const KeepFunction& keep, double snap) {
     if (it != cut_vertex.end()) return it->second;
     const double t = k[a] / (k[a] - k[b]);
     const auto id = static_cast<std::int32_t>(pos.size() / 3);
-    for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(pos[3 * a + c] + t * (pos[3 * b + c] - pos[3 * a + c])));
+    for (int c = 0; c < 3; ++c)
+      pos.push_back(static_cast<float>(pos[3 * a + c] + t * (pos[3 * b + c] - pos[3 * a + c])));
     k.push_back(0);
     cut_vertex.emplace(key, id);
     return id;
@@ -67,8 +71,10 @@ Mesh clip_mesh(const Mesh& mesh, const KeepFunction& keep, double snap) {
     const std::int32_t v[3] = {mesh.triangles[3 * f], mesh.triangles[3 * f + 1], mesh.triangles[3 * f + 2]};
     int pos_count = 0, neg_count = 0;
     for (std::int32_t x : v) {
-      if (k[x] > 0) ++pos_count;
-      else if (k[x] < 0) ++neg_count;
+      if (k[x] > 0)
+        ++pos_count;
+      else if (k[x] < 0)
+        ++neg_count;
     }
     if (neg_count == 0) {
       if (pos_count > 0) tris.insert(tris.end(), {v[0], v[1], v[2]}); // all on the cut: dropped
@@ -83,7 +89,8 @@ Mesh clip_mesh(const Mesh& mesh, const KeepFunction& keep, double snap) {
       if (k[a] >= 0) poly[n++] = a;
       if ((k[a] > 0 && k[b] < 0) || (k[a] < 0 && k[b] > 0)) poly[n++] = crossing(a, b);
     }
-    for (int i = 1; i + 1 < n; ++i) tris.insert(tris.end(), {poly[0], poly[i], poly[i + 1]});
+    for (int i = 1; i + 1 < n; ++i)
+      tris.insert(tris.end(), {poly[0], poly[i], poly[i + 1]});
   }
   return compact(pos, tris);
 }
@@ -93,7 +100,8 @@ Mesh largest_component(const Mesh& mesh) {
   std::vector<std::int32_t> parent(nv);
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](std::int32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
     return x;
   };
   for (std::size_t f = 0; f < nf; ++f)
@@ -102,7 +110,8 @@ Mesh largest_component(const Mesh& mesh) {
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
   std::unordered_map<std::int32_t, std::size_t> faces_of;
-  for (std::size_t f = 0; f < nf; ++f) ++faces_of[find(mesh.triangles[3 * f])];
+  for (std::size_t f = 0; f < nf; ++f)
+    ++faces_of[find(mesh.triangles[3 * f])];
   std::int32_t best = -1;
   std::size_t best_count = 0;
   for (const auto& [root, count] : faces_of)
@@ -112,7 +121,8 @@ Mesh largest_component(const Mesh& mesh) {
     }
   std::vector<std::int32_t> tris;
   for (std::size_t f = 0; f < nf; ++f)
-    if (find(mesh.triangles[3 * f]) == best) tris.insert(tris.end(), mesh.triangles.begin() + 3 * f, mesh.triangles.begin() + 3 * f + 3);
+    if (find(mesh.triangles[3 * f]) == best)
+      tris.insert(tris.end(), mesh.triangles.begin() + 3 * f, mesh.triangles.begin() + 3 * f + 3);
   return compact(mesh.positions, tris);
 }
 

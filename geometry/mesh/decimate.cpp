@@ -49,8 +49,10 @@ struct OmMesh : OmBase {
       if (is_boundary(opposite_halfedge_handle(h1)) && is_boundary(opposite_halfedge_handle(h2))) return false;
     }
     if (vl == vr) return false;
-    for (auto vv = vv_iter(v0); vv.is_valid(); ++vv) status(*vv).set_tagged(false);
-    for (auto vv = vv_iter(v1); vv.is_valid(); ++vv) status(*vv).set_tagged(true);
+    for (auto vv = vv_iter(v0); vv.is_valid(); ++vv)
+      status(*vv).set_tagged(false);
+    for (auto vv = vv_iter(v1); vv.is_valid(); ++vv)
+      status(*vv).set_tagged(true);
     for (auto vv = vv_iter(v0); vv.is_valid(); ++vv)
       if (status(*vv).tagged() && *vv != vl && *vv != vr) return false;
     if (is_boundary(v0) && is_boundary(v1) && !is_boundary(v0v1) && !is_boundary(v1v0)) return false;
@@ -72,12 +74,14 @@ Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices, boo
   OmMesh om;
   std::vector<OmMesh::VertexHandle> handles(mesh.vertex_count());
   for (std::size_t v = 0; v < mesh.vertex_count(); ++v)
-    handles[v] = om.add_vertex(OmMesh::Point(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]));
+    handles[v] =
+        om.add_vertex(OmMesh::Point(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]));
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     auto fh = om.add_face(handles[mesh.triangles[3 * f]], handles[mesh.triangles[3 * f + 1]],
                           handles[mesh.triangles[3 * f + 2]]);
     if (!fh.is_valid())
-      throw Error("decimate", 0, "face " + std::to_string(f + 1) + " is non-manifold; decimation needs a manifold mesh");
+      throw Error("decimate", 0,
+                  "face " + std::to_string(f + 1) + " is non-manifold; decimation needs a manifold mesh");
   }
   om.update_face_normals();
   if (lock_boundary)
@@ -93,7 +97,7 @@ Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices, boo
   dec.add(aspect);
   dec.add(flips);
   dec.module(quadric).unset_max_err();
-  dec.module(aspect).set_aspect_ratio(6.0);       // reject collapses that make slivers
+  dec.module(aspect).set_aspect_ratio(6.0);         // reject collapses that make slivers
   dec.module(flips).set_max_normal_deviation(60.0); // degrees: no folded-over faces
   dec.initialize();
   dec.decimate_to(target_vertices);
@@ -107,7 +111,8 @@ Mesh decimate_to_vertex_count(const Mesh& mesh, std::size_t target_vertices, boo
   }
   out.triangles.reserve(3 * om.n_faces());
   for (auto f : om.faces())
-    for (auto v : om.fv_range(f)) out.triangles.push_back(v.idx());
+    for (auto v : om.fv_range(f))
+      out.triangles.push_back(v.idx());
   return out;
 }
 
@@ -121,7 +126,8 @@ Mesh subdivide_midpoints(const Mesh& mesh) {
     auto it = midpoint.find(key);
     if (it != midpoint.end()) return it->second;
     const auto id = static_cast<std::int32_t>(out.positions.size() / 3);
-    for (int k = 0; k < 3; ++k) out.positions.push_back(0.5f * (mesh.positions[3 * a + k] + mesh.positions[3 * b + k]));
+    for (int k = 0; k < 3; ++k)
+      out.positions.push_back(0.5f * (mesh.positions[3 * a + k] + mesh.positions[3 * b + k]));
     midpoint.emplace(key, id);
     return id;
   };

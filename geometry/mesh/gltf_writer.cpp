@@ -132,8 +132,11 @@ public:
     Json view = {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(T)}};
     if (target >= 0) view["target"] = target;
     m_views.push_back(std::move(view));
-    const char* type = components == 1 ? "SCALAR" : components == 2 ? "VEC2" : components == 3 ? "VEC3"
-                     : components == 4 ? "VEC4" : "MAT4";
+    const char* type = components == 1   ? "SCALAR"
+                       : components == 2 ? "VEC2"
+                       : components == 3 ? "VEC3"
+                       : components == 4 ? "VEC4"
+                                         : "MAT4";
     m_accessors.push_back({{"bufferView", m_views.size() - 1},
                            {"componentType", component_type},
                            {"count", data.size() / components},
@@ -208,7 +211,8 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
       for (std::uint32_t v : split.source_vertex)
         for (int k = 0; k < 4; ++k) {
           const std::int32_t j = skin->joints[4 * v + k];
-          if (j < 0 || static_cast<std::size_t>(j) >= nj) throw Error(name, 0, "vertex " + std::to_string(v + 1) + ": joint index out of range");
+          if (j < 0 || static_cast<std::size_t>(j) >= nj)
+            throw Error(name, 0, "vertex " + std::to_string(v + 1) + ": joint index out of range");
           vj.push_back(static_cast<std::uint16_t>(j));
           vw.push_back(skin->weights[4 * v + k]);
         }
@@ -224,13 +228,16 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
         if (p >= static_cast<std::int32_t>(j)) throw Error(name, 0, "skin: a joint's parent must come before it");
         const float* pj = &skin->joint_positions[3 * j];
         Json jn = {{"name", skin->joint_names[j]}};
-        jn["translation"] = p < 0 ? Json::array({pj[0], pj[1], pj[2]})
-                                  : Json::array({pj[0] - skin->joint_positions[3 * p], pj[1] - skin->joint_positions[3 * p + 1],
-                                                 pj[2] - skin->joint_positions[3 * p + 2]});
+        jn["translation"] =
+            p < 0 ? Json::array({pj[0], pj[1], pj[2]})
+                  : Json::array({pj[0] - skin->joint_positions[3 * p], pj[1] - skin->joint_positions[3 * p + 1],
+                                 pj[2] - skin->joint_positions[3 * p + 2]});
         joint_nodes.push_back(std::move(jn));
         skin_joints.push_back(first + j);
-        if (p < 0) skin_roots.push_back(first + j);
-        else joint_nodes[first + p - meshes.size()]["children"].push_back(first + j);
+        if (p < 0)
+          skin_roots.push_back(first + j);
+        else
+          joint_nodes[first + p - meshes.size()]["children"].push_back(first + j);
         const float m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -pj[0], -pj[1], -pj[2], 1};
         ibm.insert(ibm.end(), m, m + 16);
       }
@@ -251,8 +258,10 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
   if (!meshes.empty()) {
     for (std::size_t i = 0; i < meshes.size(); ++i)
       scene["nodes"].push_back(i);
-    for (std::size_t r : skin_roots) scene["nodes"].push_back(r);
-    for (auto& jn : joint_nodes) nodes.push_back(std::move(jn));
+    for (std::size_t r : skin_roots)
+      scene["nodes"].push_back(r);
+    for (auto& jn : joint_nodes)
+      nodes.push_back(std::move(jn));
     doc["nodes"] = std::move(nodes);
     doc["meshes"] = std::move(gltf_meshes);
     if (!skins.empty()) doc["skins"] = std::move(skins);

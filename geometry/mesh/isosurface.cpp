@@ -38,7 +38,8 @@ struct Grid {
 Mesh extract_isosurface(const DistanceFunction& f, const IsosurfaceOptions& o) {
   Grid g;
   g.h = o.cell_size;
-  for (int a = 0; a < 3; ++a) g.origin[a] = o.box_min[a];
+  for (int a = 0; a < 3; ++a)
+    g.origin[a] = o.box_min[a];
   auto cells = [&](int a) {
     const int n = static_cast<int>(std::ceil((o.box_max[a] - o.box_min[a]) / g.h));
     return (n + BLOCK - 1) / BLOCK * BLOCK;
@@ -74,8 +75,10 @@ Mesh extract_isosurface(const DistanceFunction& f, const IsosurfaceOptions& o) {
           lo = std::min(lo, v);
           hi = std::max(hi, v);
         }
-        if (lo <= 0 && hi >= 0) active.push_back({i, j, k});
-        else if (std::min(std::abs(lo), std::abs(hi)) < reach) active.push_back({i, j, k});
+        if (lo <= 0 && hi >= 0)
+          active.push_back({i, j, k});
+        else if (std::min(std::abs(lo), std::abs(hi)) < reach)
+          active.push_back({i, j, k});
       }
   if (active.empty()) throw Error("isosurface", 0, "the distance function has no zero set inside the box");
   // The surface must close inside the box: no block-lattice point on the box faces is inside.
@@ -132,7 +135,8 @@ Mesh extract_isosurface(const DistanceFunction& f, const IsosurfaceOptions& o) {
       t = std::clamp(ta + (tb - ta) * va / (va - vb), ta, tb);
     }
     const auto id = static_cast<std::int32_t>(mesh.positions.size() / 3);
-    for (int c = 0; c < 3; ++c) mesh.positions.push_back(static_cast<float>(pa[c] + t * (pb[c] - pa[c])));
+    for (int c = 0; c < 3; ++c)
+      mesh.positions.push_back(static_cast<float>(pa[c] + t * (pb[c] - pa[c])));
     edge_vertex.emplace(key, id);
     return id;
   };
@@ -162,7 +166,8 @@ Mesh extract_isosurface(const DistanceFunction& f, const IsosurfaceOptions& o) {
     in_p = coords(ea.first);
     out_p = coords(ea.second);
     const Eigen::Vector3d dir(out_p[0] - in_p[0], out_p[1] - in_p[1], out_p[2] - in_p[2]);
-    std::int32_t a = crossing(ea.first, ea.second), b = crossing(eb.first, eb.second), c = crossing(ec.first, ec.second);
+    std::int32_t a = crossing(ea.first, ea.second), b = crossing(eb.first, eb.second),
+                 c = crossing(ec.first, ec.second);
     if ((pb - pa).cross(pc - pa).dot(dir) < 0) std::swap(b, c);
     mesh.triangles.insert(mesh.triangles.end(), {a, b, c});
   };
@@ -182,7 +187,8 @@ Mesh extract_isosurface(const DistanceFunction& f, const IsosurfaceOptions& o) {
           if (count == 0 || count == 8) continue;
           for (const auto& tet : TETS) {
             int in[4], out[4], ni = 0, no = 0;
-            for (int v : tet) (inside[v] ? in[ni++] : out[no++]) = v;
+            for (int v : tet)
+              (inside[v] ? in[ni++] : out[no++]) = v;
             if (ni == 0 || no == 0) continue;
             if (ni == 1) {
               emit({id[in[0]], id[out[0]]}, {id[in[0]], id[out[1]]}, {id[in[0]], id[out[2]]});

@@ -18,7 +18,7 @@ using DistanceFunction = std::function<double(double x, double y, double z)>;
 struct IsosurfaceOptions {
   std::array<double, 3> box_min{-1, -1, -1}; ///< the grid's box (m); the surface must lie inside
   std::array<double, 3> box_max{1, 1, 1};
-  double cell_size = 0.01;  ///< grid spacing h (m)
+  double cell_size = 0.01; ///< grid spacing h (m)
   /// Bound on |∇f| used to skip coarse blocks far from the surface (≥ 1; larger is safer).
   double lipschitz = 2.0;
   /// Secant refinements of each edge crossing against `f` (0: linear interpolation only).

@@ -37,15 +37,13 @@ struct Mesh {
 
 /// Where a mesh's elements came from, so that validation can name them in errors.
 struct MeshSource {
-  std::string path;                     ///< the file (or a name such as "garment")
-  bool text = true;                     ///< true: face_origin holds 1-based line numbers;
-                                        ///< false: 1-based face element indices (binary files)
+  std::string path;                      ///< the file (or a name such as "garment")
+  bool text = true;                      ///< true: face_origin holds 1-based line numbers;
+                                         ///< false: 1-based face element indices (binary files)
   std::vector<std::int64_t> face_origin; ///< #F (may be empty: origins unknown)
 
   /// "<path>:<line>" or "<path>: face <n>" style location of triangle f, for messages.
-  std::int64_t line_of(std::size_t f) const {
-    return text && f < face_origin.size() ? face_origin[f] : 0;
-  }
+  std::int64_t line_of(std::size_t f) const { return text && f < face_origin.size() ? face_origin[f] : 0; }
   std::string element_of(std::size_t f) const {
     if (text && f < face_origin.size()) return "";
     return "face " + std::to_string(f < face_origin.size() ? face_origin[f] : static_cast<std::int64_t>(f) + 1) + ": ";
@@ -63,7 +61,7 @@ struct ParsedMesh {
 /// A skeleton and per-vertex skin weights attached to a mesh, for writers of rigged files
 /// (glTF skins). Joint positions are the bind (rest) pose, world space (m).
 struct MeshSkin {
-  std::vector<std::string> joint_names;   ///< #J
+  std::vector<std::string> joint_names;    ///< #J
   std::vector<std::int32_t> joint_parents; ///< #J, −1 for a root; parents precede children
   std::vector<float> joint_positions;      ///< #J × 3
   std::vector<std::int32_t> joints;        ///< #V × 4 joint indices

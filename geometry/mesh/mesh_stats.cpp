@@ -15,7 +15,8 @@ MeshStats mesh_stats(const Mesh& mesh) {
   // leftovers) would otherwise set the extent, and with it the detected units. A point cloud
   // (no faces) is all vertices.
   std::vector<char> counted(nv, nf == 0);
-  for (const std::int32_t v : mesh.triangles) counted[static_cast<std::size_t>(v)] = 1;
+  for (const std::int32_t v : mesh.triangles)
+    counted[static_cast<std::size_t>(v)] = 1;
   s.bbox_min = {INFINITY, INFINITY, INFINITY};
   s.bbox_max = {-INFINITY, -INFINITY, -INFINITY};
   for (std::size_t v = 0; v < nv; ++v)
@@ -32,7 +33,8 @@ MeshStats mesh_stats(const Mesh& mesh) {
   double edge_sum = 0;
   for (std::size_t f = 0; f < nf; ++f) {
     const float* p[3];
-    for (int k = 0; k < 3; ++k) p[k] = &mesh.positions[3 * static_cast<std::size_t>(mesh.triangles[3 * f + k])];
+    for (int k = 0; k < 3; ++k)
+      p[k] = &mesh.positions[3 * static_cast<std::size_t>(mesh.triangles[3 * f + k])];
     double u[3], w[3];
     for (int k = 0; k < 3; ++k) {
       u[k] = double(p[1][k]) - p[0][k];

@@ -24,10 +24,10 @@ constexpr std::int64_t ABSENT = INT64_MIN;
 // so chunks need no knowledge of what came before them.
 struct ObjChunk {
   std::vector<float> v, vt, vn;
-  std::vector<std::int64_t> cv, cvt, cvn; // per corner; ABSENT in cvt/cvn: no index
-  std::vector<std::uint8_t> relative;     // per corner
-  std::vector<std::int32_t> poly_size;    // corners per polygon
-  std::vector<std::int64_t> poly_line;    // 0-based line within the chunk
+  std::vector<std::int64_t> cv, cvt, cvn;                  // per corner; ABSENT in cvt/cvn: no index
+  std::vector<std::uint8_t> relative;                      // per corner
+  std::vector<std::int32_t> poly_size;                     // corners per polygon
+  std::vector<std::int64_t> poly_line;                     // 0-based line within the chunk
   std::vector<std::pair<std::size_t, std::string>> groups; // (polygon index, name)
   std::int64_t lines = 0;
   std::int64_t error_line = -1; // first error, 0-based line within the chunk
@@ -40,12 +40,14 @@ struct ObjChunk {
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
 
 const char* skip_spaces(const char* p, const char* e) {
-  while (p < e && is_space(*p)) ++p;
+  while (p < e && is_space(*p))
+    ++p;
   return p;
 }
 
 const char* token_end(const char* p, const char* e) {
-  while (p < e && !is_space(*p)) ++p;
+  while (p < e && !is_space(*p))
+    ++p;
   return p;
 }
 
@@ -80,7 +82,8 @@ std::string parse_corner(const char* b, const char* e, ObjChunk& c) {
   const char* p = b;
   for (int k = 0; k < 3 && p <= e; ++k) {
     const char* q = p;
-    while (q < e && *q != '/') ++q;
+    while (q < e && *q != '/')
+      ++q;
     if (q > p) {
       auto r = std::from_chars(p, q, idx[k]);
       if (r.ec != std::errc() || r.ptr != q) return "bad face index " + quoted(b, e);
@@ -93,8 +96,7 @@ std::string parse_corner(const char* b, const char* e, ObjChunk& c) {
     p = q + 1;
     if (k == 2) return "bad face index " + quoted(b, e);
   }
-  const std::int64_t counts[3] = {static_cast<std::int64_t>(c.v.size() / 3),
-                                  static_cast<std::int64_t>(c.vt.size() / 2),
+  const std::int64_t counts[3] = {static_cast<std::int64_t>(c.v.size() / 3), static_cast<std::int64_t>(c.vt.size() / 2),
                                   static_cast<std::int64_t>(c.vn.size() / 3)};
   std::uint8_t rel = 0;
   std::int64_t out[3] = {ABSENT, ABSENT, ABSENT};
@@ -162,7 +164,8 @@ void parse_chunk(const char* begin, const char* end, ObjChunk& c) {
       } else if ((klen == 1 && (s[0] == 'g' || s[0] == 'o'))) {
         const char* nb = skip_spaces(a, le);
         const char* ne = le;
-        while (ne > nb && is_space(ne[-1])) --ne;
+        while (ne > nb && is_space(ne[-1]))
+          --ne;
         c.groups.emplace_back(c.poly_size.size(), nb < ne ? std::string(nb, ne) : std::string("default"));
       } else if (!(klen == 1 && (s[0] == 's' || s[0] == 'l' || s[0] == 'p')) &&
                  !(klen == 6 && (std::memcmp(s, "usemtl", 6) == 0 || std::memcmp(s, "mtllib", 6) == 0)) &&
@@ -206,7 +209,8 @@ ParsedMesh read_obj(std::string_view bytes, const std::string& path) {
   const std::size_t nchunks = starts.size() - 1;
   std::vector<ObjChunk> chunks(nchunks);
   parallel_for_range(nchunks, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) parse_chunk(starts[i], starts[i + 1], chunks[i]);
+    for (std::size_t i = b; i < e; ++i)
+      parse_chunk(starts[i], starts[i + 1], chunks[i]);
   });
 
   // Prefix sums over chunks: first line, vertices, uvs, normals, corners, polygons, triangles.
@@ -218,7 +222,8 @@ ParsedMesh read_obj(std::string_view bytes, const std::string& path) {
     const ObjChunk& c = chunks[i];
     if (c.error_line >= 0) throw Error(path, off[i].line + c.error_line + 1, c.error);
     std::int64_t tris = 0;
-    for (std::int32_t n : c.poly_size) tris += n - 2;
+    for (std::int32_t n : c.poly_size)
+      tris += n - 2;
     off[i + 1] = {off[i].line + c.lines, off[i].v + static_cast<std::int64_t>(c.v.size() / 3),
                   off[i].vt + static_cast<std::int64_t>(c.vt.size() / 2),
                   off[i].vn + static_cast<std::int64_t>(c.vn.size() / 3), off[i].tri + tris};
@@ -299,7 +304,8 @@ ParsedMesh read_obj(std::string_view bytes, const std::string& path) {
 
   // Stitch chunks in parallel: copy element arrays, resolve indices, fan-triangulate.
   std::vector<std::size_t> poly_offset(nchunks + 1, 0);
-  for (std::size_t i = 0; i < nchunks; ++i) poly_offset[i + 1] = poly_offset[i] + chunks[i].poly_size.size();
+  for (std::size_t i = 0; i < nchunks; ++i)
+    poly_offset[i + 1] = poly_offset[i] + chunks[i].poly_size.size();
   std::vector<std::string> errors(nchunks);
   std::vector<std::int64_t> error_lines(nchunks, 0);
   parallel_for_range(nchunks, 1, [&](std::size_t b, std::size_t e) {
@@ -321,8 +327,8 @@ ParsedMesh read_obj(std::string_view bytes, const std::string& path) {
           return false;
         };
         // Resolves one optional attribute index (texture or normal) of corner k.
-        auto attribute = [&](std::int64_t raw, bool rel, std::int64_t offset, std::int64_t count,
-                             std::int32_t missing, const char* what, std::int32_t& dst) {
+        auto attribute = [&](std::int64_t raw, bool rel, std::int64_t offset, std::int64_t count, std::int32_t missing,
+                             const char* what, std::int32_t& dst) {
           if (raw == ABSENT) {
             dst = missing;
             return true;
@@ -366,7 +372,8 @@ ParsedMesh read_obj(std::string_view bytes, const std::string& path) {
     if (!errors[i].empty()) throw Error(path, error_lines[i], errors[i]);
 
   std::int64_t unknown = 0;
-  for (const ObjChunk& c : chunks) unknown += c.unknown_count;
+  for (const ObjChunk& c : chunks)
+    unknown += c.unknown_count;
   if (unknown > 0) {
     for (std::size_t i = 0; i < nchunks; ++i)
       if (chunks[i].unknown_count > 0) {

@@ -17,7 +17,6 @@ namespace {
 using text::is_space;
 using text::Words;
 
-
 /// A word from the file, made printable and short enough for a one-line message.
 std::string quoted(std::string_view word) {
   std::string s = "'";

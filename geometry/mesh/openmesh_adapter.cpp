@@ -38,7 +38,8 @@ std::size_t half_edge_boundary_loops(const HalfEdgeMesh& mesh) {
   for (auto he : om.halfedges()) {
     if (!om.is_boundary(he) || seen[he.idx()]) continue;
     ++loops;
-    for (auto h = he; !seen[h.idx()]; h = om.next_halfedge_handle(h)) seen[h.idx()] = 1;
+    for (auto h = he; !seen[h.idx()]; h = om.next_halfedge_handle(h))
+      seen[h.idx()] = 1;
   }
   return loops;
 }
@@ -52,7 +53,8 @@ Mesh from_half_edge_mesh(const HalfEdgeMesh& mesh) {
     out.positions.insert(out.positions.end(), {p[0], p[1], p[2]});
   }
   for (auto f : om.faces())
-    for (auto v : om.fv_range(f)) out.triangles.push_back(v.idx());
+    for (auto v : om.fv_range(f))
+      out.triangles.push_back(v.idx());
   return out;
 }
 

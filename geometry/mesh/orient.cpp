@@ -23,7 +23,8 @@ double triangle_area(const Mesh& m, std::size_t f) {
 // Turns triangle f over (corners 1 and 2 swapped), its UV and normal corners with it.
 void turn_over(Mesh& mesh, std::size_t f) {
   std::swap(mesh.triangles[3 * f + 1], mesh.triangles[3 * f + 2]);
-  if (mesh.uv_triangles.size() == mesh.triangles.size()) std::swap(mesh.uv_triangles[3 * f + 1], mesh.uv_triangles[3 * f + 2]);
+  if (mesh.uv_triangles.size() == mesh.triangles.size())
+    std::swap(mesh.uv_triangles[3 * f + 1], mesh.uv_triangles[3 * f + 2]);
   if (mesh.normal_triangles.size() == mesh.triangles.size())
     std::swap(mesh.normal_triangles[3 * f + 1], mesh.normal_triangles[3 * f + 2]);
 }
@@ -119,7 +120,8 @@ double signed_volume(const Mesh& mesh) {
       return std::array<double, 3>{mesh.positions[v], mesh.positions[v + 1], mesh.positions[v + 2]};
     };
     const auto a = p(0), b = p(1), c = p(2);
-    six_v += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+    six_v +=
+        a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
   }
   return six_v / 6;
 }

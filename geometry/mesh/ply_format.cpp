@@ -71,7 +71,6 @@ struct Header {
   std::int64_t header_lines = 0;
 };
 
-
 std::vector<std::string_view> split(std::string_view line) {
   std::vector<std::string_view> out;
   Words words(line);

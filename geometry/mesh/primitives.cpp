@@ -29,7 +29,8 @@ Mesh make_uv_sphere(int rings, int segments, float radius) {
   // UVs: (segments + 1) columns per latitude row so the seam gets its own column.
   auto uv_index = [&](int i, int j) { return i * (segments + 1) + j; };
   for (int i = 0; i <= rings; ++i)
-    for (int j = 0; j <= segments; ++j) m.uvs.insert(m.uvs.end(), {float(j) / float(segments), 1.0f - float(i) / float(rings)});
+    for (int j = 0; j <= segments; ++j)
+      m.uvs.insert(m.uvs.end(), {float(j) / float(segments), 1.0f - float(i) / float(rings)});
   auto tri = [&](int a, int b, int c, int ua, int ub, int uc) {
     m.triangles.insert(m.triangles.end(), {a, b, c});
     m.uv_triangles.insert(m.uv_triangles.end(), {ua, ub, uc});
@@ -58,7 +59,8 @@ Mesh make_tube(int rings, int segments, float radius, float length) {
     }
   }
   for (int i = 0; i < rings; ++i)
-    for (int j = 0; j <= segments; ++j) m.uvs.insert(m.uvs.end(), {float(j) / float(segments), float(i) / float(rings - 1)});
+    for (int j = 0; j <= segments; ++j)
+      m.uvs.insert(m.uvs.end(), {float(j) / float(segments), float(i) / float(rings - 1)});
   auto v = [&](int i, int j) { return i * segments + (j % segments); };
   auto t = [&](int i, int j) { return i * (segments + 1) + j; };
   for (int i = 0; i + 1 < rings; ++i)
@@ -99,7 +101,8 @@ Mesh make_solidified(const Mesh& outer, float thickness, bool stitched) {
   for (std::size_t f = 0; f < nf; ++f) {
     const std::int32_t* t = &outer.triangles[3 * f];
     const Eigen::Vector3f n = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
-    for (int k = 0; k < 3; ++k) normal[std::size_t(t[k])] += n;
+    for (int k = 0; k < 3; ++k)
+      normal[std::size_t(t[k])] += n;
   }
   Mesh m;
   m.positions = outer.positions;

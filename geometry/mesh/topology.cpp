@@ -46,7 +46,8 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
   r.faces = nf;
 
   std::vector<char> referenced(vertex_count, 0);
-  for (std::int32_t v : triangles) referenced[v] = 1;
+  for (std::int32_t v : triangles)
+    referenced[v] = 1;
   const std::size_t nref = static_cast<std::size_t>(std::count(referenced.begin(), referenced.end(), 1));
   r.unreferenced_vertices = vertex_count - nref;
 
@@ -62,11 +63,12 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
   auto to = [&](std::uint32_t c) { return static_cast<std::uint32_t>(triangles[c % 3 == 2 ? c - 2 : c + 1]); };
 
   DisjointSets vertex_sets(vertex_count);
-  DisjointSets corner_sets(3 * nf); // corners joined across manifold edges: fans around vertices
+  DisjointSets corner_sets(3 * nf);    // corners joined across manifold edges: fans around vertices
   std::vector<std::uint32_t> boundary; // corners whose outgoing edge is a boundary edge
   for (std::size_t i = 0; i < half.size();) {
     std::size_t j = i;
-    while (j < half.size() && half[j].key == half[i].key) ++j;
+    while (j < half.size() && half[j].key == half[i].key)
+      ++j;
     const std::size_t count = j - i;
     ++r.edges;
     vertex_sets.unite(from(half[i].corner), to(half[i].corner));
@@ -77,8 +79,11 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
       const std::uint32_t c1 = half[i].corner, c2 = half[i + 1].corner;
       if (from(c1) == from(c2)) ++r.inconsistent_edges;
       // Join the two faces' corners at each end of the shared edge.
-      auto corner_at = [&](std::uint32_t c, std::uint32_t v) { return from(c) == v ? c : (c % 3 == 2 ? c - 2 : c + 1); };
-      for (std::uint32_t v : {from(c1), to(c1)}) corner_sets.unite(corner_at(c1, v), corner_at(c2, v));
+      auto corner_at = [&](std::uint32_t c, std::uint32_t v) {
+        return from(c) == v ? c : (c % 3 == 2 ? c - 2 : c + 1);
+      };
+      for (std::uint32_t v : {from(c1), to(c1)})
+        corner_sets.unite(corner_at(c1, v), corner_at(c2, v));
     } else {
       ++r.non_manifold_edges;
     }
@@ -90,7 +95,8 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
   std::vector<char> flagged(vertex_count, 0);
   for (std::uint32_t c = 0; c < 3 * nf; ++c) {
     const std::uint32_t v = from(c), root = corner_sets.find(c);
-    if (fan_root[v] == UINT32_MAX) fan_root[v] = root;
+    if (fan_root[v] == UINT32_MAX)
+      fan_root[v] = root;
     else if (fan_root[v] != root && !flagged[v]) {
       flagged[v] = 1;
       ++r.non_manifold_vertices;
@@ -107,7 +113,8 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
     ++incident_offset[from(c) + 1];
     ++incident_offset[to(c) + 1];
   }
-  for (std::size_t v = 0; v < vertex_count; ++v) incident_offset[v + 1] += incident_offset[v];
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    incident_offset[v + 1] += incident_offset[v];
   std::vector<std::uint32_t> incident(2 * boundary.size()); // boundary edge numbers per vertex
   {
     std::vector<std::uint32_t> cursor(incident_offset.begin(), incident_offset.end() - 1);
@@ -125,7 +132,8 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
     std::uint32_t v = to(boundary[s]);
     while (true) {
       std::uint32_t& k = next_unused[v];
-      while (k < incident_offset[v + 1] && used[incident[k]]) ++k;
+      while (k < incident_offset[v + 1] && used[incident[k]])
+        ++k;
       if (k >= incident_offset[v + 1]) break; // back at the start (or an open chain at a pinch)
       const std::uint32_t e = incident[k];
       used[e] = 1;
@@ -133,7 +141,8 @@ TopologyReport analyse_topology(std::span<const std::int32_t> triangles, std::si
     }
   }
 
-  r.euler_characteristic = static_cast<std::int64_t>(nref) - static_cast<std::int64_t>(r.edges) + static_cast<std::int64_t>(nf);
+  r.euler_characteristic =
+      static_cast<std::int64_t>(nref) - static_cast<std::int64_t>(r.edges) + static_cast<std::int64_t>(nf);
   return r;
 }
 
@@ -141,7 +150,8 @@ std::vector<std::int32_t> vertex_piece_labels(std::span<const std::int32_t> tria
   std::vector<std::int32_t> parent(vertex_count);
   std::iota(parent.begin(), parent.end(), 0);
   auto root = [&](std::int32_t v) {
-    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
+    while (parent[std::size_t(v)] != v)
+      v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
     return v;
   };
   for (std::size_t f = 0; 3 * f + 2 < triangles.size(); ++f)
@@ -150,7 +160,8 @@ std::vector<std::int32_t> vertex_piece_labels(std::span<const std::int32_t> tria
       const std::int32_t a = root(triangles[3 * f]), b = root(triangles[3 * f + k]);
       if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b); // the root stays the piece's smallest
     }
-  for (std::size_t v = 0; v < vertex_count; ++v) parent[v] = root(std::int32_t(v));
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    parent[v] = root(std::int32_t(v));
   return parent;
 }
 

@@ -11,17 +11,17 @@
 namespace vfit {
 
 struct TopologyReport {
-  std::size_t vertices = 0;               ///< #V (all, referenced or not)
-  std::size_t unreferenced_vertices = 0;  ///< vertices used by no face
-  std::size_t faces = 0;                  ///< #F
-  std::size_t edges = 0;                  ///< distinct undirected edges
-  std::size_t components = 0;             ///< face-connected components (through shared vertices)
-  std::size_t boundary_edges = 0;         ///< edges used by exactly one face
-  std::size_t boundary_loops = 0;         ///< closed chains of boundary edges (holes, openings)
-  std::size_t non_manifold_edges = 0;     ///< edges used by more than two faces
-  std::size_t non_manifold_vertices = 0;  ///< vertices whose faces form more than one fan
-  std::size_t inconsistent_edges = 0;     ///< manifold edges whose two faces traverse it the same way
-  std::int64_t euler_characteristic = 0;  ///< V − E + F over referenced vertices
+  std::size_t vertices = 0;              ///< #V (all, referenced or not)
+  std::size_t unreferenced_vertices = 0; ///< vertices used by no face
+  std::size_t faces = 0;                 ///< #F
+  std::size_t edges = 0;                 ///< distinct undirected edges
+  std::size_t components = 0;            ///< face-connected components (through shared vertices)
+  std::size_t boundary_edges = 0;        ///< edges used by exactly one face
+  std::size_t boundary_loops = 0;        ///< closed chains of boundary edges (holes, openings)
+  std::size_t non_manifold_edges = 0;    ///< edges used by more than two faces
+  std::size_t non_manifold_vertices = 0; ///< vertices whose faces form more than one fan
+  std::size_t inconsistent_edges = 0;    ///< manifold edges whose two faces traverse it the same way
+  std::int64_t euler_characteristic = 0; ///< V − E + F over referenced vertices
 
   bool manifold() const { return non_manifold_edges == 0 && non_manifold_vertices == 0; }
   bool oriented() const { return inconsistent_edges == 0; }

@@ -98,7 +98,7 @@ std::string body_units_warning(double largest_extent, double max_abs_coordinate,
 
 std::optional<Units> detect_garment_units(double largest_extent, double smallest_extent, double max_abs_coordinate,
                                           double torso_depth) {
-  constexpr double SMALLEST = 0.15, LARGEST = 2.6; // m: as detect_mesh_units()
+  constexpr double SMALLEST = 0.15, LARGEST = 2.6;  // m: as detect_mesh_units()
   constexpr double TIGHTEST = 0.77, LOOSEST = 1.93; // garment's smallest extent / torso depth (units.h)
   if (std::isfinite(largest_extent) && std::isfinite(smallest_extent) && std::isfinite(max_abs_coordinate) &&
       std::isfinite(torso_depth) && torso_depth > 0.0)
@@ -111,7 +111,8 @@ std::optional<Units> detect_garment_units(double largest_extent, double smallest
 }
 
 void scale_positions(std::span<float> positions, double factor) {
-  for (float& x : positions) x = static_cast<float>(x * factor);
+  for (float& x : positions)
+    x = static_cast<float>(x * factor);
 }
 
 } // namespace vfit

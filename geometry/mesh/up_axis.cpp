@@ -49,10 +49,12 @@ std::array<double, 3> mirror_asymmetry(std::span<const float> positions, std::sp
   for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
     double p[3][3];
     for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c) p[k][c] = positions[3 * std::size_t(triangles[f + k]) + c];
+      for (int c = 0; c < 3; ++c)
+        p[k][c] = positions[3 * std::size_t(triangles[f + k]) + c];
     const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
     const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-    const double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    const double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                 cz = e1[0] * e2[1] - e1[1] * e2[0];
     const double a = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
     if (!(a > 0)) continue;
     int cell[3];
@@ -79,24 +81,28 @@ std::array<double, 3> mirror_asymmetry(std::span<const float> positions, std::sp
   return result;
 }
 
-std::array<double, 3> normal_direction_shares(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+std::array<double, 3> normal_direction_shares(std::span<const float> positions,
+                                              std::span<const std::int32_t> triangles) {
   std::array<double, 3> share{0, 0, 0};
   double total = 0;
   for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
     double p[3][3];
     for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c) p[k][c] = positions[3 * std::size_t(triangles[f + std::size_t(k)]) + std::size_t(c)];
+      for (int c = 0; c < 3; ++c)
+        p[k][c] = positions[3 * std::size_t(triangles[f + std::size_t(k)]) + std::size_t(c)];
     const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
     const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
     const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
     const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
     if (!(n2 > 0)) continue;
     const double twice_area = std::sqrt(n2);
-    for (int c = 0; c < 3; ++c) share[std::size_t(c)] += n[c] * n[c] / twice_area; // area · n̂_c², times 2
+    for (int c = 0; c < 3; ++c)
+      share[std::size_t(c)] += n[c] * n[c] / twice_area; // area · n̂_c², times 2
     total += twice_area;
   }
   if (total > 0)
-    for (double& x : share) x /= total;
+    for (double& x : share)
+      x /= total;
   return share;
 }
 
@@ -108,8 +114,10 @@ std::optional<UpAxis> detect_up_axis(std::span<const float> positions, std::span
   const auto share = normal_direction_shares(positions, triangles);
   std::optional<UpAxis> up;
   int axis = 0;
-  if (share[1] * NORMAL_RATIO <= share[2]) up = UpAxis::POS_Y, axis = 1;
-  else if (share[2] * NORMAL_RATIO <= share[1]) up = UpAxis::POS_Z, axis = 2;
+  if (share[1] * NORMAL_RATIO <= share[2])
+    up = UpAxis::POS_Y, axis = 1;
+  else if (share[2] * NORMAL_RATIO <= share[1])
+    up = UpAxis::POS_Z, axis = 2;
   if (!up) return std::nullopt;
   const auto asym = mirror_asymmetry(positions, triangles);
   if (!(asym[0] + SYMMETRY_MARGIN <= asym[std::size_t(axis)])) return std::nullopt;

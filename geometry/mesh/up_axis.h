@@ -43,7 +43,8 @@ std::array<double, 3> mirror_asymmetry(std::span<const float> positions, std::sp
 /// Σ_f area_f n_f,a² / Σ_f area_f, summing to 1 (all zeros without area). A garment wraps
 /// around the body, its normals point out sideways, front and back, rarely up: the up axis
 /// holds the smallest share, the front–back axis the largest.
-std::array<double, 3> normal_direction_shares(std::span<const float> positions, std::span<const std::int32_t> triangles);
+std::array<double, 3> normal_direction_shares(std::span<const float> positions,
+                                              std::span<const std::int32_t> triangles);
 
 /// The up axis of a garment file whose left–right axis is X, as a file is written in either
 /// convention (Y up facing +Z: OBJ, glTF; Z up facing −Y: Blender, scanners): +Y or +Z, or

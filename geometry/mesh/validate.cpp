@@ -11,16 +11,13 @@
 namespace vfit {
 namespace {
 
-std::string plural(std::size_t n, const char* word) {
-  return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
-}
+std::string plural(std::size_t n, const char* word) { return std::to_string(n) + " " + word + (n == 1 ? "" : "s"); }
 
 [[noreturn]] void fail_face(const MeshSource& src, std::size_t f, const std::string& what) {
   throw Error(src.path, src.line_of(f), src.element_of(f) + what);
 }
 
-void check_indices(const std::vector<std::int32_t>& tris, std::size_t count, const char* what,
-                   const MeshSource& src) {
+void check_indices(const std::vector<std::int32_t>& tris, std::size_t count, const char* what, const MeshSource& src) {
   for (std::size_t i = 0; i < tris.size(); ++i) {
     const std::int32_t v = tris[i];
     if (v < 0 || static_cast<std::size_t>(v) >= count)
@@ -67,14 +64,17 @@ void validate_mesh(Mesh& mesh, MeshSource& source, const ValidationOptions& opti
                       (std::isnan(mesh.positions[i]) ? "NaN" : "infinite"));
   check_indices(mesh.triangles, nv, "vertex", source);
   if (mesh.has_uvs()) {
-    if (mesh.uv_triangles.size() != mesh.triangles.size()) throw Error(source.path, 0, "internal: UV index count differs from triangles");
+    if (mesh.uv_triangles.size() != mesh.triangles.size())
+      throw Error(source.path, 0, "internal: UV index count differs from triangles");
     check_indices(mesh.uv_triangles, mesh.uvs.size() / 2, "texture coordinate", source);
   }
   if (mesh.has_normals()) {
-    if (mesh.normal_triangles.size() != mesh.triangles.size()) throw Error(source.path, 0, "internal: normal index count differs from triangles");
+    if (mesh.normal_triangles.size() != mesh.triangles.size())
+      throw Error(source.path, 0, "internal: normal index count differs from triangles");
     check_indices(mesh.normal_triangles, mesh.normals.size() / 3, "normal", source);
   }
-  if (mesh.has_labels() && mesh.face_labels.size() != nf) throw Error(source.path, 0, "internal: label count differs from faces");
+  if (mesh.has_labels() && mesh.face_labels.size() != nf)
+    throw Error(source.path, 0, "internal: label count differs from faces");
 
   std::vector<char> drop(nf, 0);
   std::size_t degenerate = 0, duplicate = 0;
@@ -82,8 +82,9 @@ void validate_mesh(Mesh& mesh, MeshSource& source, const ValidationOptions& opti
     const std::int32_t a = mesh.triangles[3 * f], b = mesh.triangles[3 * f + 1], c = mesh.triangles[3 * f + 2];
     if (a == b || b == c || a == c) {
       if (!options.repair)
-        fail_face(source, f, "degenerate face: vertex " + std::to_string((a == b || a == c ? a : b) + 1) +
-                                 " is used twice (use --repair to drop such faces)");
+        fail_face(source, f,
+                  "degenerate face: vertex " + std::to_string((a == b || a == c ? a : b) + 1) +
+                      " is used twice (use --repair to drop such faces)");
       drop[f] = 1;
       ++degenerate;
     }

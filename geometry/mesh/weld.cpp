@@ -35,7 +35,8 @@ WeldReport weld_coincident_vertices(Mesh& mesh) {
   // probing) over a power-of-two table at most half full, keyed by the coordinates' bits.
   std::vector<std::int32_t> first(nv, -1);
   std::size_t slots = 16;
-  while (slots < 2 * nv) slots *= 2;
+  while (slots < 2 * nv)
+    slots *= 2;
   std::vector<std::int32_t> table(slots, -1);
   const float* p = mesh.positions.data();
   auto same = [&](std::size_t a, std::size_t b) {
@@ -78,7 +79,8 @@ WeldReport weld_coincident_vertices(Mesh& mesh) {
   std::size_t out = 0;
   for (std::size_t f = 0; f < nf; ++f) {
     std::int32_t t[3];
-    for (int k = 0; k < 3; ++k) t[k] = renumber[std::size_t(first[std::size_t(mesh.triangles[3 * f + std::size_t(k)])])];
+    for (int k = 0; k < 3; ++k)
+      t[k] = renumber[std::size_t(first[std::size_t(mesh.triangles[3 * f + std::size_t(k)])])];
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
       ++report.collapsed;
       continue;
@@ -86,7 +88,8 @@ WeldReport weld_coincident_vertices(Mesh& mesh) {
     for (int k = 0; k < 3; ++k) {
       mesh.triangles[3 * out + std::size_t(k)] = t[k];
       if (mesh.has_uvs()) mesh.uv_triangles[3 * out + std::size_t(k)] = mesh.uv_triangles[3 * f + std::size_t(k)];
-      if (mesh.has_normals()) mesh.normal_triangles[3 * out + std::size_t(k)] = mesh.normal_triangles[3 * f + std::size_t(k)];
+      if (mesh.has_normals())
+        mesh.normal_triangles[3 * out + std::size_t(k)] = mesh.normal_triangles[3 * f + std::size_t(k)];
     }
     if (mesh.has_labels()) mesh.face_labels[out] = mesh.face_labels[f];
     ++out;
@@ -125,7 +128,9 @@ WeldReport weld_seams(Mesh& mesh, float relative_tolerance) {
   if (!(tol > 0)) return report;
   // A grid of cells of the tolerance: a vertex's earlier neighbours within it lie in the 27
   // cells around its own.
-  auto cell = [&](std::size_t v, int c) { return std::int64_t(std::floor(double(mesh.positions[3 * v + std::size_t(c)]) / tol)); };
+  auto cell = [&](std::size_t v, int c) {
+    return std::int64_t(std::floor(double(mesh.positions[3 * v + std::size_t(c)]) / tol));
+  };
   auto cell_key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
     return std::uint64_t(x) * 0x9e3779b97f4a7c15ull ^ std::uint64_t(y) * 0xc2b2ae3d27d4eb4full ^
            std::uint64_t(z) * 0x165667b19e3779f9ull;

@@ -23,7 +23,8 @@ struct WeldReport {
 /// became one vertex, and renumbers the rest keeping their order. Per-corner UV and normal
 /// indices and per-face labels follow their triangles (seams in UVs stay seams). A mesh with
 /// nothing to weld or drop is left untouched (the same vertex numbering). Linear in the mesh
-/// (an open-addressing hash of the positions' bits). Positions are compared exactly: layers a little apart (a lining) stay apart.
+/// (an open-addressing hash of the positions' bits). Positions are compared exactly: layers a little apart (a lining)
+/// stay apart.
 WeldReport weld_coincident_vertices(Mesh& mesh);
 
 /// weld_coincident_vertices(), then the same for the vertices on open boundaries (edges of one

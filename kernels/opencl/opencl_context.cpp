@@ -1,8 +1,8 @@
 #include "opencl_impl.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cctype>
+#include <chrono>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -66,8 +66,8 @@ std::string describe(const std::vector<Enumerated>& all) {
   if (all.empty()) return "no OpenCL device is installed (on Debian: apt-get install pocl-opencl-icd)";
   std::string s = "available devices:";
   for (const auto& e : all)
-    s += " [" + std::to_string(e.info.flat_index) + "] " + e.info.device_name + " (" + e.info.platform_name +
-         ", " + e.info.device_type + ");";
+    s += " [" + std::to_string(e.info.flat_index) + "] " + e.info.device_name + " (" + e.info.platform_name + ", " +
+         e.info.device_type + ");";
   s.pop_back();
   return s;
 }
@@ -91,8 +91,8 @@ const Enumerated& pick(const std::vector<Enumerated>& all, std::string_view sele
     std::size_t i = std::stoul(selector);
     if (i < all.size()) return all[i];
   } else if (auto colon = selector.find(':'); colon != std::string::npos &&
-                                                all_digits(std::string_view(selector).substr(0, colon)) &&
-                                                all_digits(std::string_view(selector).substr(colon + 1))) {
+                                              all_digits(std::string_view(selector).substr(0, colon)) &&
+                                              all_digits(std::string_view(selector).substr(colon + 1))) {
     int p = std::stoi(selector.substr(0, colon)), d = std::stoi(selector.substr(colon + 1));
     for (const auto& e : all)
       if (e.info.platform_index == p && e.info.device_index == d) return e;
@@ -117,7 +117,8 @@ void throw_opencl_error(const cl::Error& e, const char* what) {
 
 std::vector<OpenClDeviceInfo> list_opencl_devices() {
   std::vector<OpenClDeviceInfo> out;
-  for (auto& e : enumerate()) out.push_back(e.info);
+  for (auto& e : enumerate())
+    out.push_back(e.info);
   return out;
 }
 
@@ -147,12 +148,13 @@ const OpenClDeviceInfo& OpenClContext::device() const { return m_impl->info; }
 
 double OpenClContext::copy_bandwidth_gbps(std::size_t bytes, int repeats) {
   if (bytes == 0 || repeats < 1)
-    throw Error("opencl", 0, "copy_bandwidth_gbps needs bytes > 0 and repeats >= 1 (got " + std::to_string(bytes) +
-                                 ", " + std::to_string(repeats) + ")");
+    throw Error("opencl", 0,
+                "copy_bandwidth_gbps needs bytes > 0 and repeats >= 1 (got " + std::to_string(bytes) + ", " +
+                    std::to_string(repeats) + ")");
   if (bytes > m_impl->info.global_memory_bytes / 2)
-    throw Error("opencl", 0, "copy_bandwidth_gbps: two buffers of " + std::to_string(bytes) + " bytes exceed " +
-                                 m_impl->info.device_name + "'s " +
-                                 std::to_string(m_impl->info.global_memory_bytes) + " bytes");
+    throw Error("opencl", 0,
+                "copy_bandwidth_gbps: two buffers of " + std::to_string(bytes) + " bytes exceed " +
+                    m_impl->info.device_name + "'s " + std::to_string(m_impl->info.global_memory_bytes) + " bytes");
   try {
     cl::Buffer from(m_impl->context, CL_MEM_READ_WRITE, bytes);
     cl::Buffer to(m_impl->context, CL_MEM_READ_WRITE, bytes);
@@ -185,7 +187,8 @@ cl::Program& OpenClContext::Impl::program(const std::string& name, const char* s
     prog.build({device}, "-cl-fp32-correctly-rounded-divide-sqrt");
   } catch (const cl::BuildError& err) {
     std::string log;
-    for (const auto& [dev, text] : err.getBuildLog()) log += text;
+    for (const auto& [dev, text] : err.getBuildLog())
+      log += text;
     throw std::runtime_error("OpenCL: building " + name + ".cl failed on " + info.device_name + ":\n" + log);
   } catch (const cl::Error& err) {
     throw_opencl_error(err, ("building " + name + ".cl").c_str());

@@ -204,7 +204,8 @@ TEST_P(CorpusDriving, JointsAloneNeitherShiftTheGarmentSidewaysNorSinkIt) {
   double mean = 0;
   for (std::size_t v = 0; v < nv; ++v) {
     Eigen::Vector3d e;
-    for (int c = 0; c < 3; ++c) e[c] = double(d.positions[3 * v + c]) - double(garment.positions[3 * v + c]);
+    for (int c = 0; c < 3; ++c)
+      e[c] = double(d.positions[3 * v + c]) - double(garment.positions[3 * v + c]);
     shift += e;
     mean += e.norm();
   }

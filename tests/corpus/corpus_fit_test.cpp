@@ -178,7 +178,8 @@ TEST_P(CorpusFit, PenetrationRemovalDrawsNoEdgeFarOut) {
   const std::string name = std::get<1>(GetParam());
   const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
   if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
-  if (!expected_type(name)) GTEST_SKIP() << name << " is not a garment on its own (MeetsIssue7sBars checks it is refused)";
+  if (!expected_type(name))
+    GTEST_SKIP() << name << " is not a garment on its own (MeetsIssue7sBars checks it is refused)";
   Mesh garment = read_mesh(path).mesh;
   scale_positions(garment.positions, 0.1); // MakeHuman files are in decimetres
   const PosedBody& body = posed(pose);

@@ -33,7 +33,8 @@ std::map<std::string, ManifestRow> manifest_rows(const std::filesystem::path& co
     std::vector<std::string> cells;
     std::stringstream ss(line);
     std::string cell;
-    while (std::getline(ss, cell, '|')) cells.push_back(cell);
+    while (std::getline(ss, cell, '|'))
+      cells.push_back(cell);
     if (cells.size() < 12) continue;
     auto trim = [](std::string s) {
       s.erase(0, s.find_first_not_of(" `"));
@@ -107,7 +108,8 @@ TEST(CorpusMeshes, InfoPrintsASaneSummaryOfTheBody) {
   EXPECT_EQ(j["watertight"], true);
   EXPECT_EQ(j["euler_characteristic"], 2);
   EXPECT_NEAR(j["largest_extent_m"].get<double>(), 1.6659, 1e-3);
-  const auto glb = test::run_cli({"info", (*corpus / "makehuman" / "derived" / "hm08_body_rigged.glb").string(), "--json"});
+  const auto glb =
+      test::run_cli({"info", (*corpus / "makehuman" / "derived" / "hm08_body_rigged.glb").string(), "--json"});
   ASSERT_EQ(glb.exit_code, 0) << glb.err;
   const auto g = nlohmann::json::parse(glb.out);
   EXPECT_EQ(g["units"], "m");

@@ -20,7 +20,6 @@
 namespace vfit {
 namespace {
 
-
 TEST(CorpusPenetration, FemaleOutfitsEndUpOutsideTheBody) {
   const auto corpus = test::corpus_dir();
   if (!corpus) GTEST_SKIP() << "shared corpus not found (set VFIT_CORPUS or place it at ../shared/corpus)";
@@ -29,8 +28,9 @@ TEST(CorpusPenetration, FemaleOutfitsEndUpOutsideTheBody) {
   scale_positions(body.mesh.positions, 0.1); // MakeHuman files are in decimetres
   const ProximityIndex index(body.mesh.positions, body.mesh.triangles);
   const EdgeCrossingIndex crossings(body.mesh.positions, body.mesh.triangles);
-  for (const char* name : {"female_casualsuit01__tshirt", "female_casualsuit01__jeans", "female_sportsuit01__crop_top",
-                           "female_sportsuit01__leggings", "female_elegantsuit01__skirt", "female_casualsuit02__tshirt"}) {
+  for (const char* name :
+       {"female_casualsuit01__tshirt", "female_casualsuit01__jeans", "female_sportsuit01__crop_top",
+        "female_sportsuit01__leggings", "female_elegantsuit01__skirt", "female_casualsuit02__tshirt"}) {
     SCOPED_TRACE(name);
     ParsedMesh g = read_mesh(dir / "parts_on_hm08" / (std::string(name) + ".obj"));
     scale_positions(g.mesh.positions, 0.1);
@@ -38,7 +38,7 @@ TEST(CorpusPenetration, FemaleOutfitsEndUpOutsideTheBody) {
     const PenetrationReport r = remove_penetration(g.mesh, index, crossings);
     const double stretch = test::mean_edge_length_change(before, g.mesh);
     EXPECT_GT(r.before.inside_count, 0u);
-    EXPECT_LE(r.after.max_depth, 0.0005); // the bar: nothing inside by more than 0.5 mm
+    EXPECT_LE(r.after.max_depth, 0.0005);  // the bar: nothing inside by more than 0.5 mm
     EXPECT_EQ(r.after.crossing_edges, 0u); // the bar: no garment edge crossing the body
     EXPECT_EQ(measure_penetration(g.mesh, index, crossings, 0.002).crossing_edges, 0u);
     EXPECT_LT(stretch, 0.02); // the bar: the garment's shape kept
@@ -100,7 +100,7 @@ TEST(CorpusPenetration, TheLayerOrderOfEachOutfitIsReadFromItsGarments) {
   if (!corpus) GTEST_SKIP() << "shared corpus not found (set VFIT_CORPUS or place it at ../shared/corpus)";
   const auto dir = *corpus / "makehuman" / "derived" / "parts_on_hm08";
   struct Outfit {
-    std::vector<std::string> garments; // in the order given
+    std::vector<std::string> garments;                          // in the order given
     std::vector<std::pair<std::size_t, std::size_t>> relations; // (under, over) that must be found
   };
   const std::vector<Outfit> outfits = {
@@ -133,7 +133,8 @@ TEST(CorpusPenetration, TheLayerOrderOfEachOutfitIsReadFromItsGarments) {
     const LayerOrder found = infer_layer_order(p, given);
     EXPECT_FALSE(found.contradictory);
     std::vector<std::size_t> rank(names.size());
-    for (std::size_t k = 0; k < found.order.size(); ++k) rank[found.order[k]] = k;
+    for (std::size_t k = 0; k < found.order.size(); ++k)
+      rank[found.order[k]] = k;
     for (const auto& [under, over] : outfit.relations) {
       EXPECT_TRUE(std::any_of(found.relations.begin(), found.relations.end(),
                               [&](const LayerRelation& r) { return r.under == under && r.over == over; }))
@@ -144,7 +145,8 @@ TEST(CorpusPenetration, TheLayerOrderOfEachOutfitIsReadFromItsGarments) {
       EXPECT_TRUE(found.relations.empty());
     }
     std::string line;
-    for (std::size_t k : found.order) line += names[k].substr(names[k].find("__") + 2) + " ";
+    for (std::size_t k : found.order)
+      line += names[k].substr(names[k].find("__") + 2) + " ";
     for (const LayerPairVotes& v : found.votes)
       line += "| " + std::to_string(v.first) + "-" + std::to_string(v.second) + ": " + std::to_string(v.first_under) +
               " under, " + std::to_string(v.first_over) + " over ";

@@ -31,7 +31,8 @@ std::optional<GarmentType> expected_type(const std::string& name) {
 std::size_t pieces(const Mesh& m, const std::vector<GarmentPart>& parts, GarmentPart part) {
   std::vector<std::vector<std::int32_t>> nbr(m.vertex_count());
   for (std::size_t f = 0; f < m.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) nbr[m.triangles[3 * f + k]].push_back(m.triangles[3 * f + (k + 1) % 3]);
+    for (int k = 0; k < 3; ++k)
+      nbr[m.triangles[3 * f + k]].push_back(m.triangles[3 * f + (k + 1) % 3]);
   std::vector<char> seen(m.vertex_count(), 0);
   std::size_t count = 0;
   for (std::size_t s = 0; s < m.vertex_count(); ++s) {
@@ -81,7 +82,8 @@ TEST(CorpusSegment, MakeHumanGarmentsGetTheirTypeAndOneRegionPerLimb) {
     const float mid = 0.5f * (lo + hi);
     std::cout << "  " << name << ": " << garment_type_name(s.type) << ", " << m.vertex_count() << " vertices, "
               << s.timings.total_ms << " ms\n";
-    for (GarmentPart part : {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {
+    for (GarmentPart part :
+         {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {
       const bool sleeve = part == GarmentPart::LEFT_SLEEVE || part == GarmentPart::RIGHT_SLEEVE;
       const std::size_t n = pieces(m, s.vertex_parts, part);
       EXPECT_EQ(n, (sleeve ? top : bottom) ? 1u : 0u) << garment_part_name(part);

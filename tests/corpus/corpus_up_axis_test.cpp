@@ -71,8 +71,9 @@ TEST(CorpusUpAxis, EveryRecognisedGarmentIsFoundYUpAndZUp) {
     ++recognised;
     const auto asym = mirror_asymmetry(m.positions, m.triangles);
     const auto share = normal_direction_shares(m.positions, m.triangles);
-    std::printf("%-38s %-11s mirror asymmetry x %.3f y %.3f z %.3f | normal shares x %.3f y %.3f z %.3f\n", name.c_str(),
-                garment_type_name(truth.type).c_str(), asym[0], asym[1], asym[2], share[0], share[1], share[2]);
+    std::printf("%-38s %-11s mirror asymmetry x %.3f y %.3f z %.3f | normal shares x %.3f y %.3f z %.3f\n",
+                name.c_str(), garment_type_name(truth.type).c_str(), asym[0], asym[1], asym[2], share[0], share[1],
+                share[2]);
     for (UpAxis up : {UpAxis::POS_Y, UpAxis::POS_Z}) {
       SCOPED_TRACE(name + " stored " + up_axis_name(up) + " up");
       Mesh stored = m;

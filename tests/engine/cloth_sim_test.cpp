@@ -871,4 +871,3 @@ TEST(ClothSim, AFastRodCarriesClothInsteadOfPassingThroughIt) {
 
 } // namespace
 } // namespace vfit
-

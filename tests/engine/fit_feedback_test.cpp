@@ -33,14 +33,18 @@ const Garment& garment(GarmentType type, const char* size) {
 TEST(FitFeedback, StrainIsTheEdgeStretchAndEaseTheSignedDistance) {
   const Garment& g = garment(GarmentType::TEE, "M");
   Mesh stretched = g.mesh;
-  for (float& x : stretched.positions) x *= 1.05f; // every edge 5 % longer
+  for (float& x : stretched.positions)
+    x *= 1.05f; // every edge 5 % longer
   const FitFeedback f = fit_feedback(g.mesh, stretched, g.vertex_parts, GarmentType::TEE, body());
   ASSERT_EQ(f.strain.size(), g.mesh.vertex_count());
-  for (float s : f.strain) ASSERT_NEAR(s, 0.05, 1e-4); // float rounding of the scaled positions
+  for (float s : f.strain)
+    ASSERT_NEAR(s, 0.05, 1e-4); // float rounding of the scaled positions
   const FitFeedback same = fit_feedback(g.mesh, g.mesh, g.vertex_parts, GarmentType::TEE, body());
-  for (float s : same.strain) ASSERT_NEAR(s, 0.0f, 1e-6f); // rest lengths are stored as float
+  for (float s : same.strain)
+    ASSERT_NEAR(s, 0.0f, 1e-6f); // rest lengths are stored as float
   // The catalogue tee is built 3 mm or more outside its body: every vertex's ease is positive.
-  for (float e : same.ease) ASSERT_GT(e, 0.0f);
+  for (float e : same.ease)
+    ASSERT_GT(e, 0.0f);
 }
 
 // Seed 000 Fig. 13: the four trousers on one body get four different, correct verdicts.
@@ -78,7 +82,8 @@ TEST(FitFeedback, AWaistbandThatSlidDownFallsOffAndOneThatSettledStaysUp) {
   const Garment& g = garment(GarmentType::TROUSERS, "P2");
   auto lowered = [&](float dy) {
     Mesh m = g.mesh;
-    for (std::size_t v = 0; v < m.vertex_count(); ++v) m.positions[3 * v + 1] -= dy;
+    for (std::size_t v = 0; v < m.vertex_count(); ++v)
+      m.positions[3 * v + 1] -= dy;
     return m;
   };
   FitFeedback f = fit_feedback(g.mesh, lowered(0.03f), g.vertex_parts, GarmentType::TROUSERS, body(), g.mesh.positions);

@@ -169,7 +169,8 @@ TEST(FitPipeline, WarnsOfPenetrationLeftAfterTheFit) {
   std::size_t offended = 0;
   for (const GarmentFitReport& g : left.report.garments) {
     const std::string w = warned(g);
-    if (g.after.inside_count + g.after.crossing_edges + g.after.layer_inside_count + g.after.layer_crossing_edges == 0) {
+    if (g.after.inside_count + g.after.crossing_edges + g.after.layer_inside_count + g.after.layer_crossing_edges ==
+        0) {
       EXPECT_EQ(w, "") << g.name;
       continue;
     }
@@ -197,7 +198,8 @@ TEST(FitPipeline, FitsTheSameGarmentsOntoSeveralBodiesAsSeparateFitsWould) {
     const FitResult alone = fit_garments(*bodies[b], tee_and_trousers(), o);
     ASSERT_EQ(both[b].garments.size(), alone.garments.size());
     for (std::size_t i = 0; i < alone.garments.size(); ++i) {
-      EXPECT_EQ(both[b].garments[i].mesh.positions, alone.garments[i].mesh.positions) << "body " << b << ", garment " << i;
+      EXPECT_EQ(both[b].garments[i].mesh.positions, alone.garments[i].mesh.positions)
+          << "body " << b << ", garment " << i;
       const GarmentFitReport &shared = both[b].report.garments[i], &own = alone.report.garments[i];
       EXPECT_EQ(shared.verdict, own.verdict);
       EXPECT_EQ(shared.after.inside_count, own.after.inside_count);
@@ -241,7 +243,8 @@ TEST(FitPipeline, TeeAndTrousersWithAShortSimulation) {
 double mean_distance(const Mesh& a, const Mesh& b) {
   double sum = 0;
   for (std::size_t v = 0; v < a.vertex_count(); ++v)
-    sum += std::sqrt(std::pow(a.positions[3 * v] - b.positions[3 * v], 2) + std::pow(a.positions[3 * v + 1] - b.positions[3 * v + 1], 2) +
+    sum += std::sqrt(std::pow(a.positions[3 * v] - b.positions[3 * v], 2) +
+                     std::pow(a.positions[3 * v + 1] - b.positions[3 * v + 1], 2) +
                      std::pow(a.positions[3 * v + 2] - b.positions[3 * v + 2], 2));
   return sum / double(a.vertex_count());
 }
@@ -272,17 +275,21 @@ TEST(FitPipeline, SimulatesGarmentsAboveTheThresholdOnACoarseProxy) {
     EXPECT_GT(g.cloth_proxy.build_ms, 0);
     EXPECT_GT(g.cloth_proxy.simulation_ms, 0);
     EXPECT_GT(g.cloth_proxy.reconstruct_ms, 0);
-    EXPECT_LE(g.cloth_proxy.build_ms + g.cloth_proxy.simulation_ms + g.cloth_proxy.reconstruct_ms, g.timings.simulation_ms);
-    for (float x : r.garments[i].mesh.positions) ASSERT_TRUE(std::isfinite(x));
+    EXPECT_LE(g.cloth_proxy.build_ms + g.cloth_proxy.simulation_ms + g.cloth_proxy.reconstruct_ms,
+              g.timings.simulation_ms);
+    for (float x : r.garments[i].mesh.positions)
+      ASSERT_TRUE(std::isfinite(x));
     EXPECT_FALSE(f.report.garments[i].cloth_proxy.used);
-    EXPECT_EQ(g.verdict, f.report.garments[i].verdict) << g.verdict_reason << " / " << f.report.garments[i].verdict_reason;
+    EXPECT_EQ(g.verdict, f.report.garments[i].verdict)
+        << g.verdict_reason << " / " << f.report.garments[i].verdict_reason;
     // The proxy cannot hold folds finer than its edges: the two simulations part by less than
     // half the proxy's mean edge length.
     const Mesh& input = tee_and_trousers()[i].mesh;
     const ClothProxy proxy = build_cloth_proxy(input.positions, input.triangles, 800);
     double edge = 0;
     for (std::size_t t = 0; t < proxy.triangles.size(); ++t) {
-      const std::size_t a = 3 * std::size_t(proxy.triangles[t]), b = 3 * std::size_t(proxy.triangles[t - t % 3 + (t + 1) % 3]);
+      const std::size_t a = 3 * std::size_t(proxy.triangles[t]),
+                        b = 3 * std::size_t(proxy.triangles[t - t % 3 + (t + 1) % 3]);
       edge += std::hypot(proxy.positions[a] - proxy.positions[b], proxy.positions[a + 1] - proxy.positions[b + 1],
                          proxy.positions[a + 2] - proxy.positions[b + 2]);
     }
@@ -355,7 +362,9 @@ TEST(FitPipeline, FitsATeeModelledWithThicknessByItsInnerSheet) {
   std::size_t inside_outer = 0, inside_inner = 0;
   for (std::size_t v = 0; v < nv; ++v) {
     worst = std::max(worst, std::fabs(double((Eigen::Vector3f::Map(&g.mesh.positions[3 * v]) -
-                                              Eigen::Vector3f::Map(&g.mesh.positions[3 * (v + nv)])).norm()) - 0.003));
+                                              Eigen::Vector3f::Map(&g.mesh.positions[3 * (v + nv)]))
+                                                 .norm()) -
+                                      0.003));
     inside_outer += g.feedback.ease[v] < 0;
     inside_inner += g.feedback.ease[v + nv] < 0;
   }
@@ -526,7 +535,8 @@ TEST(FitPipeline, TurnsBackTrianglesWoundAgainstTheirNeighbours) {
   const FitResult original = fit_garments(mannequin(), in, o);
   const FitResult mended = fit_garments(mannequin(), sloppy, o);
   const auto& w = mended.report.garments[0].warnings;
-  EXPECT_TRUE(std::any_of(w.begin(), w.end(), [](const std::string& s) { return s.find("turned over") != std::string::npos; }));
+  EXPECT_TRUE(
+      std::any_of(w.begin(), w.end(), [](const std::string& s) { return s.find("turned over") != std::string::npos; }));
   EXPECT_EQ(mended.garments[0].mesh.triangles, original.garments[0].mesh.triangles);
   EXPECT_EQ(mended.garments[0].mesh.positions, original.garments[0].mesh.positions);
 }
@@ -550,12 +560,14 @@ TEST(FitPipeline, SplitsAnOutfitFileIntoItsGarments) {
   const Mesh& trousers = apart[1].mesh;
   const auto offset = static_cast<std::int32_t>(outfit.mesh.vertex_count());
   outfit.mesh.positions.insert(outfit.mesh.positions.end(), trousers.positions.begin(), trousers.positions.end());
-  for (std::int32_t v : trousers.triangles) outfit.mesh.triangles.push_back(v + offset);
+  for (std::int32_t v : trousers.triangles)
+    outfit.mesh.triangles.push_back(v + offset);
   geometry_only(outfit.mesh);
   FitOptions o;
   o.simulate = false;
   std::vector<FitGarmentInput> plain = apart;
-  for (FitGarmentInput& g : plain) geometry_only(g.mesh);
+  for (FitGarmentInput& g : plain)
+    geometry_only(g.mesh);
   const FitResult separate = fit_garments(mannequin(), plain, o);
   const FitResult split = fit_garments(mannequin(), std::vector<FitGarmentInput>{outfit}, o);
   ASSERT_EQ(split.garments.size(), 2u);
@@ -571,7 +583,8 @@ TEST(FitPipeline, SplitsAnOutfitFileIntoItsGarments) {
 }
 
 bool has_warning(const GarmentFitReport& g, const std::string& text) {
-  return std::any_of(g.warnings.begin(), g.warnings.end(), [&](const std::string& w) { return w.find(text) != std::string::npos; });
+  return std::any_of(g.warnings.begin(), g.warnings.end(),
+                     [&](const std::string& w) { return w.find(text) != std::string::npos; });
 }
 
 // Garments exported together (each on the same avatar, in one frame) are dressed as they lie:
@@ -623,7 +636,8 @@ TEST(FitPipeline, ReadsTheLayerOrderFromTheGarmentsAsGiven) {
   EXPECT_EQ(order_of(swapped, given), std::make_pair(std::size_t{0}, std::size_t{1}));
 
   std::vector<FitGarmentInput> apart = tucked;
-  for (std::size_t v = 0; v < apart[1].mesh.vertex_count(); ++v) apart[1].mesh.positions[3 * v] += 2.0f;
+  for (std::size_t v = 0; v < apart[1].mesh.vertex_count(); ++v)
+    apart[1].mesh.positions[3 * v] += 2.0f;
   EXPECT_EQ(order_of(apart, o), std::make_pair(std::size_t{1}, std::size_t{0}));
 }
 
@@ -643,7 +657,8 @@ TEST(FitPipeline, TrimPiecesFollowTheGarmentThroughTheSimulation) {
   for (std::size_t v = 0; v < tee.mesh.vertex_count(); ++v) {
     const float y = tee.mesh.positions[3 * v + 1];
     if (y > y_lo + 0.6f * (y_hi - y_lo) && y < y_lo + 0.75f * (y_hi - y_lo) &&
-        std::abs(tee.mesh.positions[3 * v]) < 0.05f && tee.mesh.positions[3 * v + 2] > tee.mesh.positions[3 * front + 2])
+        std::abs(tee.mesh.positions[3 * v]) < 0.05f &&
+        tee.mesh.positions[3 * v + 2] > tee.mesh.positions[3 * front + 2])
       front = v;
   }
   Mesh button = make_uv_sphere(4, 8, 0.006f);
@@ -653,35 +668,38 @@ TEST(FitPipeline, TrimPiecesFollowTheGarmentThroughTheSimulation) {
     tee.mesh.positions.push_back(button.positions[3 * v + 1] + tee.mesh.positions[3 * front + 1]);
     tee.mesh.positions.push_back(button.positions[3 * v + 2] + tee.mesh.positions[3 * front + 2] + 0.009f);
   }
-  for (std::int32_t v : button.triangles) tee.mesh.triangles.push_back(v + offset);
+  for (std::int32_t v : button.triangles)
+    tee.mesh.triangles.push_back(v + offset);
   // Simulated in full, and on a coarse proxy of the tee (which leaves the button out and carries
   // it the same way).
   for (const ClothProxyMode mode : {ClothProxyMode::OFF, ClothProxyMode::ON}) {
-  SCOPED_TRACE(mode == ClothProxyMode::ON ? "proxy" : "full");
-  FitOptions o;
-  o.max_simulated_seconds = SETTLE_SECONDS;
-  o.cloth_proxy = mode;
-  o.cloth_proxy_vertices = 800;
-  const FitResult r = fit_garments(mannequin(), std::vector<FitGarmentInput>{tee}, o);
-  ASSERT_EQ(r.garments.size(), 1u);
-  const GarmentFitReport& g = r.report.garments[0];
-  ASSERT_EQ(g.simulation != SimulationOutcome::DIVERGED && !g.simulation_discarded, true) << g.simulation_status;
-  EXPECT_EQ(g.cloth_proxy.used, mode == ClothProxyMode::ON);
-  const Mesh& fitted = r.garments[0].mesh;
-  ASSERT_EQ(fitted.vertex_count(), tee.mesh.vertex_count());
-  // The button's centre against the fitted tee's nearest vertex: within the 9 mm it was put off
-  // it plus the tee's local stretch (a few mm); fallen free for SETTLE_SECONDS it would be
-  // decimetres away.
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (std::size_t v = std::size_t(offset); v < fitted.vertex_count(); ++v)
-    centre += Eigen::Vector3d(fitted.positions[3 * v], fitted.positions[3 * v + 1], fitted.positions[3 * v + 2]);
-  centre /= double(button.vertex_count());
-  double nearest = INFINITY;
-  for (std::size_t v = 0; v < std::size_t(offset); ++v)
-    nearest = std::min(nearest, (centre - Eigen::Vector3d(fitted.positions[3 * v], fitted.positions[3 * v + 1],
-                                                          fitted.positions[3 * v + 2])).norm());
-  EXPECT_LT(nearest, 0.02);
-  for (float c : fitted.positions) ASSERT_TRUE(std::isfinite(c));
+    SCOPED_TRACE(mode == ClothProxyMode::ON ? "proxy" : "full");
+    FitOptions o;
+    o.max_simulated_seconds = SETTLE_SECONDS;
+    o.cloth_proxy = mode;
+    o.cloth_proxy_vertices = 800;
+    const FitResult r = fit_garments(mannequin(), std::vector<FitGarmentInput>{tee}, o);
+    ASSERT_EQ(r.garments.size(), 1u);
+    const GarmentFitReport& g = r.report.garments[0];
+    ASSERT_EQ(g.simulation != SimulationOutcome::DIVERGED && !g.simulation_discarded, true) << g.simulation_status;
+    EXPECT_EQ(g.cloth_proxy.used, mode == ClothProxyMode::ON);
+    const Mesh& fitted = r.garments[0].mesh;
+    ASSERT_EQ(fitted.vertex_count(), tee.mesh.vertex_count());
+    // The button's centre against the fitted tee's nearest vertex: within the 9 mm it was put off
+    // it plus the tee's local stretch (a few mm); fallen free for SETTLE_SECONDS it would be
+    // decimetres away.
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (std::size_t v = std::size_t(offset); v < fitted.vertex_count(); ++v)
+      centre += Eigen::Vector3d(fitted.positions[3 * v], fitted.positions[3 * v + 1], fitted.positions[3 * v + 2]);
+    centre /= double(button.vertex_count());
+    double nearest = INFINITY;
+    for (std::size_t v = 0; v < std::size_t(offset); ++v)
+      nearest = std::min(nearest, (centre - Eigen::Vector3d(fitted.positions[3 * v], fitted.positions[3 * v + 1],
+                                                            fitted.positions[3 * v + 2]))
+                                      .norm());
+    EXPECT_LT(nearest, 0.02);
+    for (float c : fitted.positions)
+      ASSERT_TRUE(std::isfinite(c));
   }
 }
 
@@ -693,13 +711,15 @@ TEST(FitPipeline, WeldsPatternPiecesThatShareSeamPositions) {
   std::vector<std::int32_t> copy(tee.mesh.vertex_count(), -1);
   for (std::size_t f = 0; f < pieces.mesh.face_count(); ++f) {
     float cx = 0;
-    for (int k = 0; k < 3; ++k) cx += pieces.mesh.positions[3 * std::size_t(pieces.mesh.triangles[3 * f + std::size_t(k)])];
+    for (int k = 0; k < 3; ++k)
+      cx += pieces.mesh.positions[3 * std::size_t(pieces.mesh.triangles[3 * f + std::size_t(k)])];
     if (cx < 0) continue;
     for (int k = 0; k < 3; ++k) {
       std::int32_t& v = pieces.mesh.triangles[3 * f + std::size_t(k)];
       if (copy[std::size_t(v)] < 0) {
         copy[std::size_t(v)] = std::int32_t(pieces.mesh.vertex_count());
-        for (int c = 0; c < 3; ++c) pieces.mesh.positions.push_back(pieces.mesh.positions[3 * std::size_t(v) + std::size_t(c)]);
+        for (int c = 0; c < 3; ++c)
+          pieces.mesh.positions.push_back(pieces.mesh.positions[3 * std::size_t(v) + std::size_t(c)]);
       }
       v = copy[std::size_t(v)];
     }
@@ -730,8 +750,8 @@ TEST(FitPipeline, RejectsAMeshThatIsNotAGarment) {
 }
 
 // The stages FitOptions::progress reports for one garment, in order.
-const std::vector<std::string> PROGRESS_STAGES = {"units",       "segmentation", "skeletons",  "driving", "coarse_move",
-                                                  "penetration", "simulation",   "feedback", "total"};
+const std::vector<std::string> PROGRESS_STAGES = {"units",       "segmentation", "skeletons", "driving", "coarse_move",
+                                                  "penetration", "simulation",   "feedback",  "total"};
 
 TEST(FitPipeline, ReportsEveryStageOfEveryGarmentOnceInOrder) {
   std::vector<FitProgress> calls;
@@ -804,7 +824,7 @@ ColouredVertices read_coloured_ply(const std::filesystem::path& path) {
 TEST(FitPipeline, WritesEveryStageOfEveryGarmentForDebugging) {
   test::TempDir dir;
   FitOptions o;
-  o.max_simulated_seconds = 0.01; // one step: the simulation stage runs and writes its mesh
+  o.max_simulated_seconds = 0.01;         // one step: the simulation stage runs and writes its mesh
   o.debug_dir = (dir / "debug").string(); // created by the pipeline
   const FitResult r = fit_garments(mannequin(), tee_and_trousers(), o);
   const auto d = dir / "debug";
@@ -815,8 +835,8 @@ TEST(FitPipeline, WritesEveryStageOfEveryGarmentForDebugging) {
     SCOPED_TRACE(stem);
     const std::size_t nv = tee_and_trousers()[g].mesh.vertex_count();
     std::vector<ColouredVertices> stages;
-    for (const char* stage : {"01_segmentation", "02_skeleton_nodes", "03_driving", "04_coarse_move", "05_penetration",
-                              "06_simulation"}) {
+    for (const char* stage :
+         {"01_segmentation", "02_skeleton_nodes", "03_driving", "04_coarse_move", "05_penetration", "06_simulation"}) {
       const auto path = d / (stem + "_" + stage + ".ply");
       ASSERT_TRUE(std::filesystem::is_regular_file(path)) << path;
       const ParsedMesh back = read_mesh(path);

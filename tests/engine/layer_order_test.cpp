@@ -29,20 +29,23 @@ Mesh bands(const std::vector<Mesh>& parts) {
   for (const Mesh& p : parts) {
     const auto offset = static_cast<std::int32_t>(m.vertex_count());
     m.positions.insert(m.positions.end(), p.positions.begin(), p.positions.end());
-    for (std::int32_t v : p.triangles) m.triangles.push_back(v + offset);
+    for (std::int32_t v : p.triangles)
+      m.triangles.push_back(v + offset);
   }
   return m;
 }
 
 Mesh turned_over(Mesh m) {
-  for (std::size_t f = 0; f < m.face_count(); ++f) std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
   return m;
 }
 
 std::vector<std::size_t> inferred(const std::vector<Mesh>& garments, std::vector<std::size_t> default_order,
                                   const LayerOrderOptions& options = {}) {
   std::vector<const Mesh*> p;
-  for (const Mesh& g : garments) p.push_back(&g);
+  for (const Mesh& g : garments)
+    p.push_back(&g);
   return infer_layer_order(p, default_order, {}, options).order;
 }
 

@@ -23,14 +23,15 @@ Mesh closed_cylinder(float r, float y0, float length, int rings, int segments) {
   Mesh m = make_tube(rings, segments, r, length);
   m.uvs.clear();
   m.uv_triangles.clear();
-  for (std::size_t v = 0; v < m.vertex_count(); ++v) m.positions[3 * v + 1] += y0;
+  for (std::size_t v = 0; v < m.vertex_count(); ++v)
+    m.positions[3 * v + 1] += y0;
   const auto bottom = std::int32_t(m.vertex_count()), top = bottom + 1;
   m.positions.insert(m.positions.end(), {0, y0, 0, 0, y0 + length, 0});
   const std::int32_t last = (rings - 1) * segments;
   for (std::int32_t j = 0; j < segments; ++j) {
     const std::int32_t k = (j + 1) % segments;
-    m.triangles.insert(m.triangles.end(), {bottom, k, j});               // seen from below: −Y
-    m.triangles.insert(m.triangles.end(), {top, last + j, last + k});    // seen from above: +Y
+    m.triangles.insert(m.triangles.end(), {bottom, k, j});            // seen from below: −Y
+    m.triangles.insert(m.triangles.end(), {top, last + j, last + k}); // seen from above: +Y
   }
   return m;
 }
@@ -190,7 +191,8 @@ TEST(Layering, AnInnerVertexPokingThroughAnOuterTriangleIsFoundAndPushedOut) {
 TEST(Layering, InnerLayerOrientsAwayFromTheBodyAndSkipsItsOpenings) {
   Scene s;
   Mesh reversed = s.inner;
-  for (std::size_t f = 0; f < reversed.face_count(); ++f) std::swap(reversed.triangles[3 * f + 1], reversed.triangles[3 * f + 2]);
+  for (std::size_t f = 0; f < reversed.face_count(); ++f)
+    std::swap(reversed.triangles[3 * f + 1], reversed.triangles[3 * f + 2]);
   const InnerLayer as_is(s.inner, s.index, 0.003, 0.05);
   const InnerLayer flipped(reversed, s.index, 0.003, 0.05);
   EXPECT_FALSE(as_is.flipped());

@@ -16,7 +16,6 @@
 namespace vfit {
 namespace {
 
-
 TEST(Penetration, PushesATubeThatCutsIntoASphereOutAndKeepsItsShape) {
   const Mesh body = make_uv_sphere(40, 80, 0.20f);
   const ProximityIndex index(body.positions, body.triangles);
@@ -45,7 +44,8 @@ TEST(Penetration, NothingToDoLeavesTheGarmentAlone) {
   const Mesh body = make_uv_sphere(20, 40, 0.2f);
   const ProximityIndex index(body.positions, body.triangles);
   Mesh far = make_tube(5, 8, 0.05f, 0.2f);
-  for (std::size_t v = 0; v < far.vertex_count(); ++v) far.positions[3 * v] += 1.0f;
+  for (std::size_t v = 0; v < far.vertex_count(); ++v)
+    far.positions[3 * v] += 1.0f;
   const Mesh before = far;
   const PenetrationReport r = remove_penetration(far, index);
   EXPECT_EQ(r.before.near_count, 0u);
@@ -101,7 +101,8 @@ TEST(Penetration, VerticesDeeperThanTheNearSearchCountAndArePushedOut) {
   const ProximityIndex index(body.positions, body.triangles);
   const EdgeCrossingIndex crossings(body.positions, body.triangles);
   Mesh deep = make_tube(6, 12, 0.02f, 0.04f);
-  for (std::size_t v = 0; v < deep.vertex_count(); ++v) deep.positions[3 * v] += 0.10f;
+  for (std::size_t v = 0; v < deep.vertex_count(); ++v)
+    deep.positions[3 * v] += 0.10f;
   const PenetrationStats plain = measure_penetration(deep.positions, index, 0.002);
   const PenetrationStats with_rays = measure_penetration(deep, index, crossings, 0.002);
   EXPECT_EQ(plain.inside_count, deep.vertex_count());
@@ -116,7 +117,8 @@ TEST(Penetration, VerticesDeeperThanTheNearSearchCountAndArePushedOut) {
   EXPECT_EQ(measure_penetration(deep.positions, index, 0.002).inside_count, 0u);
   // Far outside stays outside: no ray or query turns it inside.
   Mesh far = make_tube(6, 12, 0.02f, 0.04f);
-  for (std::size_t v = 0; v < far.vertex_count(); ++v) far.positions[3 * v] += 0.40f;
+  for (std::size_t v = 0; v < far.vertex_count(); ++v)
+    far.positions[3 * v] += 0.40f;
   EXPECT_EQ(measure_penetration(far, index, crossings, 0.002).inside_count, 0u);
   EXPECT_EQ(measure_penetration(far.positions, index, 0.002).inside_count, 0u);
 }
@@ -270,8 +272,8 @@ TEST(Penetration, Seed004VariantRunsAtMostThreeRoundsOnOneRegion) {
   EXPECT_EQ(r.after.near_count, full.near_count);
   EXPECT_EQ(r.after.crossing_edges, full.crossing_edges);
   EXPECT_DOUBLE_EQ(r.after.max_depth, full.max_depth);
-  std::printf("seed 004: inside %zu -> %zu, max depth %.2f -> %.2f mm\n", r.before.inside_count,
-              r.after.inside_count, 1e3 * r.before.max_depth, 1e3 * r.after.max_depth);
+  std::printf("seed 004: inside %zu -> %zu, max depth %.2f -> %.2f mm\n", r.before.inside_count, r.after.inside_count,
+              1e3 * r.before.max_depth, 1e3 * r.after.max_depth);
 }
 
 TEST(Penetration, ConjugateGradientsAgreeWithTheFactorisedSolve) {

@@ -40,16 +40,17 @@ std::string binary_stl(std::uint32_t declared, std::uint32_t written, float x) {
 
 std::string glb(std::uint32_t magic, std::uint32_t declared_length, const std::string& json) {
   std::string padded = json;
-  while (padded.size() % 4) padded += ' ';
+  while (padded.size() % 4)
+    padded += ' ';
   std::string s = le32(magic) + le32(2) + le32(declared_length) + le32(static_cast<std::uint32_t>(padded.size())) +
                   le32(0x4E4F534A) + padded;
   return s;
 }
 
 struct BadFile {
-  const char* name;     // the file name (its extension picks the reader)
+  const char* name; // the file name (its extension picks the reader)
   std::string contents;
-  const char* expect;   // a substring of the error line that names the problem
+  const char* expect; // a substring of the error line that names the problem
 };
 
 std::vector<BadFile> catalogue() {
@@ -87,7 +88,8 @@ std::vector<BadFile> catalogue() {
       {"wrong_length.glb", glb(0x46546C67, 9999, "{}"), "bad_wrong_length.glb"},
       {"invalid_json.gltf", "{\"asset\": {\"version\": \"2.0\"", "invalid JSON"},
       {"accessor_past_end.gltf",
-       gltf_ok_start + R"("bufferViews":[{"buffer":0,"byteLength":8}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]})",
+       gltf_ok_start +
+           R"("bufferViews":[{"buffer":0,"byteLength":8}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]})",
        "accessor"},
       {"unknown.fbx", "whatever", "unknown mesh format"},
   };

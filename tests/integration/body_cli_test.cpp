@@ -28,7 +28,8 @@ TEST(BodyCli, WritesMeshJointsAndRiggedGltfThatMeasuresBack) {
   const Body b = read_gltf_body(rigged.string());
   EXPECT_EQ(b.mesh.vertex_count(), 2000u);
   for (int k = 0; k < JOINT_COUNT; ++k)
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(b.joints(k, c), j["joints"][std::string(joint_name(k))][c].get<double>(), 1e-5);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(b.joints(k, c), j["joints"][std::string(joint_name(k))][c].get<double>(), 1e-5);
   r = test::run_cli({"measure", rigged.string(), "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto got = nlohmann::json::parse(r.out);
@@ -42,7 +43,8 @@ TEST(BodyCli, PosesByNameAndByJsonFile) {
   const auto pose = tmp / "pose.json";
   test::write_file(pose, R"({"left_elbow": [0, -1.2, 0], "translation": [0, 0, 0.5]})");
   const auto joints = tmp / "j.json";
-  auto r = test::run_cli({"body", "--vertices", "1000", "--pose", pose.string(), "--joints", joints.string(), "--quiet"});
+  auto r =
+      test::run_cli({"body", "--vertices", "1000", "--pose", pose.string(), "--joints", joints.string(), "--quiet"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(test::read_file(joints));
   EXPECT_NEAR(j["joints"]["pelvis"][2].get<double>(), 0.5 - 0.005, 1e-3); // translated by 0.5 m in z
@@ -60,7 +62,8 @@ double mean_joint_distance(const std::filesystem::path& truth, const std::filesy
   for (int k = 0; k < JOINT_COUNT; ++k) {
     const std::string name(joint_name(k));
     Eigen::Vector3d d;
-    for (int c = 0; c < 3; ++c) d[c] = got[name][c].get<double>() - want[name][c].get<double>();
+    for (int c = 0; c < 3; ++c)
+      d[c] = got[name][c].get<double>() - want[name][c].get<double>();
     sum += d.norm();
   }
   return sum / JOINT_COUNT;
@@ -73,9 +76,11 @@ double mean_joint_distance(const std::filesystem::path& truth, const std::filesy
 TEST(BodyCli, ScanOfAPosedMannequinGivesItsJointsAndARiggedScan) {
   test::TempDir tmp;
   const auto scan = tmp / "scan.obj", truth = tmp / "truth.json", fitted = tmp / "fit.json", rigged = tmp / "scan.glb";
-  auto r = test::run_cli({"body", "--vertices", "3000", "--pose", "apose", "--out", scan.string(), "--joints", truth.string(), "--quiet"});
+  auto r = test::run_cli(
+      {"body", "--vertices", "3000", "--pose", "apose", "--out", scan.string(), "--joints", truth.string(), "--quiet"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  r = test::run_cli({"body", "--scan", scan.string(), "--joints", fitted.string(), "--rigged", rigged.string(), "--quiet"});
+  r = test::run_cli(
+      {"body", "--scan", scan.string(), "--joints", fitted.string(), "--rigged", rigged.string(), "--quiet"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_LE(mean_joint_distance(truth, fitted), 0.03) << "mean joint distance (m); issue 8's bar for scans is 3 cm";
   // The rigged scan keeps the scan's own vertices and faces, with skin weights for each.
@@ -92,7 +97,8 @@ TEST(BodyCli, ScanOfAPosedMannequinGivesItsJointsAndARiggedScan) {
 TEST(BodyCli, ScanOfAWalkingPointCloudGivesItsJoints) {
   test::TempDir tmp;
   const auto mesh = tmp / "walk.obj", cloud = tmp / "walk.ply", truth = tmp / "truth.json", fitted = tmp / "fit.json";
-  auto r = test::run_cli({"body", "--vertices", "3000", "--pose", "walking", "--out", mesh.string(), "--joints", truth.string(), "--quiet"});
+  auto r = test::run_cli({"body", "--vertices", "3000", "--pose", "walking", "--out", mesh.string(), "--joints",
+                          truth.string(), "--quiet"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const ParsedMesh m = read_mesh(mesh);
   std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(m.mesh.vertex_count()) +
@@ -128,7 +134,8 @@ TEST(BodyCli, AnOutputOverTheInputOrInAMissingFolderExits2) {
 TEST(GarmentCli, WritesTheGarmentAndItsLabels) {
   test::TempDir tmp;
   const auto out = tmp / "pants.ply";
-  const auto r = test::run_cli({"garment", "trousers", "--size", "P3", "--vertices", "1500", "--pose", "apose", "--out", out.string()});
+  const auto r = test::run_cli(
+      {"garment", "trousers", "--size", "P3", "--vertices", "1500", "--pose", "apose", "--out", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(read_mesh(out).mesh.vertex_count(), 1500u);
   const auto labels = nlohmann::json::parse(test::read_file(tmp / "pants.labels.json"));

@@ -107,7 +107,8 @@ TEST(Cli, DemoRunsOnBuiltInMeshesAndWritesItsOutputs) {
   // Mannequin, tee, trousers and the posed mannequin (the procedural meshes stay out).
   EXPECT_EQ(scene.mesh.label_names.size(), 4u);
   const auto j = nlohmann::json::parse(test::read_file(tmp / "demo" / "demo.json"));
-  for (const auto& n : j["vertex_normals"]) EXPECT_LT(n["max_deviation_deg"].get<double>(), 1e-3) << n.dump();
+  for (const auto& n : j["vertex_normals"])
+    EXPECT_LT(n["max_deviation_deg"].get<double>(), 1e-3) << n.dump();
   // The fit: body and the two garments in one glTF, the report, the pictures.
   const ParsedMesh fit = read_mesh(tmp / "demo" / "fit.glb");
   EXPECT_EQ(fit.mesh.label_names.size(), 3u);

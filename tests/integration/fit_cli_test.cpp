@@ -1,8 +1,8 @@
 // `vfit fit`: a catalogue tee and trousers from OBJ files onto the mannequin → fitted mesh,
 // JSON report, PNG; bad input → exit 2 and nothing written.
 #include <algorithm>
-#include <filesystem>
 #include <cmath>
+#include <filesystem>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -44,12 +44,12 @@ TEST(FitCli, SeveralBodiesGetTheirOwnOutputsEqualToFittingEachAlone) {
     return a;
   };
   // A broader body than the default mannequin, rigged, as a file.
-  const auto body = test::run_cli(
-      {"body", "--pose-rest", "apose", "--vertices", "3000", "--chest", "1.1", "--rigged", (dir / "broad.glb").string()});
+  const auto body = test::run_cli({"body", "--pose-rest", "apose", "--vertices", "3000", "--chest", "1.1", "--rigged",
+                                   (dir / "broad.glb").string()});
   ASSERT_EQ(body.exit_code, 0) << body.err;
   const auto both = test::run_cli(with_flags({"fit", "--garment", (dir / "tee.obj").string(), "--body", "mannequin",
-                                              "--body", (dir / "broad.glb").string(), "--out", (dir / "fit.obj").string(),
-                                              "--report", (dir / "fit.json").string()}));
+                                              "--body", (dir / "broad.glb").string(), "--out",
+                                              (dir / "fit.obj").string(), "--report", (dir / "fit.json").string()}));
   ASSERT_EQ(both.exit_code, 0) << both.err;
   for (const char* tag : {"mannequin", "broad"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / ("fit." + std::string(tag) + ".obj"))) << tag;
@@ -62,7 +62,8 @@ TEST(FitCli, SeveralBodiesGetTheirOwnOutputsEqualToFittingEachAlone) {
   EXPECT_EQ(test::read_file(dir / "fit.broad.obj"), test::read_file(dir / "alone.obj"));
   EXPECT_NE(test::read_file(dir / "fit.broad.obj"), test::read_file(dir / "fit.mannequin.obj"));
   const nlohmann::json second = nlohmann::json::parse(test::read_file(dir / "fit.broad.json"));
-  EXPECT_EQ(second["garments"][0]["timings_ms"]["segmentation"].get<double>(), 0.0) << "segmented once, for the first body";
+  EXPECT_EQ(second["garments"][0]["timings_ms"]["segmentation"].get<double>(), 0.0)
+      << "segmented once, for the first body";
   // One body file twice: numbered apart. --debug and --joints-in take one body.
   const auto twice = test::run_cli(with_flags({"fit", "--garment", (dir / "tee.obj").string(), "--body", "mannequin",
                                                "--body", "mannequin", "--report", (dir / "twice.json").string()}));
@@ -79,15 +80,32 @@ TEST(FitCli, FitsObjGarmentsAndWritesMeshReportAndPicture) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
   write_catalogue(dir / "trousers.obj", GarmentType::TROUSERS);
-  const auto r = test::run_cli({"fit", "--body", "mannequin", "--pose-rest", "apose", "--vertices", "3000", "--garment",
-                                (dir / "tee.obj").string(), "--garment", (dir / "trousers.obj").string(), "--out",
-                                (dir / "fitted.glb").string(), "--report", (dir / "report.json").string(), "--render",
-                                (dir / "fit.png").string(), "--no-simulation", "--render-size", "64"});
+  const auto r = test::run_cli({"fit",
+                                "--body",
+                                "mannequin",
+                                "--pose-rest",
+                                "apose",
+                                "--vertices",
+                                "3000",
+                                "--garment",
+                                (dir / "tee.obj").string(),
+                                "--garment",
+                                (dir / "trousers.obj").string(),
+                                "--out",
+                                (dir / "fitted.glb").string(),
+                                "--report",
+                                (dir / "report.json").string(),
+                                "--render",
+                                (dir / "fit.png").string(),
+                                "--no-simulation",
+                                "--render-size",
+                                "64"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("segmentation"), std::string::npos) << r.out;
 
   const nlohmann::json j = nlohmann::json::parse(test::read_file(dir / "report.json"));
-  for (const char* stage : {"segmentation", "skeletons", "driving", "coarse_move", "penetration", "simulation", "total"})
+  for (const char* stage :
+       {"segmentation", "skeletons", "driving", "coarse_move", "penetration", "simulation", "total"})
     EXPECT_TRUE(j["timings_ms"].contains(stage)) << stage;
   for (const char* when : {"before", "after"}) {
     EXPECT_TRUE(j["penetration"][when]["inside_count"].is_number_unsigned()) << when;
@@ -151,8 +169,9 @@ TEST(FitCli, AnOutputOverAnInputOrInAMissingFolderExits2AndWritesNothing) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
   const std::string tee = test::read_file(dir / "tee.obj");
-  const std::vector<std::string> base = {"fit",        "--body",   "mannequin", "--vertices", "3000",
-                                         "--garment",  (dir / "tee.obj").string(), "--no-simulation", "--quiet"};
+  const std::vector<std::string> base = {
+      "fit",    "--body", "mannequin", "--vertices", "3000", "--garment", (dir / "tee.obj").string(), "--no-simulation",
+      "--quiet"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> a = base;
     a.insert(a.end(), extra.begin(), extra.end());
@@ -174,8 +193,8 @@ TEST(FitCli, AnOutputOverAnInputOrInAMissingFolderExits2AndWritesNothing) {
 TEST(FitCli, AnUnknownGarmentFacingExits2) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
-  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--garment-facing", "+y", "--out",
-                                (dir / "out.obj").string()});
+  const auto r = test::run_cli(
+      {"fit", "--garment", (dir / "tee.obj").string(), "--garment-facing", "+y", "--out", (dir / "out.obj").string()});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("unknown facing"), std::string::npos) << r.err;
   EXPECT_EQ(file_count(dir.path()), 1u);
@@ -185,8 +204,8 @@ TEST(FitCli, AnUnknownGarmentFacingExits2) {
 TEST(FitCli, AnUnknownLayerOrderExits2) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
-  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--layer-order", "outer-first",
-                                "--out", (dir / "out.obj").string()});
+  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--layer-order", "outer-first", "--out",
+                                (dir / "out.obj").string()});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--layer-order"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("outer-first"), std::string::npos) << r.err;
@@ -196,8 +215,8 @@ TEST(FitCli, AnUnknownLayerOrderExits2) {
 TEST(FitCli, AnUnknownClothProxyModeExits2) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
-  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--cloth-proxy", "sometimes",
-                                "--out", (dir / "out.obj").string()});
+  const auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--cloth-proxy", "sometimes", "--out",
+                                (dir / "out.obj").string()});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--cloth-proxy"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("sometimes"), std::string::npos) << r.err;
@@ -232,8 +251,17 @@ TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
   const std::string face = text.substr(first_face + 1, text.find('\n', first_face + 1) - first_face);
   text += face + "f 1 1 2\n";
   test::write_file(dir / "dirty.obj", text);
-  std::vector<std::string> args = {"fit", "--body", "mannequin", "--pose-rest", "apose", "--vertices", "3000",
-                                   "--garment", (dir / "dirty.obj").string(), "--out", (dir / "fitted.obj").string(),
+  std::vector<std::string> args = {"fit",
+                                   "--body",
+                                   "mannequin",
+                                   "--pose-rest",
+                                   "apose",
+                                   "--vertices",
+                                   "3000",
+                                   "--garment",
+                                   (dir / "dirty.obj").string(),
+                                   "--out",
+                                   (dir / "fitted.obj").string(),
                                    "--no-simulation"};
   const auto refused = test::run_cli(args);
   EXPECT_EQ(refused.exit_code, 2);
@@ -258,8 +286,8 @@ TEST(FitCli, RepairDropsDegenerateAndDuplicateFaces) {
 TEST(FitCli, ReportCarriesTheBodysWarnings) {
   test::TempDir dir;
   write_catalogue(dir / "tee.obj", GarmentType::TEE);
-  ASSERT_EQ(test::run_cli({"body", "--pose-rest", "apose", "--vertices", "3000", "--out", (dir / "b.obj").string(),
-                           "--quiet"})
+  ASSERT_EQ(test::run_cli(
+                {"body", "--pose-rest", "apose", "--vertices", "3000", "--out", (dir / "b.obj").string(), "--quiet"})
                 .exit_code,
             0);
   Mesh body = read_mesh(dir / "b.obj").mesh;
@@ -323,9 +351,9 @@ TEST(FitCli, ABodyAndATeeInInchesAreReadAsInches) {
 TEST(FitCli, AMeshThatIsNotAGarmentExits2AndWritesNothing) {
   test::TempDir dir;
   write_mesh(dir / "ball.obj", make_uv_sphere(8, 16, 0.3f));
-  const auto r = test::run_cli({"fit", "--body", "mannequin", "--vertices", "3000", "--garment",
-                                (dir / "ball.obj").string(), "--out", (dir / "out.obj").string(), "--report",
-                                (dir / "r.json").string(), "--no-simulation"});
+  const auto r =
+      test::run_cli({"fit", "--body", "mannequin", "--vertices", "3000", "--garment", (dir / "ball.obj").string(),
+                     "--out", (dir / "out.obj").string(), "--report", (dir / "r.json").string(), "--no-simulation"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("ball.obj"), std::string::npos) << r.err;
   EXPECT_EQ(file_count(dir.path()), 1u); // only the input
@@ -343,9 +371,16 @@ std::size_t count_of(const std::string& text, const std::string& word) {
 TEST(FitCli, PrintsProgressOnlyToATerminalOrWhenAsked) {
   test::TempDir dir;
   write_catalogue(dir / "trousers.obj", GarmentType::TROUSERS);
-  const std::vector<std::string> base = {"fit",        "--body",    "mannequin", "--pose-rest",
-                                         "apose",      "--vertices", "3000",     "--garment",
-                                         (dir / "trousers.obj").string(), "--no-simulation"};
+  const std::vector<std::string> base = {"fit",
+                                         "--body",
+                                         "mannequin",
+                                         "--pose-rest",
+                                         "apose",
+                                         "--vertices",
+                                         "3000",
+                                         "--garment",
+                                         (dir / "trousers.obj").string(),
+                                         "--no-simulation"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> a = base;
     a.insert(a.end(), extra.begin(), extra.end());
@@ -428,13 +463,20 @@ Mesh closed_box(float half, float lift) {
 
 void make(const std::filesystem::path& dir, const std::string& file) {
   const auto path = dir / file;
-  if (file == "tee.obj") write_catalogue(path, GarmentType::TEE);
-  else if (file == "triangle.obj") test::write_file(path, "v 0 1 0\nv 0.4 1 0\nv 0 1.4 0\nf 1 2 3\n");
-  else if (file == "box.obj") write_mesh(path, closed_box(0.25f, 1.1f));
-  else if (file == "ball.obj") write_mesh(path, scaled(make_uv_sphere(12, 24, 0.3f), 1, 1, 1, 1.1f));
-  else if (file == "sheet.obj") write_mesh(path, scaled(make_grid(20, 20, 0.6f, 0.6f), 1, 1, 1, 1.1f));
-  else if (file == "sphere_body.obj") write_mesh(path, scaled(make_uv_sphere(24, 48, 0.8f), 1, 1, 1, 0.8f));
-  else if (file == "cube_body.obj") write_mesh(path, closed_box(0.8f, 0.8f));
+  if (file == "tee.obj")
+    write_catalogue(path, GarmentType::TEE);
+  else if (file == "triangle.obj")
+    test::write_file(path, "v 0 1 0\nv 0.4 1 0\nv 0 1.4 0\nf 1 2 3\n");
+  else if (file == "box.obj")
+    write_mesh(path, closed_box(0.25f, 1.1f));
+  else if (file == "ball.obj")
+    write_mesh(path, scaled(make_uv_sphere(12, 24, 0.3f), 1, 1, 1, 1.1f));
+  else if (file == "sheet.obj")
+    write_mesh(path, scaled(make_grid(20, 20, 0.6f, 0.6f), 1, 1, 1, 1.1f));
+  else if (file == "sphere_body.obj")
+    write_mesh(path, scaled(make_uv_sphere(24, 48, 0.8f), 1, 1, 1, 0.8f));
+  else if (file == "cube_body.obj")
+    write_mesh(path, closed_box(0.8f, 0.8f));
   else if (file == "pillar_body.obj") // upright and human-sized, but no limbs: no crotch, no arms
     write_mesh(path, scaled(make_uv_sphere(32, 64, 1.0f), 0.22f, 0.85f, 0.14f, 0.85f));
 }
@@ -463,7 +505,8 @@ INSTANTIATE_TEST_SUITE_P(
     Cases, FitCliBadInput,
     ::testing::Values(BadFit{"missing_garment", "mannequin", "missing.obj", "missing.obj: cannot open"},
                       BadFit{"missing_body", "missing.obj", "tee.obj", "missing.obj: cannot open"},
-                      BadFit{"single_triangle", "mannequin", "triangle.obj", "triangle.obj: not a recognisable garment"},
+                      BadFit{"single_triangle", "mannequin", "triangle.obj",
+                             "triangle.obj: not a recognisable garment"},
                       BadFit{"closed_box", "mannequin", "box.obj", "box.obj: not a recognisable garment"},
                       BadFit{"sphere", "mannequin", "ball.obj", "ball.obj: not a recognisable garment"},
                       BadFit{"flat_sheet", "mannequin", "sheet.obj", "sheet.obj: not a recognisable garment"},

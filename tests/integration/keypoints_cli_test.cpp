@@ -26,7 +26,8 @@ std::string openpose_file() {
   nlohmann::json arr = nlohmann::json::array();
   for (int i = 0; i < 25; ++i) {
     const Eigen::Vector2d px = cam.project(posed.row(keypoint_body_point(KeypointLayout::BODY_25, i)).transpose());
-    for (double v : {px.x(), px.y(), 0.9}) arr.push_back(v);
+    for (double v : {px.x(), px.y(), 0.9})
+      arr.push_back(v);
   }
   return nlohmann::json{{"people", {{{"pose_keypoints_2d", arr}}}}}.dump();
 }
@@ -35,8 +36,9 @@ TEST(KeypointsCli, FitsWritesTheBodyJointsAndPoseAndPrintsTheStages) {
   test::TempDir tmp;
   const auto kp = tmp / "kp.json", joints = tmp / "joints.json", pose = tmp / "pose.json", mesh = tmp / "body.obj";
   test::write_file(kp, openpose_file());
-  const auto r = test::run_cli({"body", "--keypoints", kp.string(), "--image-size", "1000", "1000", "--vertices", "1000", "--out",
-                                mesh.string(), "--joints", joints.string(), "--pose-out", pose.string()});
+  const auto r =
+      test::run_cli({"body", "--keypoints", kp.string(), "--image-size", "1000", "1000", "--vertices", "1000", "--out",
+                     mesh.string(), "--joints", joints.string(), "--pose-out", pose.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("shape+pose"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("mean reprojection error"), std::string::npos) << r.out;
@@ -70,8 +72,8 @@ TEST(KeypointsCli, FitTakesTheBodyFromKeypoints) {
   EXPECT_EQ(j["garments"].size(), 1u);
   EXPECT_EQ(j["penetration"]["after"]["inside_count"].get<std::size_t>(), 0u) << j["penetration"].dump();
   // --keypoints and --pose both set the pose: one line, exit 2.
-  const auto both = test::run_cli({"fit", "--keypoints", kp.string(), "--image-size", "1000x1000", "--pose", "arms_down",
-                                   "--garment", tee.string(), "--quiet"});
+  const auto both = test::run_cli({"fit", "--keypoints", kp.string(), "--image-size", "1000x1000", "--pose",
+                                   "arms_down", "--garment", tee.string(), "--quiet"});
   EXPECT_EQ(both.exit_code, 2);
   EXPECT_NE(both.err.find("--keypoints"), std::string::npos) << both.err;
 }
@@ -92,7 +94,8 @@ TEST(KeypointsCli, BadKeypointFilesExit2WithOneLine) {
     EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   }
-  const auto missing = test::run_cli({"body", "--keypoints", (tmp / "missing.json").string(), "--image-size", "640", "480"});
+  const auto missing =
+      test::run_cli({"body", "--keypoints", (tmp / "missing.json").string(), "--image-size", "640", "480"});
   EXPECT_EQ(missing.exit_code, 2);
 }
 

@@ -7,9 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "geometry/mesh/primitives.h"
+#include "jittered_cloth.h"
 #include "kernels/cloth_gather.h"
 #include "kernels/cloth_implicit.h"
-#include "jittered_cloth.h"
 
 namespace vfit {
 namespace {

@@ -12,10 +12,10 @@
 
 #include "geometry/mesh/primitives.h"
 #include "jittered_cloth.h"
-#include "test_support.h"
 #include "kernels/cloth_collision.h"
 #include "kernels/cloth_gather.h"
 #include "kernels/proximity.h"
+#include "test_support.h"
 
 namespace vfit {
 namespace {
@@ -170,7 +170,8 @@ TEST(ClothImplicit, ConjugateGradientMatchesTheOperatorAssembledInDouble) {
         for (int k = 0; k < 3; ++k)
           cg(3 * column_of[i] + k) = w.dv[3 * i + std::size_t(k)];
     EXPECT_TRUE(rep.converged) << "mass " << mass << ": " << rep.relative_residual;
-    EXPECT_LT((cg - exact).norm(), 1e-4 * exact.norm()) << "mass " << mass << ", after " << rep.iterations << " iterations";
+    EXPECT_LT((cg - exact).norm(), 1e-4 * exact.norm())
+        << "mass " << mass << ", after " << rep.iterations << " iterations";
   }
 }
 
@@ -378,8 +379,8 @@ TEST(ClothImplicit, FanWithARowLongerThanABlockAssemblesAndSolves) {
   const std::size_t entries = c.adjacency.neighbors.size();
   const auto block = [&](std::size_t e) {
     const float* o = w.system.off_diagonal.data();
-    return vfit_sym3{o[e], o[entries + e], o[2 * entries + e], o[3 * entries + e], o[4 * entries + e],
-                     o[5 * entries + e]};
+    return vfit_sym3{
+        o[e], o[entries + e], o[2 * entries + e], o[3 * entries + e], o[4 * entries + e], o[5 * entries + e]};
   };
   Eigen::Matrix3d hub = Eigen::Matrix3d::Identity() * (2e-3 * (1.0 + h * 0.5));
   for (std::size_t i = 0; i < nv; ++i)

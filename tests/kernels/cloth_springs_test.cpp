@@ -9,11 +9,11 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include "geometry/garment/catalogue.h"
 #include "geometry/mesh/primitives.h"
-#include "test_support.h"
 #include "kernels/cloth_ordering.h"
 #include "kernels/cloth_rk4.h"
-#include "geometry/garment/catalogue.h"
+#include "test_support.h"
 
 namespace vfit {
 namespace {
@@ -29,7 +29,8 @@ struct Fixture {
 // Springs of f.mesh with random constants, and a state off their rest: positions jittered by up
 // to ±`amplitude` (m), velocities up to ±1 m/s.
 void randomise_springs_and_state(Fixture& f, std::mt19937& rng, float amplitude, bool damping) {
-  std::uniform_real_distribution<float> jitter(-amplitude, amplitude), kd(50.0f, 500.0f), cd(0.0f, 0.5f), vel(-1.0f, 1.0f);
+  std::uniform_real_distribution<float> jitter(-amplitude, amplitude), kd(50.0f, 500.0f), cd(0.0f, 0.5f),
+      vel(-1.0f, 1.0f);
   f.springs = build_cloth_springs(f.mesh.position_view(), f.mesh.triangle_view());
   for (std::size_t s = 0; s < f.springs.size(); ++s) {
     f.springs.stiffness[s] = kd(rng);
@@ -501,7 +502,8 @@ TEST(ClothOrdering, OrderKeepsEachSlicesNeighboursWithinABand) {
   const Renumbered r = shuffled(f, 12u);
   const SpringAdjacency before = build_spring_adjacency(r.springs, r.order.size());
   const SpringAdjacency after = build_spring_adjacency(
-      renumber_cloth_springs(r.springs, inverse_permutation(cloth_particle_order(r.order.size(), r.springs))), r.order.size());
+      renumber_cloth_springs(r.springs, inverse_permutation(cloth_particle_order(r.order.size(), r.springs))),
+      r.order.size());
   const auto widest = [](const SpringAdjacency& adj) {
     std::int32_t w = 0;
     for (std::size_t s = 0; s < adj.slice_count(); ++s)

@@ -16,7 +16,8 @@ std::vector<float> random_points(std::size_t count, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-0.35f, 0.35f);
   std::vector<float> p(3 * count);
-  for (float& x : p) x = u(rng);
+  for (float& x : p)
+    x = u(rng);
   return p;
 }
 
@@ -26,7 +27,8 @@ TEST(EdgeCrossings, EmbreeAgreesWithBruteForceSerialAndParallel) {
   const std::size_t count = 3000;
   const std::vector<float> points = random_points(2 * count, 7);
   std::vector<std::int32_t> edges(2 * count);
-  for (std::size_t i = 0; i < edges.size(); ++i) edges[i] = static_cast<std::int32_t>(i);
+  for (std::size_t i = 0; i < edges.size(); ++i)
+    edges[i] = static_cast<std::int32_t>(i);
   SegmentCrossings fast, serial, brute;
   index.first_crossings(points, edges, fast);
   index.first_crossings_serial(points, edges, serial);
@@ -77,7 +79,8 @@ TEST(EdgeCrossings, EdgeEndpointsAreTheDistinctEdges) {
   const std::vector<std::int32_t> ends = mesh_edge_endpoints(tube.triangles, tube.vertex_count());
   // Euler: a tube (annulus) has V − E + F = 0.
   EXPECT_EQ(tube.vertex_count() + tube.triangles.size() / 3, ends.size() / 2);
-  for (std::size_t e = 0; 2 * e < ends.size(); ++e) EXPECT_LT(ends[2 * e], ends[2 * e + 1]);
+  for (std::size_t e = 0; 2 * e < ends.size(); ++e)
+    EXPECT_LT(ends[2 * e], ends[2 * e + 1]);
 }
 
 TEST(EdgeCrossings, EmptyBodyCrossesNothing) {

@@ -22,7 +22,8 @@ TEST(Laplacian, ConstantsAreInTheKernelAndTheOperatorIsSymmetric) {
     EXPECT_LT((L * ones).cwiseAbs().maxCoeff(), 1e-12); // rows sum to zero exactly up to rounding
     const SparseMatrix diff = SparseMatrix(L.transpose()) - L;
     EXPECT_LT(diff.cwiseAbs().sum(), 1e-9);
-    for (Eigen::Index i = 0; i < L.rows(); ++i) EXPECT_GT(L.coeff(i, i), 0.0); // a sphere has no obtuse pairs
+    for (Eigen::Index i = 0; i < L.rows(); ++i)
+      EXPECT_GT(L.coeff(i, i), 0.0); // a sphere has no obtuse pairs
   }
 }
 
@@ -42,7 +43,8 @@ TEST(Laplacian, UniformMatchesADenseAdjacencyOracle) {
       const std::int32_t a = triangles[3 * f + std::size_t(k)], b = triangles[3 * f + std::size_t(k + 1) % 3];
       if (a != b) oracle(a, b) = oracle(b, a) = -1.0;
     }
-  for (Eigen::Index i = 0; i < oracle.rows(); ++i) oracle(i, i) = -(oracle.row(i).sum() - oracle(i, i));
+  for (Eigen::Index i = 0; i < oracle.rows(); ++i)
+    oracle(i, i) = -(oracle.row(i).sum() - oracle(i, i));
   const SparseMatrix L = uniform_laplacian(triangles, count);
   ASSERT_EQ(L.rows(), Eigen::Index(count));
   EXPECT_EQ((Eigen::MatrixXd(L) - oracle).cwiseAbs().maxCoeff(), 0.0);
@@ -71,7 +73,8 @@ TEST(Laplacian, CotangentWeightsReproduceLinearFunctionsOnAFlatGrid) {
   }
   const SparseMatrix L = cotangent_laplacian(m.position_view(), m.triangle_view());
   Eigen::VectorXd f(m.vertex_count());
-  for (std::size_t v = 0; v < m.vertex_count(); ++v) f[v] = 2.0 * m.positions[3 * v] - 3.0 * m.positions[3 * v + 2] + 1.0;
+  for (std::size_t v = 0; v < m.vertex_count(); ++v)
+    f[v] = 2.0 * m.positions[3 * v] - 3.0 * m.positions[3 * v + 2] + 1.0;
   const Eigen::VectorXd Lf = L * f;
   for (std::size_t v = 0; v < m.vertex_count(); ++v) {
     const int i = int(v) / 9, j = int(v) % 9;
@@ -88,11 +91,13 @@ TEST(SparseLeastSquares, MatchesADenseQrOracleAndReportsRankDeficiency) {
   for (int r = 0; r < 60; ++r)
     for (int c = 0; c < 20; ++c)
       if (u(rng) > 0.5) t.emplace_back(r, c, u(rng));
-  for (int c = 0; c < 20; ++c) t.emplace_back(60 + c, c, 1.0); // full column rank
+  for (int c = 0; c < 20; ++c)
+    t.emplace_back(60 + c, c, 1.0); // full column rank
   SparseMatrix A(80, 20);
   A.setFromTriplets(t.begin(), t.end());
   Eigen::MatrixXd b(80, 3);
-  for (int i = 0; i < b.size(); ++i) b.data()[i] = u(rng);
+  for (int i = 0; i < b.size(); ++i)
+    b.data()[i] = u(rng);
   const SparseLeastSquares ls(A);
   ASSERT_TRUE(ls.ok());
   const Eigen::MatrixXd x = ls.solve(b);
@@ -106,12 +111,12 @@ TEST(SparseLeastSquares, MatchesADenseQrOracleAndReportsRankDeficiency) {
 
 TEST(SparseLeastSquares, PivotsAreRegularOnlyAboveTheRatioOfTheLargest) {
   EXPECT_TRUE(ldlt_pivots_regular(Eigen::Vector3d(1, 2, 3)));
-  EXPECT_TRUE(ldlt_pivots_regular(Eigen::VectorXd()));               // a 0 × 0 system
-  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, 0)));          // a zero pivot: singular
-  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, -1e-3)));      // PSD input never pivots below 0
-  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1e6, 1e-7)));     // ratio 1e-13
-  EXPECT_TRUE(ldlt_pivots_regular(Eigen::Vector2d(1e6, 1e-5)));      // ratio 1e-11
-  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1e-3, 1e-13)));   // the scale is at least 1
+  EXPECT_TRUE(ldlt_pivots_regular(Eigen::VectorXd()));                 // a 0 × 0 system
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, 0)));            // a zero pivot: singular
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, -1e-3)));        // PSD input never pivots below 0
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1e6, 1e-7)));       // ratio 1e-13
+  EXPECT_TRUE(ldlt_pivots_regular(Eigen::Vector2d(1e6, 1e-5)));        // ratio 1e-11
+  EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1e-3, 1e-13)));     // the scale is at least 1
   EXPECT_FALSE(ldlt_pivots_regular(Eigen::Vector2d(1, std::nan("")))); // NaNs: not regular
 }
 
@@ -124,11 +129,13 @@ TEST(SupernodalLeastSquares, AgreesWithTheSimplicialSolverAndReportsRankDeficien
   for (int r = 0; r < 90; ++r)
     for (int c = 0; c < 30; ++c)
       if (u(rng) > 0.6) t.emplace_back(r, c, u(rng));
-  for (int c = 0; c < 30; ++c) t.emplace_back(90 + c, c, 1.0); // full column rank
+  for (int c = 0; c < 30; ++c)
+    t.emplace_back(90 + c, c, 1.0); // full column rank
   SparseMatrix A(120, 30);
   A.setFromTriplets(t.begin(), t.end());
   Eigen::MatrixXd b(120, 3);
-  for (int i = 0; i < b.size(); ++i) b.data()[i] = u(rng);
+  for (int i = 0; i < b.size(); ++i)
+    b.data()[i] = u(rng);
   const SupernodalLeastSquares supernodal(A);
   const SparseLeastSquares simplicial(A);
   ASSERT_TRUE(supernodal.ok());
@@ -167,12 +174,14 @@ struct TubeBand {
     std::vector<Eigen::Triplet<double>> entries;
     for (Eigen::Index r = 0; r < L.outerSize(); ++r)
       for (SparseMatrix::InnerIterator it(L, r); it; ++it)
-        if (column[static_cast<std::size_t>(it.col())] >= 0) entries.emplace_back(r, column[static_cast<std::size_t>(it.col())], it.value());
+        if (column[static_cast<std::size_t>(it.col())] >= 0)
+          entries.emplace_back(r, column[static_cast<std::size_t>(it.col())], it.value());
     A.resize(nv, static_cast<Eigen::Index>(free.size()));
     A.setFromTriplets(entries.begin(), entries.end());
     b = L * x - L * t; // t is zero on the free vertices
     near_null.resize(static_cast<Eigen::Index>(free.size()), 4);
-    for (std::size_t f = 0; f < free.size(); ++f) near_null.row(static_cast<Eigen::Index>(f)) << 1.0, x.row(free[f]);
+    for (std::size_t f = 0; f < free.size(); ++f)
+      near_null.row(static_cast<Eigen::Index>(f)) << 1.0, x.row(free[f]);
   }
 };
 
@@ -246,18 +255,20 @@ TEST(LaplacianDeformer, KeepsTheShapeFollowsHandlesAndReusesItsFactorisation) {
   const Mesh tube = make_tube(20, 16, 0.05f, 0.5f);
   std::vector<std::int32_t> handles;
   for (int j = 0; j < 16; ++j) {
-    handles.push_back(j);            // bottom ring
-    handles.push_back(19 * 16 + j);  // top ring
+    handles.push_back(j);           // bottom ring
+    handles.push_back(19 * 16 + j); // top ring
   }
   const LaplacianDeformer deformer(tube, handles, 10.0);
   ASSERT_TRUE(deformer.ok());
   const Eigen::MatrixXd delta = deformer.laplacian_coordinates(tube.positions);
   Eigen::MatrixXd targets(handles.size(), 3);
   for (std::size_t k = 0; k < handles.size(); ++k)
-    for (int c = 0; c < 3; ++c) targets(k, c) = tube.positions[3 * handles[k] + c];
+    for (int c = 0; c < 3; ++c)
+      targets(k, c) = tube.positions[3 * handles[k] + c];
   // Targets at rest: the rest shape comes back.
   std::vector<float> out = deformer.deform(delta, targets);
-  for (std::size_t i = 0; i < out.size(); ++i) ASSERT_NEAR(out[i], tube.positions[i], 1e-5);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    ASSERT_NEAR(out[i], tube.positions[i], 1e-5);
   // Every target moved by the same offset: the whole tube translates (δ is translation-free).
   Eigen::MatrixXd moved = targets;
   moved.rowwise() += Eigen::RowVector3d(0.1, -0.2, 0.3);
@@ -268,7 +279,8 @@ TEST(LaplacianDeformer, KeepsTheShapeFollowsHandlesAndReusesItsFactorisation) {
   }
   // Only the top ring moves sideways: the middle follows part of the way, smoothly.
   Eigen::MatrixXd shear = targets;
-  for (std::size_t k = 1; k < handles.size(); k += 2) shear(k, 0) += 0.1;
+  for (std::size_t k = 1; k < handles.size(); k += 2)
+    shear(k, 0) += 0.1;
   out = deformer.deform(delta, shear);
   const std::size_t mid = 10 * 16;
   EXPECT_GT(out[3 * mid] - tube.positions[3 * mid], 0.02);

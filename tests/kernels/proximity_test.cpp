@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <numbers>
 #include <random>
@@ -753,8 +753,8 @@ namespace {
 // Points within 2 cm of a body, the band where garment vertices live: a uniform point of a
 // random triangle moved by up to 2 cm in a random direction; `shoulder_share` of them are drawn
 // from triangles above `shoulder_height` (m), where the arms meet the torso.
-std::vector<float> near_surface_queries(const Mesh& m, std::size_t count, double shoulder_share,
-                                        double shoulder_height, unsigned seed) {
+std::vector<float> near_surface_queries(const Mesh& m, std::size_t count, double shoulder_share, double shoulder_height,
+                                        unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> gauss;
@@ -810,7 +810,7 @@ SideCheck check_side_near_surface(const Mesh& m, std::span<const float> q) {
     r.explained += overlap;
     if (!overlap)
       ADD_FAILURE() << "query " << i << " signed distance " << h.signed_distances[i] << " winding number " << w
-                                      << " feature " << int(h.features[i]) << " triangle " << h.triangles[i];
+                    << " feature " << int(h.features[i]) << " triangle " << h.triangles[i];
   }
   return r;
 }

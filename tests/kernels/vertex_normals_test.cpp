@@ -16,7 +16,8 @@ Mesh jittered_sphere(int rings, int segments, unsigned seed) {
   Mesh m = make_uv_sphere(rings, segments, 1.0f);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> jitter(-0.01f, 0.01f);
-  for (float& x : m.positions) x += jitter(rng);
+  for (float& x : m.positions)
+    x += jitter(rng);
   return m;
 }
 
@@ -70,14 +71,15 @@ TEST(VertexNormals, FlatSquareFacesPlusZ) {
 
 TEST(VertexNormals, IsolatedAndDegenerateVerticesGetZero) {
   Mesh m = test::unit_square();
-  m.positions.insert(m.positions.end(), {5, 5, 5});        // vertex 4: used by no face
+  m.positions.insert(m.positions.end(), {5, 5, 5});          // vertex 4: used by no face
   m.positions.insert(m.positions.end(), {0, 0, 0, 1, 0, 0}); // 5, 6: a zero-area face
   m.positions.insert(m.positions.end(), {2, 0, 0});
-  m.triangles.insert(m.triangles.end(), {5, 6, 7});          // collinear: area 0
+  m.triangles.insert(m.triangles.end(), {5, 6, 7}); // collinear: area 0
   std::vector<float> n;
   vertex_normals_serial(m.position_view(), m.triangle_view(), n);
   for (int v : {4, 5, 6, 7})
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(n[3 * v + k], 0.0f) << "vertex " << v;
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(n[3 * v + k], 0.0f) << "vertex " << v;
 }
 
 class VertexNormalsParity : public ::testing::TestWithParam<int> {};
@@ -90,7 +92,8 @@ TEST_P(VertexNormalsParity, TbbEqualsSerialBitForBit) {
   vertex_normals_serial(m.position_view(), m.triangle_view(), serial);
   vertex_normals_tbb(m.position_view(), m.triangle_view(), parallel);
   ASSERT_EQ(serial.size(), parallel.size());
-  for (std::size_t i = 0; i < serial.size(); ++i) ASSERT_EQ(serial[i], parallel[i]) << "component " << i;
+  for (std::size_t i = 0; i < serial.size(); ++i)
+    ASSERT_EQ(serial[i], parallel[i]) << "component " << i;
 }
 
 INSTANTIATE_TEST_SUITE_P(Sizes, VertexNormalsParity, ::testing::Values(3, 16, 100, 300));
@@ -99,9 +102,11 @@ TEST(ParallelForRange, CoversEveryIndexExactlyOnce) {
   for (std::size_t count : {std::size_t{0}, std::size_t{1}, std::size_t{999}, std::size_t{100000}}) {
     std::vector<int> hits(count, 0);
     parallel_for_range(count, 128, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) ++hits[i]; // ranges are disjoint: no race
+      for (std::size_t i = b; i < e; ++i)
+        ++hits[i]; // ranges are disjoint: no race
     });
-    for (std::size_t i = 0; i < count; ++i) ASSERT_EQ(hits[i], 1) << "index " << i;
+    for (std::size_t i = 0; i < count; ++i)
+      ASSERT_EQ(hits[i], 1) << "index " << i;
   }
 }
 

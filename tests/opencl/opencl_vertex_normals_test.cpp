@@ -16,7 +16,7 @@ namespace {
 
 bool have_device() { return !list_opencl_devices().empty(); }
 
-#define REQUIRE_OPENCL_DEVICE()                                                                            \
+#define REQUIRE_OPENCL_DEVICE()                                                                                        \
   if (!have_device()) GTEST_SKIP() << "no OpenCL device installed (apt-get install pocl-opencl-icd)"
 
 TEST(OpenClContext, EnumeratesAndSelectsDevices) {
@@ -53,7 +53,8 @@ TEST_P(OpenClNormalsParity, AgreesWithSerialReference) {
   Mesh m = make_uv_sphere(GetParam(), 2 * GetParam(), 1.0f);
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> jitter(-0.005f, 0.005f);
-  for (float& x : m.positions) x += jitter(rng);
+  for (float& x : m.positions)
+    x += jitter(rng);
   std::vector<float> ref, got;
   vertex_normals_serial(m.position_view(), m.triangle_view(), ref);
   OpenClContext ctx;
@@ -63,11 +64,14 @@ TEST_P(OpenClNormalsParity, AgreesWithSerialReference) {
   // The kernels evaluate the same float expressions in the same order with correctly rounded
   // sqrt/divide and FP_CONTRACT off, so results differ by at most a few ulps of a unit vector
   // (a device may still flush denormals or fuse differently); 1e-6 is ~8 ulps at 1.0.
-  for (std::size_t i = 0; i < ref.size(); ++i) ASSERT_NEAR(ref[i], got[i], 1e-6f) << "component " << i;
+  for (std::size_t i = 0; i < ref.size(); ++i)
+    ASSERT_NEAR(ref[i], got[i], 1e-6f) << "component " << i;
   // A second call with moved positions reuses the uploaded topology.
-  for (float& x : m.positions) x *= 2.0f;
+  for (float& x : m.positions)
+    x *= 2.0f;
   kernel.compute(m.position_view(), got);
-  for (std::size_t i = 0; i < ref.size(); ++i) ASSERT_NEAR(ref[i], got[i], 1e-6f) << "component " << i;
+  for (std::size_t i = 0; i < ref.size(); ++i)
+    ASSERT_NEAR(ref[i], got[i], 1e-6f) << "component " << i;
 }
 
 INSTANTIATE_TEST_SUITE_P(Sizes, OpenClNormalsParity, ::testing::Values(2, 10, 50, 200));

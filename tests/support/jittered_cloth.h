@@ -23,9 +23,9 @@ namespace vfit {
 
 /// The state jittered_cloth() builds.
 struct JitteredCloth {
-  std::vector<float> x, v;     ///< #V × 3 positions (m) and velocities (m/s)
-  SpringAdjacency adjacency;   ///< the grid's springs as per-particle rows
-  ClothParticles particles;    ///< inverse masses (0 for the two pinned corners), damping
+  std::vector<float> x, v;   ///< #V × 3 positions (m) and velocities (m/s)
+  SpringAdjacency adjacency; ///< the grid's springs as per-particle rows
+  ClothParticles particles;  ///< inverse masses (0 for the two pinned corners), damping
 };
 
 /// See the file comment; n ≥ 2.

@@ -14,7 +14,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-
 #include "geometry/body/mannequin.h"
 
 extern char** environ;
@@ -74,7 +73,8 @@ CliResult run_cli(const std::vector<std::string>& args) {
   std::vector<std::string> all{VFIT_CLI_PATH};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(a.data());
+  for (auto& a : all)
+    argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = 0;
   int rc = posix_spawn(&pid, VFIT_CLI_PATH, &actions, nullptr, argv.data(), environ);
@@ -139,7 +139,8 @@ double mean_edge_length_change(const Mesh& before, const Mesh& after) {
       const std::size_t u = before.triangles[3 * f + k], v = before.triangles[3 * f + (k + 1) % 3];
       auto len = [&](const Mesh& m) {
         double s2 = 0;
-        for (int c = 0; c < 3; ++c) s2 += std::pow(double(m.positions[3 * u + c]) - m.positions[3 * v + c], 2);
+        for (int c = 0; c < 3; ++c)
+          s2 += std::pow(double(m.positions[3 * u + c]) - m.positions[3 * v + c], 2);
         return std::sqrt(s2);
       };
       sum += std::abs(len(after) / len(before) - 1.0);

@@ -80,14 +80,16 @@ TEST(Keypoints, ReadsOpenPoseCoco18AndHonoursAForcedLayout) {
   EXPECT_DOUBLE_EQ(hip->pixel.x(), 111.0);
   KeypointOptions forced = sized();
   forced.layout = KeypointLayout::BODY_25;
-  EXPECT_NE(error_of([&] { parse_keypoints(openpose_json(54), "a.json", forced); }).find("do not match"), std::string::npos);
+  EXPECT_NE(error_of([&] { parse_keypoints(openpose_json(54), "a.json", forced); }).find("do not match"),
+            std::string::npos);
 }
 
 TEST(Keypoints, ReadsLspAsTriplesOrFlatWithImageSizeAndFocalFromTheFile) {
   nlohmann::json triples = nlohmann::json::array(), flat = nlohmann::json::array();
   for (int i = 0; i < 14; ++i) {
     triples.push_back({10.0 * i, 20.0 * i + 5, i == 13 ? 0 : 1});
-    for (double v : {10.0 * i, 20.0 * i + 5, i == 13 ? 0.0 : 1.0}) flat.push_back(v);
+    for (double v : {10.0 * i, 20.0 * i + 5, i == 13 ? 0.0 : 1.0})
+      flat.push_back(v);
   }
   for (const auto& kps : {triples, flat}) {
     const nlohmann::json doc = {{"layout", "lsp"}, {"image_size", {400, 600}}, {"focal", 900}, {"keypoints", kps}};
@@ -122,7 +124,8 @@ TEST(Keypoints, KeepsTheMostConfidentPersonWithAWarning) {
   auto person = [](double c) {
     nlohmann::json arr = nlohmann::json::array();
     for (int i = 0; i < 25; ++i)
-      for (double v : {10.0 * i + c, 5.0 * i, c}) arr.push_back(v);
+      for (double v : {10.0 * i + c, 5.0 * i, c})
+        arr.push_back(v);
     return nlohmann::json{{"pose_keypoints_2d", arr}};
   };
   const nlohmann::json doc = {{"people", {person(0.3), person(0.9), person(0.5)}}};
@@ -139,7 +142,8 @@ TEST(Keypoints, BadFilesGiveErrorsNamingFileAndElement) {
   };
   nlohmann::json few = nlohmann::json::array();
   for (int i = 0; i < 25; ++i)
-    for (double v : {1.0, 2.0, i < 5 ? 0.9 : 0.0}) few.push_back(v); // 5 confident keypoints
+    for (double v : {1.0, 2.0, i < 5 ? 0.9 : 0.0})
+      few.push_back(v); // 5 confident keypoints
   nlohmann::json bad_number = nlohmann::json::parse(openpose_json(75));
   bad_number["people"][0]["pose_keypoints_2d"][7] = "abc";
   nlohmann::json bad_conf = nlohmann::json::parse(openpose_json(75));
@@ -203,7 +207,7 @@ TEST(KeypointFit, PoseForAposeRestGivesTheSamePosedJoints) {
   const JointPositions a_rest = MannequinShape(m, RestPose::APOSE).joints();
   const JointPositions want = posed_joints(t_rest, pose);
   const JointPositions got = posed_joints(a_rest, pose_for_rest(pose, RestPose::APOSE));
-  EXPECT_LT((want - got).cwiseAbs().maxCoeff(), 1e-9); // exact up to rounding
+  EXPECT_LT((want - got).cwiseAbs().maxCoeff(), 1e-9);                        // exact up to rounding
   EXPECT_GT((posed_joints(a_rest, pose) - want).cwiseAbs().maxCoeff(), 0.05); // the conversion matters
 }
 
@@ -213,7 +217,8 @@ TEST(KeypointFit, PoseForAposeRestGivesTheSamePosedJoints) {
 // Rotation (axis-angle) of successive rotations about the parent's axes, applied in order.
 Eigen::Vector3d rotations(std::initializer_list<std::pair<int, double>> steps) {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  for (const auto& [axis, angle] : steps) R = axis_angle_to_matrix(angle * Eigen::Vector3d::Unit(axis)) * R;
+  for (const auto& [axis, angle] : steps)
+    R = axis_angle_to_matrix(angle * Eigen::Vector3d::Unit(axis)) * R;
   return matrix_to_axis_angle(R);
 }
 
@@ -252,10 +257,17 @@ struct SyntheticPose {
 // within the bar since each arm is pulled toward the nearest of three rest places (hanging,
 // forward, overhead) and stages 2 and 3 weigh the prior alike: 25.0 mm.
 double known_miss_mm(std::string_view name) {
-  static const std::vector<std::pair<std::string_view, double>> guards = {
-      {"a_pose", 46},   {"walking", 58},      {"squat", 67},     {"back_view", 54},    {"lunge", 82},
-      {"basketball_shot", 74}, {"running", 68}, {"tree_pose", 54},  {"boxing_guard", 42},
-      {"head_turned", 54}, {"walking_seen_from_above", 47}};
+  static const std::vector<std::pair<std::string_view, double>> guards = {{"a_pose", 46},
+                                                                          {"walking", 58},
+                                                                          {"squat", 67},
+                                                                          {"back_view", 54},
+                                                                          {"lunge", 82},
+                                                                          {"basketball_shot", 74},
+                                                                          {"running", 68},
+                                                                          {"tree_pose", 54},
+                                                                          {"boxing_guard", 42},
+                                                                          {"head_turned", 54},
+                                                                          {"walking_seen_from_above", 47}};
   for (const auto& [n, mm] : guards)
     if (n == name) return mm;
   return 30;
@@ -269,7 +281,8 @@ Eigen::Vector3d arm(double side, double down, double fwd) {
   const Eigen::Matrix3d swing = axis_angle_to_matrix(d.cross(Eigen::Vector3d::UnitZ()).normalized() * fwd);
   return matrix_to_axis_angle(swing * lower);
 }
-void arms(Pose& p, double down_l, double fwd_l, double down_r, double fwd_r, double elbow_l = 0.15, double elbow_r = 0.15) {
+void arms(Pose& p, double down_l, double fwd_l, double down_r, double fwd_r, double elbow_l = 0.15,
+          double elbow_r = 0.15) {
   p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) = arm(1, down_l, fwd_l).transpose();
   p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) = arm(-1, down_r, fwd_r).transpose();
   p.axis_angle.row(idx(Joint::LEFT_ELBOW)) << 0, -elbow_l, 0;
@@ -283,7 +296,8 @@ void legs(Pose& p, double hip_l, double knee_l, double hip_r, double knee_r) {
   p.axis_angle.row(idx(Joint::RIGHT_KNEE)) << knee_r, 0, 0;
 }
 void spine(Pose& p, double bend, double twist, double side) {
-  for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3}) p.axis_angle.row(idx(j)) << bend / 3, twist / 3, side / 3;
+  for (Joint j : {Joint::SPINE1, Joint::SPINE2, Joint::SPINE3})
+    p.axis_angle.row(idx(j)) << bend / 3, twist / 3, side / 3;
 }
 void yaw(Pose& p, double a, double pitch = 0) { p.axis_angle.row(0) = rotations({{X, pitch}, {Y, a}}).transpose(); }
 
@@ -295,39 +309,93 @@ std::vector<SyntheticPose> synthetic_poses() {
     v.push_back({name, p, known_miss_mm(name)});
   };
   add("standing", [](Pose& p) { arms(p, 1.3, 0, 1.3, 0); });
-  add("a_pose", [](Pose& p) { arms(p, 0.8, 0, 0.8, 0, 0.3, 0.3); legs(p, 0, 0.05, 0, 0.05); });
-  add("walking", [](Pose& p) { arms(p, 1.3, -0.4, 1.3, 0.4); legs(p, 0.45, 0.15, -0.3, 0.5); });
+  add("a_pose", [](Pose& p) {
+    arms(p, 0.8, 0, 0.8, 0, 0.3, 0.3);
+    legs(p, 0, 0.05, 0, 0.05);
+  });
+  add("walking", [](Pose& p) {
+    arms(p, 1.3, -0.4, 1.3, 0.4);
+    legs(p, 0.45, 0.15, -0.3, 0.5);
+  });
   add("arms_raised", [](Pose& p) { arms(p, -1.2, 0.2, -1.2, 0.2); });
   add("arms_forward", [](Pose& p) { arms(p, 0.1, 1.3, 0.1, 1.3, 0.2, 0.2); });
-  add("squat", [](Pose& p) { arms(p, 0.3, 1.1, 0.3, 1.1); legs(p, 1.0, 1.6, 1.0, 1.6); spine(p, 0.4, 0, 0); });
-  add("torso_turned_left", [](Pose& p) { arms(p, 1.2, 0.2, 1.2, -0.2); spine(p, 0, 0.5, 0); yaw(p, 0.5); });
-  add("torso_turned_right", [](Pose& p) { arms(p, 1.3, 0, 1.1, 0.3, 0.8, 0.4); spine(p, 0.1, -0.4, 0); yaw(p, -0.7); });
-  add("side_view_walking", [](Pose& p) { arms(p, 1.3, -0.4, 1.3, 0.4); legs(p, 0.45, 0.15, -0.3, 0.5); yaw(p, 1.3); });
-  add("back_view", [](Pose& p) { arms(p, 0.9, 0, 1.1, 0.3, 0.5, 0.2); legs(p, 0.1, 0.1, 0, 0); yaw(p, PI); });
-  add("lunge", [](Pose& p) { arms(p, -1.0, 0.5, -1.0, 0.5); legs(p, 1.0, 1.2, -0.4, 0.3); yaw(p, 0.3); });
-  add("kick", [](Pose& p) { arms(p, 0.2, 0.3, 0.3, -0.2); legs(p, -0.1, 0.2, 1.2, 0.4); spine(p, -0.2, 0, 0); yaw(p, -0.4); });
+  add("squat", [](Pose& p) {
+    arms(p, 0.3, 1.1, 0.3, 1.1);
+    legs(p, 1.0, 1.6, 1.0, 1.6);
+    spine(p, 0.4, 0, 0);
+  });
+  add("torso_turned_left", [](Pose& p) {
+    arms(p, 1.2, 0.2, 1.2, -0.2);
+    spine(p, 0, 0.5, 0);
+    yaw(p, 0.5);
+  });
+  add("torso_turned_right", [](Pose& p) {
+    arms(p, 1.3, 0, 1.1, 0.3, 0.8, 0.4);
+    spine(p, 0.1, -0.4, 0);
+    yaw(p, -0.7);
+  });
+  add("side_view_walking", [](Pose& p) {
+    arms(p, 1.3, -0.4, 1.3, 0.4);
+    legs(p, 0.45, 0.15, -0.3, 0.5);
+    yaw(p, 1.3);
+  });
+  add("back_view", [](Pose& p) {
+    arms(p, 0.9, 0, 1.1, 0.3, 0.5, 0.2);
+    legs(p, 0.1, 0.1, 0, 0);
+    yaw(p, PI);
+  });
+  add("lunge", [](Pose& p) {
+    arms(p, -1.0, 0.5, -1.0, 0.5);
+    legs(p, 1.0, 1.2, -0.4, 0.3);
+    yaw(p, 0.3);
+  });
+  add("kick", [](Pose& p) {
+    arms(p, 0.2, 0.3, 0.3, -0.2);
+    legs(p, -0.1, 0.2, 1.2, 0.4);
+    spine(p, -0.2, 0, 0);
+    yaw(p, -0.4);
+  });
   add("throw", [](Pose& p) {
     arms(p, 0.0, 0.6, -1.1, -0.3, 0.6, 1.4);
     spine(p, 0, -0.6, 0.15);
     legs(p, 0.3, 0.2, -0.2, 0.1);
     yaw(p, 0.6);
   });
-  add("basketball_shot", [](Pose& p) { arms(p, -1.3, 0.5, -1.3, 0.5, 1.3, 1.3); legs(p, 0.3, 0.5, 0.3, 0.5); });
+  add("basketball_shot", [](Pose& p) {
+    arms(p, -1.3, 0.5, -1.3, 0.5, 1.3, 1.3);
+    legs(p, 0.3, 0.5, 0.3, 0.5);
+  });
   add("running", [](Pose& p) {
     arms(p, 1.2, 0.6, 1.2, -0.6, 1.5, 1.5);
     legs(p, 0.8, 1.0, -0.5, 1.4);
     spine(p, 0.25, 0, 0);
     yaw(p, 0.9);
   });
-  add("bending_forward", [](Pose& p) { arms(p, 1.5, 0.6, 1.5, 0.6); spine(p, 0.6, 0, 0); legs(p, 0.5, 0, 0.5, 0); yaw(p, 0.4, 0.5); });
-  add("side_bend", [](Pose& p) { arms(p, -1.3, 0, 1.2, 0); spine(p, 0, 0, 0.5); });
+  add("bending_forward", [](Pose& p) {
+    arms(p, 1.5, 0.6, 1.5, 0.6);
+    spine(p, 0.6, 0, 0);
+    legs(p, 0.5, 0, 0.5, 0);
+    yaw(p, 0.4, 0.5);
+  });
+  add("side_bend", [](Pose& p) {
+    arms(p, -1.3, 0, 1.2, 0);
+    spine(p, 0, 0, 0.5);
+  });
   add("tree_pose", [](Pose& p) {
     arms(p, -1.4, 0.1, -1.4, 0.1, 0.4, 0.4);
     p.axis_angle.row(idx(Joint::LEFT_HIP)) = rotations({{Z, 0.9}, {X, -0.6}}).transpose();
     p.axis_angle.row(idx(Joint::LEFT_KNEE)) << 2.0, 0, 0;
   });
-  add("boxing_guard", [](Pose& p) { arms(p, 1.3, 0.9, 1.3, 0.9, 1.7, 1.7); legs(p, 0.2, 0.3, -0.1, 0.3); yaw(p, -0.3); });
-  add("sitting", [](Pose& p) { arms(p, 1.2, 0.7, 1.2, 0.7, 0.6, 0.6); legs(p, 1.4, 1.5, 1.4, 1.5); yaw(p, 0.5); });
+  add("boxing_guard", [](Pose& p) {
+    arms(p, 1.3, 0.9, 1.3, 0.9, 1.7, 1.7);
+    legs(p, 0.2, 0.3, -0.1, 0.3);
+    yaw(p, -0.3);
+  });
+  add("sitting", [](Pose& p) {
+    arms(p, 1.2, 0.7, 1.2, 0.7, 0.6, 0.6);
+    legs(p, 1.4, 1.5, 1.4, 1.5);
+    yaw(p, 0.5);
+  });
   add("jumping_jack", [](Pose& p) {
     arms(p, -0.7, 0, -0.7, 0, 0.1, 0.1);
     p.axis_angle.row(idx(Joint::LEFT_HIP)) << 0, 0, 0.35;
@@ -339,7 +407,11 @@ std::vector<SyntheticPose> synthetic_poses() {
     p.axis_angle.row(idx(Joint::HEAD)) << 0.1, 0.4, 0;
     yaw(p, 0.3);
   });
-  add("walking_seen_from_above", [](Pose& p) { arms(p, 1.3, 0.4, 1.3, -0.4); legs(p, -0.3, 0.5, 0.45, 0.15); yaw(p, -0.6, 0.25); });
+  add("walking_seen_from_above", [](Pose& p) {
+    arms(p, 1.3, 0.4, 1.3, -0.4);
+    legs(p, -0.3, 0.5, 0.45, 0.15);
+    yaw(p, -0.6, 0.25);
+  });
   return v;
 }
 
@@ -355,18 +427,21 @@ Eigen::VectorXd procrustes_errors(const JointPositions& a, const JointPositions&
   const double var_a = A.squaredNorm() / static_cast<double>(JOINT_COUNT);
   const double s = (svd.singularValues().asDiagonal() * D).trace() / var_a;
   Eigen::VectorXd e(JOINT_COUNT);
-  for (int i = 0; i < JOINT_COUNT; ++i) e[i] = (s * R * A.row(i).transpose() - B.row(i).transpose()).norm();
+  for (int i = 0; i < JOINT_COUNT; ++i)
+    e[i] = (s * R * A.row(i).transpose() - B.row(i).transpose()).norm();
   return e;
 }
 
 // The joints with the largest errors, "name mm" each, worst first (the test's printout).
 std::string worst_joints(const Eigen::VectorXd& e, int count) {
   std::vector<int> order(static_cast<std::size_t>(e.size()));
-  for (int i = 0; i < e.size(); ++i) order[static_cast<std::size_t>(i)] = i;
+  for (int i = 0; i < e.size(); ++i)
+    order[static_cast<std::size_t>(i)] = i;
   std::sort(order.begin(), order.end(), [&](int x, int y) { return e[x] > e[y]; });
   std::string out;
   for (int k = 0; k < count; ++k)
-    out += std::string(joint_name(order[static_cast<std::size_t>(k)])) + " " + std::to_string(static_cast<int>(1000 * e[order[static_cast<std::size_t>(k)]])) + (k + 1 < count ? ", " : "");
+    out += std::string(joint_name(order[static_cast<std::size_t>(k)])) + " " +
+           std::to_string(static_cast<int>(1000 * e[order[static_cast<std::size_t>(k)]])) + (k + 1 < count ? ", " : "");
   return out;
 }
 
@@ -413,7 +488,8 @@ TEST_P(SyntheticKeypointFit, RecoversJointsAndReprojectsWithin5px) {
   const auto poses = synthetic_poses();
   const int i = GetParam();
   ASSERT_LT(static_cast<std::size_t>(i), poses.size());
-  const KeypointShape beta = {0.9 * std::sin(1.7 * i), 0.8 * std::cos(2.3 * i), 0.7 * std::sin(0.9 * i + 1), 0.6 * std::cos(i)};
+  const KeypointShape beta = {0.9 * std::sin(1.7 * i), 0.8 * std::cos(2.3 * i), 0.7 * std::sin(0.9 * i + 1),
+                              0.6 * std::cos(i)};
   const Synthetic s = synthesise(poses[static_cast<std::size_t>(i)].pose, beta, 1000u + static_cast<unsigned>(i));
   const Keypoints kp = parse_keypoints(s.json, poses[static_cast<std::size_t>(i)].name);
   ASSERT_EQ(kp.points.size(), 22u);
@@ -422,8 +498,8 @@ TEST_P(SyntheticKeypointFit, RecoversJointsAndReprojectsWithin5px) {
   const double err3d = errors.mean();
   std::printf("[pose %-24s] 3D %.1f mm, 2D %.2f px, facing away %d, iterations %d/%d/%d, %.0f ms; worst: %s\n",
               poses[static_cast<std::size_t>(i)].name, 1000 * err3d, fit.mean_reprojection_px, fit.facing_away ? 1 : 0,
-              fit.stages[0].iterations, fit.stages[1].iterations, fit.stages.size() > 2 ? fit.stages[2].iterations : 0, fit.total_ms,
-              worst_joints(errors, 4).c_str());
+              fit.stages[0].iterations, fit.stages[1].iterations, fit.stages.size() > 2 ? fit.stages[2].iterations : 0,
+              fit.total_ms, worst_joints(errors, 4).c_str());
   EXPECT_LE(1000 * err3d, poses[static_cast<std::size_t>(i)].max_error_mm) << poses[static_cast<std::size_t>(i)].name;
   EXPECT_LE(fit.mean_reprojection_px, 5.0) << poses[static_cast<std::size_t>(i)].name;
   // keypoint_fit_objective() is the function the last stage minimised (same terms, summed in
@@ -441,7 +517,8 @@ TEST_P(SyntheticKeypointFit, RecoversJointsAndReprojectsWithin5px) {
   const KeypointFit warm = fit_keypoints(kp, from_truth);
   std::printf("[pose %-24s] started from the truth: 3D %.1f mm\n", poses[static_cast<std::size_t>(i)].name,
               1000 * procrustes_errors(warm.joints, s.truth).mean());
-  EXPECT_LE(fit_objective, keypoint_fit_objective(kp, warm.pose, warm.shape) + 1.0) << poses[static_cast<std::size_t>(i)].name;
+  EXPECT_LE(fit_objective, keypoint_fit_objective(kp, warm.pose, warm.shape) + 1.0)
+      << poses[static_cast<std::size_t>(i)].name;
 }
 
 // A warm start skips stage 1 and the multi-start search and stays in the basin it is given:
@@ -500,9 +577,11 @@ TEST(LimbLift, PutsJointsOnTheirRaysAndOneChoiceIsTheTruth) {
         }
         const Eigen::Vector3d flexion = pose.axis_angle.row(idx(limb.middle)).transpose();
         EXPECT_GE(flexion.dot(limb.flexion_axis), 0.0);
-        EXPECT_LT((flexion - flexion.dot(limb.flexion_axis) * limb.flexion_axis).norm(), 1e-9); // no twist, no side bend
+        EXPECT_LT((flexion - flexion.dot(limb.flexion_axis) * limb.flexion_axis).norm(),
+                  1e-9); // no twist, no side bend
         (m == LiftDepth::NEAR ? near_depth : far_depth) = -M.z();
-        best = std::min(best, std::max((M - want.row(idx(limb.middle)).transpose()).norm(), (E - want.row(idx(limb.end)).transpose()).norm()));
+        best = std::min(best, std::max((M - want.row(idx(limb.middle)).transpose()).norm(),
+                                       (E - want.row(idx(limb.end)).transpose()).norm()));
       }
     EXPECT_LT(near_depth, far_depth) << joint_name(idx(limb.middle));
     EXPECT_LT(best, 1e-6) << joint_name(idx(limb.upper)); // the truth's own depths give the truth back
@@ -551,9 +630,11 @@ TEST_P(HeldOutRandomPoses, GuardTheWholeDraw) {
   std::sort(sorted.begin(), sorted.end());
   const auto within = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 30; });
   double mean = 0;
-  for (double e : errors) mean += e / static_cast<double>(errors.size());
+  for (double e : errors)
+    mean += e / static_cast<double>(errors.size());
   std::string each;
-  for (double e : errors) each += " " + std::to_string(static_cast<int>(std::lround(e)));
+  for (double e : errors)
+    each += " " + std::to_string(static_cast<int>(std::lround(e)));
   std::printf("[random poses, seed %u] 3D median %.1f mm, mean %.1f mm, worst %.1f mm, %d of %zu within 30 mm;"
               " each (mm):%s\n",
               draw_set.pose_seed, sorted[sorted.size() / 2], mean, sorted.back(), static_cast<int>(within),
@@ -565,7 +646,9 @@ TEST_P(HeldOutRandomPoses, GuardTheWholeDraw) {
 INSTANTIATE_TEST_SUITE_P(KeypointFit, HeldOutRandomPoses,
                          testing::Values(HeldOutDraw{2026u, 5000u, 63.0, 4}, HeldOutDraw{7919u, 9000u, 66.0, 2},
                                          HeldOutDraw{4242u, 13000u, 58.0, 2}, HeldOutDraw{1234u, 17000u, 71.0, 2}),
-                         [](const testing::TestParamInfo<HeldOutDraw>& draw_info) { return "Seed" + std::to_string(draw_info.param.pose_seed); });
+                         [](const testing::TestParamInfo<HeldOutDraw>& draw_info) {
+                           return "Seed" + std::to_string(draw_info.param.pose_seed);
+                         });
 
 INSTANTIATE_TEST_SUITE_P(Poses, SyntheticKeypointFit, testing::Range(0, static_cast<int>(synthetic_poses().size())));
 

@@ -98,8 +98,10 @@ void ReproducesEveryRequestedMeasurement(const Case& param) {
 void BothSidesMeasureTheSame(const Case& param) {
   const Body& b = mannequin(param);
   Mesh mirrored = b.mesh;
-  for (std::size_t v = 0; v < mirrored.vertex_count(); ++v) mirrored.positions[3 * v] = -mirrored.positions[3 * v];
-  for (std::size_t f = 0; f < mirrored.face_count(); ++f) std::swap(mirrored.triangles[3 * f + 1], mirrored.triangles[3 * f + 2]);
+  for (std::size_t v = 0; v < mirrored.vertex_count(); ++v)
+    mirrored.positions[3 * v] = -mirrored.positions[3 * v];
+  for (std::size_t f = 0; f < mirrored.face_count(); ++f)
+    std::swap(mirrored.triangles[3 * f + 1], mirrored.triangles[3 * f + 2]);
   JointPositions joints = b.joints;
   for (int j = 0; j < JOINT_COUNT; ++j) {
     joints.row(j) = b.joints.row(mirrored_joint(j));
@@ -143,7 +145,8 @@ void SkinWeightsAreNormalisedAndSmooth(const Case& param) {
       const float* c = &b.mesh.positions[3 * v];
       const double len = std::sqrt(double(a[0] - c[0]) * (a[0] - c[0]) + double(a[1] - c[1]) * (a[1] - c[1]) +
                                    double(a[2] - c[2]) * (a[2] - c[2]));
-      for (int j = 0; j < JOINT_COUNT; ++j) worst = std::max(worst, std::abs(weight(u, j) - weight(v, j)) / len);
+      for (int j = 0; j < JOINT_COUNT; ++j)
+        worst = std::max(worst, std::abs(weight(u, j) - weight(v, j)) / len);
     }
   EXPECT_LT(worst, 50.0) << "per metre";
 }

@@ -27,7 +27,8 @@ TEST(ScanInput, TurnsAScanFacingAnotherWayByItsFeet) {
   for (Facing f : {Facing::NEG_Z, Facing::POS_X, Facing::NEG_X}) {
     SCOPED_TRACE(facing_name(f));
     Mesh stored = body;
-    for (int k = 0; k < (f == Facing::NEG_Z ? 1 : 3); ++k) rotate_to_face_z(stored.positions, f);
+    for (int k = 0; k < (f == Facing::NEG_Z ? 1 : 3); ++k)
+      rotate_to_face_z(stored.positions, f);
     const PreparedScan p = prepare_scan(stored, "scan");
     EXPECT_EQ(facing_name(p.facing), facing_name(f));
     EXPECT_EQ(p.mesh.positions, body.positions);
@@ -47,7 +48,8 @@ TEST(ScanInput, CapsHolesForTheFitAndRewindsAnInsideOutScan) {
   std::mt19937 rng(5);
   for (std::size_t f = 0; f < mannequin.mesh.face_count(); ++f)
     if (std::uniform_real_distribution<double>(0, 1)(rng) >= 0.02)
-      for (int k = 0; k < 3; ++k) holed.triangles.push_back(mannequin.mesh.triangles[3 * f + std::size_t(k)]);
+      for (int k = 0; k < 3; ++k)
+        holed.triangles.push_back(mannequin.mesh.triangles[3 * f + std::size_t(k)]);
   holed.uv_triangles.clear();
   holed.normal_triangles.clear();
   holed.face_labels.clear();

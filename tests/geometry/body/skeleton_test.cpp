@@ -13,7 +13,8 @@ JointPositions sample_joints() {
   JointPositions j;
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-0.5, 0.5);
-  for (int k = 0; k < JOINT_COUNT; ++k) j.row(k) << u(rng), 1.0 + u(rng), u(rng);
+  for (int k = 0; k < JOINT_COUNT; ++k)
+    j.row(k) << u(rng), 1.0 + u(rng), u(rng);
   return j;
 }
 
@@ -23,7 +24,8 @@ TEST(Skeleton, NamesParentsAndMirrorsFollowSmpl) {
   EXPECT_EQ(joint_from_name("left_elbow"), 18);
   EXPECT_FALSE(joint_from_name("tail").has_value());
   EXPECT_EQ(joint_parent(0), -1);
-  for (int j = 1; j < JOINT_COUNT; ++j) EXPECT_LT(joint_parent(j), j) << "parents precede children";
+  for (int j = 1; j < JOINT_COUNT; ++j)
+    EXPECT_LT(joint_parent(j), j) << "parents precede children";
   EXPECT_EQ(joint_parent(idx(Joint::LEFT_WRIST)), idx(Joint::LEFT_ELBOW));
   EXPECT_EQ(mirrored_joint(idx(Joint::LEFT_KNEE)), idx(Joint::RIGHT_KNEE));
   EXPECT_EQ(mirrored_joint(idx(Joint::SPINE2)), idx(Joint::SPINE2));
@@ -50,7 +52,8 @@ TEST(Skeleton, RestPoseLeavesJointsAndMeshUnchanged) {
   w.weights = {0.5f, 0.5f, 0, 0, 0.2f, 0.3f, 0.5f, 0};
   std::vector<float> out;
   linear_blend_skinning(verts, w, skinning_transforms(rest, pose), out);
-  for (std::size_t i = 0; i < verts.size(); ++i) EXPECT_NEAR(out[i], verts[i], 1e-6);
+  for (std::size_t i = 0; i < verts.size(); ++i)
+    EXPECT_NEAR(out[i], verts[i], 1e-6);
 }
 
 TEST(Skeleton, RotatingOneJointMovesItsDescendantsRigidly) {
@@ -62,7 +65,8 @@ TEST(Skeleton, RotatingOneJointMovesItsDescendantsRigidly) {
   const Eigen::Vector3d s = rest.row(idx(Joint::LEFT_SHOULDER)).transpose();
   for (int j = 0; j < JOINT_COUNT; ++j) {
     bool descendant = false;
-    for (int a = j; a >= 0; a = joint_parent(a)) descendant = descendant || a == idx(Joint::LEFT_SHOULDER);
+    for (int a = j; a >= 0; a = joint_parent(a))
+      descendant = descendant || a == idx(Joint::LEFT_SHOULDER);
     const Eigen::Vector3d r = rest.row(j).transpose();
     const Eigen::Vector3d want = descendant ? Eigen::Vector3d(s + R * (r - s)) : r;
     EXPECT_TRUE(posed.row(j).transpose().isApprox(want, 1e-12)) << joint_name(j);
@@ -77,7 +81,8 @@ TEST(Skeleton, LbsOfAVertexBoundToOneJointFollowsThatJoint) {
   Pose pose;
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> u(-0.6, 0.6);
-  for (int j = 0; j < JOINT_COUNT; ++j) pose.axis_angle.row(j) << u(rng), u(rng), u(rng);
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    pose.axis_angle.row(j) << u(rng), u(rng), u(rng);
   const auto g = joint_world_transforms(rest, pose);
   const auto a = skinning_transforms(rest, pose);
   // A point at a joint's rest position, bound only to that joint, lands on the posed joint.
@@ -87,7 +92,8 @@ TEST(Skeleton, LbsOfAVertexBoundToOneJointFollowsThatJoint) {
     w.joints = {j, 0, 0, 0};
     w.weights = {1, 0, 0, 0};
     linear_blend_skinning(v, w, a, out);
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(out[k], g[j].translation()[k], 1e-5) << joint_name(j);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(out[k], g[j].translation()[k], 1e-5) << joint_name(j);
   }
 }
 

@@ -1,6 +1,6 @@
+#include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/garment/table1.h"
-#include "geometry/body/pose_io.h"
 
 #include <map>
 
@@ -8,10 +8,10 @@
 
 #include "geometry/body/mannequin.h"
 #include "geometry/body/mannequin_shape.h"
-#include "kernels/proximity.h"
 #include "geometry/mesh/topology.h"
 #include "geometry/mesh/validate.h"
 #include "kernels/error.h"
+#include "kernels/proximity.h"
 
 namespace vfit {
 namespace {
@@ -62,7 +62,9 @@ void NormalsPointAwayFromTheBodyAndClothStaysOutside(const Case& param) {
   const Mesh& m = g.mesh;
   for (std::size_t f = 0; f < m.face_count(); ++f) {
     Eigen::Vector3d p[3];
-    for (int k = 0; k < 3; ++k) p[k] = Eigen::Vector3d(m.positions[3 * m.triangles[3 * f + k]], m.positions[3 * m.triangles[3 * f + k] + 1], m.positions[3 * m.triangles[3 * f + k] + 2]);
+    for (int k = 0; k < 3; ++k)
+      p[k] = Eigen::Vector3d(m.positions[3 * m.triangles[3 * f + k]], m.positions[3 * m.triangles[3 * f + k] + 1],
+                             m.positions[3 * m.triangles[3 * f + k] + 2]);
     const Eigen::Vector3d c = (p[0] + p[1] + p[2]) / 3, n = (p[1] - p[0]).cross(p[2] - p[0]);
     const double h = 1e-4;
     const Eigen::Vector3d grad((body.distance(c.x() + h, c.y(), c.z()) - body.distance(c.x() - h, c.y(), c.z())),
@@ -107,18 +109,22 @@ void LabelsAndUvsCoverEveryPart(const Case& param) {
   const Garment& g = garment(param);
   ASSERT_EQ(g.vertex_parts.size(), g.mesh.vertex_count());
   std::map<GarmentPart, std::size_t> count;
-  for (GarmentPart p : g.vertex_parts) ++count[p];
+  for (GarmentPart p : g.vertex_parts)
+    ++count[p];
   std::vector<GarmentPart> want;
   switch (param.type) {
   case GarmentType::TEE:
-  case GarmentType::LONG_SLEEVE: want = {GarmentPart::TORSO, GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE}; break;
+  case GarmentType::LONG_SLEEVE:
+    want = {GarmentPart::TORSO, GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE};
+    break;
   case GarmentType::TROUSERS:
   case GarmentType::SHORTS: want = {GarmentPart::TORSO, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}; break;
   case GarmentType::DRESS: want = {GarmentPart::TORSO, GarmentPart::SKIRT}; break;
   case GarmentType::SKIRT: want = {GarmentPart::SKIRT}; break;
   }
   EXPECT_EQ(count.size(), want.size());
-  for (GarmentPart p : want) EXPECT_GT(count[p], g.mesh.vertex_count() / 20) << garment_part_name(p);
+  for (GarmentPart p : want)
+    EXPECT_GT(count[p], g.mesh.vertex_count() / 20) << garment_part_name(p);
   // Left parts are on the body's left (+X).
   for (std::size_t v = 0; v < g.mesh.vertex_count(); ++v) {
     const GarmentPart p = g.vertex_parts[v];

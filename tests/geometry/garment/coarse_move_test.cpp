@@ -193,7 +193,8 @@ TEST(ContactTranslation, BringsAGarmentFiveCentimetresOffBackIntoContact) {
 TEST(ContactTranslation, CentresAGarmentPressedInAllRound) {
   // A ring smaller than the body, 1 cm off its axis towards +Z, inside everywhere: the envelope
   // is level when it is centred on the body.
-  const Eigen::Vector3d d = contact_translation(ring_of_points(cylinder_radius, -0.01, {0, 0, 0.01}), *cylinder().index);
+  const Eigen::Vector3d d =
+      contact_translation(ring_of_points(cylinder_radius, -0.01, {0, 0, 0.01}), *cylinder().index);
   EXPECT_NEAR(d.x(), 0.0, CONTACT_TOLERANCE);
   EXPECT_NEAR(d.y(), 0.0, CONTACT_TOLERANCE);
   EXPECT_NEAR(d.z(), -0.01, CONTACT_TOLERANCE);
@@ -208,7 +209,8 @@ TEST(ContactTranslation, IsZeroWithoutPoints) {
   EXPECT_TRUE(contact_translation(std::vector<float>{}, *cylinder().index).isZero());
   ContactMoveOptions none;
   none.max_iterations = 0;
-  EXPECT_TRUE(contact_translation(ring_of_points(cylinder_radius, 0.0, {0.05, 0, 0}), *cylinder().index, none).isZero());
+  EXPECT_TRUE(
+      contact_translation(ring_of_points(cylinder_radius, 0.0, {0.05, 0, 0}), *cylinder().index, none).isZero());
 }
 
 } // namespace

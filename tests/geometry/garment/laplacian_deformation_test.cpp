@@ -23,8 +23,10 @@ struct TwoTubes {
     const Mesh tube = make_tube(180, 40, 0.05f, 0.4f);
     mesh = tube;
     const auto offset = static_cast<std::int32_t>(tube.vertex_count());
-    for (std::size_t i = 0; i < tube.positions.size(); ++i) mesh.positions.push_back(tube.positions[i] + (i % 3 == 0 ? 1.0f : 0.0f));
-    for (std::int32_t v : tube.triangles) mesh.triangles.push_back(v + offset);
+    for (std::size_t i = 0; i < tube.positions.size(); ++i)
+      mesh.positions.push_back(tube.positions[i] + (i % 3 == 0 ? 1.0f : 0.0f));
+    for (std::int32_t v : tube.triangles)
+      mesh.triangles.push_back(v + offset);
     for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
       const float y = mesh.positions[3 * v + 1];
       const bool second = v >= tube.vertex_count();
@@ -54,7 +56,8 @@ struct TwoTubes {
 
 double worst_difference(const std::vector<float>& a, const std::vector<float>& b) {
   double worst = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, double(std::abs(a[i] - b[i])));
+  for (std::size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, double(std::abs(a[i] - b[i])));
   return worst;
 }
 
@@ -80,7 +83,8 @@ TEST(BandLaplacianDeformerPieces, SplitSolvesAgreeWithOneFactorisationOfTheWhole
   EXPECT_LT(worst_difference(a, s), 1e-6);
   // The solve did something: the first tube's middle moved towards its sheared top.
   double moved = 0;
-  for (std::int32_t v : whole.free_vertices()) moved = std::max(moved, double(std::abs(a[3 * std::size_t(v)] - c.mesh.positions[3 * std::size_t(v)])));
+  for (std::int32_t v : whole.free_vertices())
+    moved = std::max(moved, double(std::abs(a[3 * std::size_t(v)] - c.mesh.positions[3 * std::size_t(v)])));
   EXPECT_GT(moved, 0.01);
 }
 
@@ -97,7 +101,8 @@ double worst_vertex_distance(const std::vector<float>& a, const std::vector<floa
 Eigen::MatrixXd rest_guess(const Mesh& mesh) {
   Eigen::MatrixXd x(static_cast<Eigen::Index>(mesh.vertex_count()), 3);
   for (Eigen::Index v = 0; v < x.rows(); ++v)
-    for (int k = 0; k < 3; ++k) x(v, k) = mesh.positions[static_cast<std::size_t>(3 * v + k)];
+    for (int k = 0; k < 3; ++k)
+      x(v, k) = mesh.positions[static_cast<std::size_t>(3 * v + k)];
   return x;
 }
 
@@ -125,7 +130,8 @@ TEST(BandLaplacianDeformerPieces, MultigridAgreesWithTheFactorisationWithinItsTo
   EXPECT_LT(worst_vertex_distance(a, m), 1e-4);
   // The handles are held exactly either way.
   for (std::int32_t h : c.handles)
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(a[3 * std::size_t(h) + std::size_t(k)], m[3 * std::size_t(h) + std::size_t(k)]);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(a[3 * std::size_t(h) + std::size_t(k)], m[3 * std::size_t(h) + std::size_t(k)]);
 }
 
 // An iteration stopped before it converges is never returned: the piece is factored and solved
@@ -158,7 +164,8 @@ TEST(BandLaplacianDeformerPieces, AutoIteratesOnlyOnLargePieces) {
   const Mesh tube = make_tube(600, 100, 0.05f, 0.4f);
   std::vector<std::int32_t> handles;
   for (std::size_t v = 0; v < tube.vertex_count(); ++v)
-    if (tube.positions[3 * v + 1] < 0.1f || tube.positions[3 * v + 1] > 0.3f) handles.push_back(static_cast<std::int32_t>(v));
+    if (tube.positions[3 * v + 1] < 0.1f || tube.positions[3 * v + 1] > 0.3f)
+      handles.push_back(static_cast<std::int32_t>(v));
   const BandLaplacianDeformer automatic(tube, handles);
   ASSERT_TRUE(automatic.ok());
   ASSERT_GE(automatic.free_vertices().size(), BAND_PIECE_ITERATIVE_UNKNOWNS);
@@ -168,7 +175,8 @@ TEST(BandLaplacianDeformerPieces, AutoIteratesOnlyOnLargePieces) {
   Eigen::MatrixXd targets(static_cast<Eigen::Index>(handles.size()), 3);
   for (std::size_t h = 0; h < handles.size(); ++h) {
     const auto v = static_cast<std::size_t>(handles[h]);
-    targets.row(static_cast<Eigen::Index>(h)) << tube.positions[3 * v] + (tube.positions[3 * v + 1] > 0.3f ? 0.05 : 0.0),
+    targets.row(static_cast<Eigen::Index>(h))
+        << tube.positions[3 * v] + (tube.positions[3 * v + 1] > 0.3f ? 0.05 : 0.0),
         tube.positions[3 * v + 1], tube.positions[3 * v + 2];
   }
   const Eigen::MatrixXd delta = exact.laplacian_coordinates(tube.positions), guess = rest_guess(tube);
@@ -186,7 +194,8 @@ TEST(BandLaplacianDeformerPieces, SmallBandsKeepOneFactorisation) {
   const Mesh tube = make_tube(180, 40, 0.05f, 0.4f);
   std::vector<std::int32_t> handles;
   for (std::size_t v = 0; v < tube.vertex_count(); ++v)
-    if (tube.positions[3 * v + 1] < 0.1f || tube.positions[3 * v + 1] > 0.3f) handles.push_back(static_cast<std::int32_t>(v));
+    if (tube.positions[3 * v + 1] < 0.1f || tube.positions[3 * v + 1] > 0.3f)
+      handles.push_back(static_cast<std::int32_t>(v));
   const BandLaplacianDeformer deformer(tube, handles);
   ASSERT_TRUE(deformer.ok());
   EXPECT_LT(deformer.free_vertices().size(), BAND_SUPERNODAL_UNKNOWNS);

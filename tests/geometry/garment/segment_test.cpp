@@ -51,7 +51,8 @@ const GarmentSegmentation& segmentation(const Case& c) {
 
 double agreement(const std::vector<GarmentPart>& a, const std::vector<GarmentPart>& b) {
   std::size_t same = 0;
-  for (std::size_t v = 0; v < a.size(); ++v) same += a[v] == b[v];
+  for (std::size_t v = 0; v < a.size(); ++v)
+    same += a[v] == b[v];
   return double(same) / double(a.size());
 }
 
@@ -59,7 +60,8 @@ double agreement(const std::vector<GarmentPart>& a, const std::vector<GarmentPar
 std::size_t pieces(const Mesh& m, const std::vector<GarmentPart>& parts, GarmentPart part) {
   std::vector<std::vector<std::int32_t>> nbr(m.vertex_count());
   for (std::size_t f = 0; f < m.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) nbr[m.triangles[3 * f + k]].push_back(m.triangles[3 * f + (k + 1) % 3]);
+    for (int k = 0; k < 3; ++k)
+      nbr[m.triangles[3 * f + k]].push_back(m.triangles[3 * f + (k + 1) % 3]);
   std::vector<char> seen(m.vertex_count(), 0);
   std::size_t count = 0;
   for (std::size_t s = 0; s < m.vertex_count(); ++s) {
@@ -95,7 +97,8 @@ TEST_P(Segment, EachSleeveOrLegIsOneRegionOnItsOwnSide) {
   const Case& c = GetParam();
   const Mesh& m = garment(c).mesh;
   const GarmentSegmentation& s = segmentation(c);
-  for (GarmentPart part : {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {
+  for (GarmentPart part :
+       {GarmentPart::LEFT_SLEEVE, GarmentPart::RIGHT_SLEEVE, GarmentPart::LEFT_LEG, GarmentPart::RIGHT_LEG}) {
     const std::size_t n = pieces(m, s.vertex_parts, part);
     EXPECT_LE(n, 1u) << garment_part_name(part);
   }
@@ -124,11 +127,13 @@ TEST_P(Segment, ReebGraphCoversEveryVertexWithArcsBetweenBands) {
     EXPECT_EQ(counted[n], rg.nodes[n].vertex_count);
     EXPECT_LT(rg.nodes[n].level_min, rg.nodes[n].level_max);
   }
-  for (const ReebArc& a : rg.arcs) EXPECT_LT(rg.nodes[a.from].band, rg.nodes[a.to].band);
+  for (const ReebArc& a : rg.arcs)
+    EXPECT_LT(rg.nodes[a.from].band, rg.nodes[a.to].band);
   // Nodes from the source's band to the last; the geodesic field is finite on a one-piece garment.
   EXPECT_EQ(rg.nodes.front().band, 0);
   EXPECT_EQ(rg.nodes.back().band, int(rg.levels.size()) - 2);
-  for (double d : s.geodesic) ASSERT_TRUE(std::isfinite(d));
+  for (double d : s.geodesic)
+    ASSERT_TRUE(std::isfinite(d));
 }
 
 TEST_P(Segment, KeyPointsAndPlanesFollowTheGarment) {
@@ -216,7 +221,8 @@ TEST(SegmentReebGraph, BranchesSplitTheBands) {
     for (const ReebNode& n : rg.nodes)
       if (n.vertex_count >= 5) ++per_band[n.band];
     int most = 0;
-    for (auto [band, count] : per_band) most = std::max(most, count);
+    for (auto [band, count] : per_band)
+      most = std::max(most, count);
     return most;
   };
   EXPECT_GE(widest(segmentation(TEE).reeb_graph), 3);
@@ -237,11 +243,12 @@ TEST(SegmentInvariance, UnitsPositionAndFaceOrientationDoNotMatter) {
   const GarmentSegmentation& base = segmentation(TEE);
   Mesh moved = m;
   for (std::size_t v = 0; v < m.vertex_count(); ++v) {
-    moved.positions[3 * v] = 100 * m.positions[3 * v] + 30;       // centimetres, off to the side
+    moved.positions[3 * v] = 100 * m.positions[3 * v] + 30;         // centimetres, off to the side
     moved.positions[3 * v + 1] = 100 * m.positions[3 * v + 1] - 80; // and lower
     moved.positions[3 * v + 2] = 100 * m.positions[3 * v + 2];
   }
-  for (std::size_t f = 0; f < m.face_count(); f += 3) std::swap(moved.triangles[3 * f + 1], moved.triangles[3 * f + 2]);
+  for (std::size_t f = 0; f < m.face_count(); f += 3)
+    std::swap(moved.triangles[3 * f + 1], moved.triangles[3 * f + 2]);
   const GarmentSegmentation s = segment_garment(moved);
   EXPECT_EQ(s.type, base.type);
   EXPECT_GE(agreement(s.vertex_parts, base.vertex_parts), 0.995); // float rounding moves a few ties
@@ -251,30 +258,38 @@ TEST(SegmentInvariance, ExtraComponentsAreLabelledAndNamedInAWarning) {
   Mesh m = garment(TROUSERS).mesh;
   const std::size_t nv = m.vertex_count();
   Mesh button = make_uv_sphere(4, 6, 0.01f);
-  for (float& p : button.positions) p += 0.5f; // somewhere off the garment
-  for (float p : button.positions) m.positions.push_back(p);
-  for (std::int32_t t : button.triangles) m.triangles.push_back(t + std::int32_t(nv));
+  for (float& p : button.positions)
+    p += 0.5f; // somewhere off the garment
+  for (float p : button.positions)
+    m.positions.push_back(p);
+  for (std::int32_t t : button.triangles)
+    m.triangles.push_back(t + std::int32_t(nv));
   const GarmentSegmentation s = segment_garment(m);
   EXPECT_EQ(s.type, GarmentType::TROUSERS);
-  EXPECT_GE(agreement({s.vertex_parts.begin(), s.vertex_parts.begin() + std::ptrdiff_t(nv)}, segmentation(TROUSERS).vertex_parts), 0.999);
-  for (std::size_t v = nv; v < m.vertex_count(); ++v) EXPECT_EQ(s.vertex_parts[v], GarmentPart::TORSO);
+  EXPECT_GE(agreement({s.vertex_parts.begin(), s.vertex_parts.begin() + std::ptrdiff_t(nv)},
+                      segmentation(TROUSERS).vertex_parts),
+            0.999);
+  for (std::size_t v = nv; v < m.vertex_count(); ++v)
+    EXPECT_EQ(s.vertex_parts[v], GarmentPart::TORSO);
   ASSERT_FALSE(s.warnings.empty());
   EXPECT_NE(s.warnings.front().find("component"), std::string::npos);
 }
 
 Mesh rotated_to_x(Mesh m) { // Y-up tube → lying along X
-  for (std::size_t v = 0; v < m.vertex_count(); ++v) std::swap(m.positions[3 * v], m.positions[3 * v + 1]);
-  for (std::size_t f = 0; f < m.face_count(); ++f) std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+  for (std::size_t v = 0; v < m.vertex_count(); ++v)
+    std::swap(m.positions[3 * v], m.positions[3 * v + 1]);
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
   return m;
 }
 
 TEST(SegmentRejects, WhatIsNotAGarment) {
   EXPECT_THROW(segment_garment(Mesh{}), Error);
-  EXPECT_THROW(segment_garment(test::octahedron()), Error);                 // closed
-  EXPECT_THROW(segment_garment(make_uv_sphere(16, 24, 0.3f)), Error);       // closed
-  EXPECT_THROW(segment_garment(make_grid(20, 20, 1.0f, 1.0f)), Error);      // a sheet: one opening
+  EXPECT_THROW(segment_garment(test::octahedron()), Error);                           // closed
+  EXPECT_THROW(segment_garment(make_uv_sphere(16, 24, 0.3f)), Error);                 // closed
+  EXPECT_THROW(segment_garment(make_grid(20, 20, 1.0f, 1.0f)), Error);                // a sheet: one opening
   EXPECT_THROW(segment_garment(rotated_to_x(make_tube(30, 24, 0.05f, 0.6f))), Error); // a lying tube
-  EXPECT_THROW(segment_garment(make_tube(40, 24, 0.03f, 0.9f)), Error);     // 15 diameters tall
+  EXPECT_THROW(segment_garment(make_tube(40, 24, 0.03f, 0.9f)), Error);               // 15 diameters tall
   Mesh bad = test::unit_square();
   bad.triangles[2] = 7;
   EXPECT_THROW(segment_garment(bad), Error); // index out of range
@@ -292,7 +307,8 @@ TEST(SegmentRejects, AnUprightOpenTubeIsTakenForASkirt) {
   // The documented fallback: two level openings, one above the other, ≤ 5 diameters apart.
   const GarmentSegmentation s = segment_garment(make_tube(20, 32, 0.2f, 0.5f));
   EXPECT_EQ(s.type, GarmentType::SKIRT);
-  EXPECT_TRUE(std::all_of(s.vertex_parts.begin(), s.vertex_parts.end(), [](GarmentPart p) { return p == GarmentPart::SKIRT; }));
+  EXPECT_TRUE(
+      std::all_of(s.vertex_parts.begin(), s.vertex_parts.end(), [](GarmentPart p) { return p == GarmentPart::SKIRT; }));
 }
 
 } // namespace

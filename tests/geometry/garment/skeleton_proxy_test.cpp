@@ -53,13 +53,15 @@ void expect_proxy_of_target_size(const ProxyCase& c, std::size_t target) {
     const std::int32_t q = c.proxy.vertex_proxy[v];
     ASSERT_GE(q, 0);
     ASSERT_LT(std::size_t(q), p.vertex_count());
-    sum[std::size_t(q)] += Eigen::Vector3d(c.closed.positions[3 * v], c.closed.positions[3 * v + 1], c.closed.positions[3 * v + 2]);
+    sum[std::size_t(q)] +=
+        Eigen::Vector3d(c.closed.positions[3 * v], c.closed.positions[3 * v + 1], c.closed.positions[3 * v + 2]);
     count[std::size_t(q)] += 1;
   }
   for (std::size_t q = 0; q < p.vertex_count(); ++q) {
     ASSERT_GT(count[q], 0) << "proxy vertex " << q << " stands for no input vertex";
     const Eigen::Vector3d mean = sum[q] / count[q];
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(p.positions[3 * q + std::size_t(k)], mean[k], 1e-6) << q;
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(p.positions[3 * q + std::size_t(k)], mean[k], 1e-6) << q;
   }
   // Shortest-first collapses keep the clusters even: no proxy vertex stands for more than a
   // few times its share (a bar with room; a chain of merges into one vertex would give tens).
@@ -85,7 +87,8 @@ TEST_P(SkeletonProxySizes, IsAClosedSphereOfTheTargetSizeOverDisjointClusters) {
 }
 
 INSTANTIATE_TEST_SUITE_P(SkeletonProxy, SkeletonProxySizes,
-                         ::testing::Values(ProxySize{250, 24, 200}, ProxySize{250, 24, 800}, ProxySize{500, 48, 800}, ProxySize{1000, 48, 800}, ProxySize{700, 100, 800}),
+                         ::testing::Values(ProxySize{250, 24, 200}, ProxySize{250, 24, 800}, ProxySize{500, 48, 800},
+                                           ProxySize{1000, 48, 800}, ProxySize{700, 100, 800}),
                          [](const auto& param_info) {
                            return std::to_string(param_info.param.rings * param_info.param.segments) + "_to_" +
                                   std::to_string(param_info.param.target);
@@ -96,7 +99,8 @@ TEST(SkeletonProxy, ReturnsASmallMeshAsItIsAndRejectsBadIndices) {
   const SkeletonProxy same = simplify_for_skeleton(closed, closed.vertex_count());
   EXPECT_EQ(same.mesh.positions, closed.positions);
   EXPECT_EQ(same.mesh.triangles, closed.triangles);
-  for (std::size_t v = 0; v < closed.vertex_count(); ++v) EXPECT_EQ(same.vertex_proxy[v], std::int32_t(v));
+  for (std::size_t v = 0; v < closed.vertex_count(); ++v)
+    EXPECT_EQ(same.vertex_proxy[v], std::int32_t(v));
   Mesh bad = closed;
   bad.triangles[4] = std::int32_t(closed.vertex_count());
   EXPECT_THROW(simplify_for_skeleton(bad, 10), Error);

@@ -25,7 +25,8 @@ Mesh tube() {
 
 double max_difference(const std::vector<float>& a, const std::vector<float>& b) {
   double d = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, double(std::fabs(a[i] - b[i])));
+  for (std::size_t i = 0; i < a.size(); ++i)
+    d = std::max(d, double(std::fabs(a[i] - b[i])));
   return d;
 }
 
@@ -37,17 +38,20 @@ TEST(ThickShell, FindsTheInnerSheetOfAStitchedTubeAndCarriesTheOuterOne) {
   EXPECT_NEAR(shell->thickness, 0.003, 1e-4);
   EXPECT_EQ(shell->sheet.vertex_count(), tube().vertex_count());
   EXPECT_EQ(shell->carried.size(), tube().vertex_count());
-  for (std::int32_t v : shell->sheet_vertices) EXPECT_GE(v, std::int32_t(tube().vertex_count())) << "the inner copy";
+  for (std::int32_t v : shell->sheet_vertices)
+    EXPECT_GE(v, std::int32_t(tube().vertex_count())) << "the inner copy";
   // Placing the sheet where it is gives the mesh back; a rigid motion of the sheet moves it all.
   EXPECT_LT(max_difference(place_thick_shell(*shell, shell->sheet.positions), shell_mesh.positions), 1e-6);
   const Eigen::Matrix3f R = Eigen::AngleAxisf(0.7f, Eigen::Vector3f(0.3f, 1.0f, -0.2f).normalized()).toRotationMatrix();
   const Eigen::Vector3f shift(0.2f, -1.0f, 0.4f);
   auto moved = [&](std::vector<float> p) {
-    for (std::size_t v = 0; 3 * v < p.size(); ++v) Eigen::Vector3f::Map(&p[3 * v]) = R * Eigen::Vector3f::Map(&p[3 * v]) + shift;
+    for (std::size_t v = 0; 3 * v < p.size(); ++v)
+      Eigen::Vector3f::Map(&p[3 * v]) = R * Eigen::Vector3f::Map(&p[3 * v]) + shift;
     return p;
   };
   // 1e-5 m: float rounding of the rotated positions and frames, metres from the origin.
-  EXPECT_LT(max_difference(place_thick_shell(*shell, moved(shell->sheet.positions)), moved(shell_mesh.positions)), 1e-5);
+  EXPECT_LT(max_difference(place_thick_shell(*shell, moved(shell->sheet.positions)), moved(shell_mesh.positions)),
+            1e-5);
 }
 
 TEST(ThickShell, FindsASheetAndItsSeparateLining) {
@@ -59,7 +63,8 @@ TEST(ThickShell, FindsASheetAndItsSeparateLining) {
 
 TEST(ThickShell, LeavesASingleSheetAndFarApartSheetsAlone) {
   EXPECT_FALSE(find_thick_shell(tube()).has_value());
-  EXPECT_FALSE(find_thick_shell(make_solidified(tube(), 0.03f, true)).has_value()) << "3 cm: two garments, not one thick one";
+  EXPECT_FALSE(find_thick_shell(make_solidified(tube(), 0.03f, true)).has_value())
+      << "3 cm: two garments, not one thick one";
   // A closed surface that is no shell.
   EXPECT_FALSE(find_thick_shell(make_uv_sphere(16, 32, 0.2f)).has_value());
   // Catalogue garments as they come (an A-pose tee's sleeves hang within a few cm of its sides).
@@ -89,7 +94,8 @@ TEST(ThickShell, FindsTheSheetsOfAThickenedCatalogueTee) {
     // faces at the rims' sharpest corners can fall to the other sheet's piece (3 of 3,000
     // vertices measured); they are fitted or carried with their neighbours either way.
     std::size_t copies = 0;
-    for (std::int32_t v : shell->sheet_vertices) copies += v >= std::int32_t(tee.vertex_count());
+    for (std::int32_t v : shell->sheet_vertices)
+      copies += v >= std::int32_t(tee.vertex_count());
     EXPECT_GE(double(copies), 0.99 * double(tee.vertex_count()));
   }
 }

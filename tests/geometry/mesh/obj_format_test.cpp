@@ -65,7 +65,8 @@ TEST(ObjFormat, SkipsAUtf8ByteOrderMark) {
 TEST(ObjFormat, RoundTripIsExact) {
   Mesh m = make_uv_sphere(7, 9, 0.123456789f);
   m.face_labels.assign(m.face_count(), 0);
-  for (std::size_t f = m.face_count() / 2; f < m.face_count(); ++f) m.face_labels[f] = 1;
+  for (std::size_t f = m.face_count() / 2; f < m.face_count(); ++f)
+    m.face_labels[f] = 1;
   m.label_names = {"upper", "lower"};
   ParsedMesh back = read_obj(write_obj(m), "t.obj");
   EXPECT_EQ(back.mesh.positions, m.positions);
@@ -80,8 +81,10 @@ TEST(ObjFormat, ParallelChunksGiveTheSameMeshAsOneChunk) {
   // Large enough for several 1 MiB chunks, with relative indices crossing chunk borders.
   std::string text;
   const int n = 60000;
-  for (int i = 0; i < n; ++i) text += "v " + std::to_string(i) + " " + std::to_string(i % 7) + " 0.25\n";
-  for (int i = 0; i + 2 < n; ++i) text += "f " + std::to_string(i + 1) + " " + std::to_string(i + 2) + " -" + std::to_string(n - i - 2) + "\n";
+  for (int i = 0; i < n; ++i)
+    text += "v " + std::to_string(i) + " " + std::to_string(i % 7) + " 0.25\n";
+  for (int i = 0; i + 2 < n; ++i)
+    text += "f " + std::to_string(i + 1) + " " + std::to_string(i + 2) + " -" + std::to_string(n - i - 2) + "\n";
   ASSERT_GT(text.size(), 2u << 20);
   ParsedMesh p = read_obj(text, "big.obj");
   ASSERT_EQ(p.mesh.vertex_count(), std::size_t(n));
@@ -111,21 +114,24 @@ TEST_P(ObjFormatBadInput, NamesFileLineAndProblem) {
 
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, ObjFormatBadInput,
-    ::testing::Values(BadObj{"nan", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj:2: x coordinate is NaN"},
-                      BadObj{"inf", "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n", "t.obj:3: y coordinate is infinite"},
-                      BadObj{"overflow", "v 0 0 0\nv 1 0 1e999\nv 0 1 0\nf 1 2 3\n", "t.obj:2: z coordinate is infinite"},
-                      BadObj{"garbage_number", "v 0 0 0\nv 1 abc 0\nv 0 1 0\nf 1 2 3\n", "t.obj:2: bad number 'abc'"},
-                      BadObj{"missing_coordinate", "v 0 0\n", "t.obj:1: missing z coordinate"},
-                      BadObj{"huge_index", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999\n", "t.obj:4: vertex index 99999999 out of range"},
-                      BadObj{"index_zero", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "t.obj:4: face index 0"},
-                      BadObj{"relative_before_start", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "t.obj:4: vertex index (relative)"},
-                      BadObj{"two_vertex_face", "v 0 0 0\nv 1 0 0\nf 1 2\n", "t.obj:3: face with 2 vertices"},
-                      BadObj{"bad_uv_index", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", "t.obj:5: texture index 2 out of range"},
-                      BadObj{"no_faces", "v 0 0 0\nv 1 0 0\n", "no faces"},
-                      BadObj{"garbage", "\x01\x02\x03 hello\x7f\nzzz\n", "not an OBJ mesh"},
-                      BadObj{"empty", "", "not an OBJ mesh"},
-                      BadObj{"bad_face_token", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x3\n", "t.obj:4: bad face index"},
-                      BadObj{"huge_integer", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n", "t.obj:4: bad face index"}),
+    ::testing::Values(
+        BadObj{"nan", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj:2: x coordinate is NaN"},
+        BadObj{"inf", "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n", "t.obj:3: y coordinate is infinite"},
+        BadObj{"overflow", "v 0 0 0\nv 1 0 1e999\nv 0 1 0\nf 1 2 3\n", "t.obj:2: z coordinate is infinite"},
+        BadObj{"garbage_number", "v 0 0 0\nv 1 abc 0\nv 0 1 0\nf 1 2 3\n", "t.obj:2: bad number 'abc'"},
+        BadObj{"missing_coordinate", "v 0 0\n", "t.obj:1: missing z coordinate"},
+        BadObj{"huge_index", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999\n",
+               "t.obj:4: vertex index 99999999 out of range"},
+        BadObj{"index_zero", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "t.obj:4: face index 0"},
+        BadObj{"relative_before_start", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "t.obj:4: vertex index (relative)"},
+        BadObj{"two_vertex_face", "v 0 0 0\nv 1 0 0\nf 1 2\n", "t.obj:3: face with 2 vertices"},
+        BadObj{"bad_uv_index", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+               "t.obj:5: texture index 2 out of range"},
+        BadObj{"no_faces", "v 0 0 0\nv 1 0 0\n", "no faces"},
+        BadObj{"garbage", "\x01\x02\x03 hello\x7f\nzzz\n", "not an OBJ mesh"}, BadObj{"empty", "", "not an OBJ mesh"},
+        BadObj{"bad_face_token", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x3\n", "t.obj:4: bad face index"},
+        BadObj{"huge_integer", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n",
+               "t.obj:4: bad face index"}),
     [](const ::testing::TestParamInfo<BadObj>& param) { return std::string(param.param.name); });
 
 } // namespace

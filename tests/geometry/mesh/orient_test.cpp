@@ -87,7 +87,8 @@ TEST(Orient, ReportsANonOrientableStrip) {
     const int a = 2 * i, b = 2 * i + 1;
     // The last quad joins the strip's ends with a half twist: bottom to top.
     const int c = i + 1 < n ? 2 * (i + 1) : 1, d = i + 1 < n ? 2 * (i + 1) + 1 : 0;
-    for (int v : {a, c, b, b, c, d}) m.triangles.push_back(v);
+    for (int v : {a, c, b, b, c, d})
+      m.triangles.push_back(v);
   }
   const OrientReport r = orient_consistently(m);
   EXPECT_EQ(r.conflicts, 1u);
@@ -111,7 +112,8 @@ TEST(Orient, TurnsAnInsideOutClosedSurfaceOutward) {
   EXPECT_NEAR(signed_volume(sphere), 4.0 / 3.0 * std::numbers::pi, 0.05); // 24 × 48 facets: ~1 % short
   Mesh m = sphere;
   EXPECT_FALSE(orient_outward(m));
-  for (std::size_t f = 0; f < m.face_count(); ++f) std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    std::swap(m.triangles[3 * f + 1], m.triangles[3 * f + 2]);
   EXPECT_LT(signed_volume(m), 0);
   EXPECT_TRUE(orient_outward(m));
   EXPECT_EQ(m.triangles, sphere.triangles);

@@ -40,7 +40,8 @@ Mesh octahedron_square_and_stray() {
   const Mesh b = test::unit_square();
   const auto off = static_cast<std::int32_t>(a.vertex_count());
   a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
-  for (std::int32_t v : b.triangles) a.triangles.push_back(v + off);
+  for (std::int32_t v : b.triangles)
+    a.triangles.push_back(v + off);
   a.positions.insert(a.positions.end(), {9, 9, 9}); // unreferenced
   return a;
 }
@@ -61,8 +62,10 @@ TEST(Topology, LabelsEachVertexByItsPiecesSmallestVertex) {
   const std::size_t square = test::unit_square().vertex_count();
   const std::vector<std::int32_t> label = vertex_piece_labels(a.triangles, a.vertex_count());
   ASSERT_EQ(label.size(), a.vertex_count());
-  for (std::int32_t v = 0; v < off; ++v) EXPECT_EQ(label[std::size_t(v)], 0) << v;
-  for (std::size_t v = 0; v < square; ++v) EXPECT_EQ(label[std::size_t(off) + v], off) << v;
+  for (std::int32_t v = 0; v < off; ++v)
+    EXPECT_EQ(label[std::size_t(v)], 0) << v;
+  for (std::size_t v = 0; v < square; ++v)
+    EXPECT_EQ(label[std::size_t(off) + v], off) << v;
   EXPECT_EQ(label.back(), std::int32_t(a.vertex_count() - 1));
 }
 

@@ -10,9 +10,9 @@
 
 #include "geometry/garment/catalogue.h"
 #include "geometry/garment/segment.h"
-#include "test_support.h"
 #include "geometry/mesh/primitives.h"
 #include "kernels/error.h"
+#include "test_support.h"
 
 namespace vfit {
 namespace {
@@ -66,7 +66,8 @@ TEST(UpAxis, MapsEachFilesUpToYAndItsFrontToZByAProperRotation) {
     EXPECT_EQ(rotated(up_vector(up), up), Eigen::Vector3f(0, 1, 0));
     EXPECT_EQ(rotated(front_vector(up), up), Eigen::Vector3f(0, 0, 1));
     Eigen::Matrix3f m;
-    for (int c = 0; c < 3; ++c) m.col(c) = rotated(Eigen::Vector3f::Unit(c), up);
+    for (int c = 0; c < 3; ++c)
+      m.col(c) = rotated(Eigen::Vector3f::Unit(c), up);
     EXPECT_EQ(m.determinant(), 1.0f); // a rotation, not a mirror: windings and normals survive
     EXPECT_TRUE((m.transpose() * m).isIdentity(0.0f));
   }
@@ -84,14 +85,16 @@ TEST(UpAxis, DetectsCatalogueGarmentsStoredYUpOrZUp) {
     RestPose pose;
     const char* size;
   };
-  for (const Case& c : {Case{GarmentType::TEE, RestPose::APOSE, "XL"}, Case{GarmentType::LONG_SLEEVE, RestPose::TPOSE, "S"},
-                        Case{GarmentType::TROUSERS, RestPose::APOSE, "P3"}, Case{GarmentType::SHORTS, RestPose::TPOSE, "M"},
-                        Case{GarmentType::DRESS, RestPose::APOSE, "XS"}, Case{GarmentType::SKIRT, RestPose::TPOSE, "XXL"}}) {
+  for (const Case& c :
+       {Case{GarmentType::TEE, RestPose::APOSE, "XL"}, Case{GarmentType::LONG_SLEEVE, RestPose::TPOSE, "S"},
+        Case{GarmentType::TROUSERS, RestPose::APOSE, "P3"}, Case{GarmentType::SHORTS, RestPose::TPOSE, "M"},
+        Case{GarmentType::DRESS, RestPose::APOSE, "XS"}, Case{GarmentType::SKIRT, RestPose::TPOSE, "XXL"}}) {
     const Mesh& m = catalogue_mesh(c.type, c.pose, c.size);
     SCOPED_TRACE(garment_type_name(c.type) + " " + c.size);
     EXPECT_EQ(detect_up_axis(m.positions, m.triangles), UpAxis::POS_Y);
     std::vector<float> z_up = m.positions;
-    for (int k = 0; k < 3; ++k) rotate_to_y_up(z_up, UpAxis::POS_Z);
+    for (int k = 0; k < 3; ++k)
+      rotate_to_y_up(z_up, UpAxis::POS_Z);
     EXPECT_EQ(detect_up_axis(z_up, m.triangles), UpAxis::POS_Z);
   }
 }
@@ -114,7 +117,8 @@ TEST(UpAxis, DetectsStandingBodiesByTheirHeight) {
     SCOPED_TRACE(pose == RestPose::APOSE ? "A-pose" : "T-pose");
     EXPECT_EQ(detect_body_up_axis(body.mesh.positions, body.mesh.triangles), UpAxis::POS_Y);
     std::vector<float> z_up = body.mesh.positions;
-    for (int k = 0; k < 3; ++k) rotate_to_y_up(z_up, UpAxis::POS_Z);
+    for (int k = 0; k < 3; ++k)
+      rotate_to_y_up(z_up, UpAxis::POS_Z);
     EXPECT_EQ(detect_body_up_axis(z_up, body.mesh.triangles), UpAxis::POS_Z);
     EXPECT_EQ(detect_body_up_axis(z_up, {}), UpAxis::POS_Z); // a point cloud
   }
@@ -168,9 +172,9 @@ TEST(Facing, SegmentUprightTurnsGarmentsStoredFacingAnotherWay) {
     const char* size;
   };
   const std::vector<Case> cases = {
-      {GarmentType::TEE, RestPose::APOSE, "XL"},     {GarmentType::TEE, RestPose::TPOSE, "XS"},
+      {GarmentType::TEE, RestPose::APOSE, "XL"},        {GarmentType::TEE, RestPose::TPOSE, "XS"},
       {GarmentType::LONG_SLEEVE, RestPose::TPOSE, "S"}, {GarmentType::TROUSERS, RestPose::APOSE, "P3"},
-      {GarmentType::SHORTS, RestPose::TPOSE, "M"},   {GarmentType::DRESS, RestPose::APOSE, "XS"},
+      {GarmentType::SHORTS, RestPose::TPOSE, "M"},      {GarmentType::DRESS, RestPose::APOSE, "XS"},
       {GarmentType::SKIRT, RestPose::TPOSE, "XXL"}};
   for (const Case& c : cases) {
     const Mesh& m = catalogue_mesh(c.type, c.pose, c.size);

@@ -18,25 +18,30 @@ Mesh two_pieces(const Mesh& grid, std::size_t& copies, std::size_t& seam) {
   Mesh m = grid;
   const std::size_t nv = grid.vertex_count();
   float lo = 1e30f, hi = -1e30f;
-  for (std::size_t v = 0; v < nv; ++v) lo = std::min(lo, m.positions[3 * v]), hi = std::max(hi, m.positions[3 * v]);
+  for (std::size_t v = 0; v < nv; ++v)
+    lo = std::min(lo, m.positions[3 * v]), hi = std::max(hi, m.positions[3 * v]);
   const float mid = 0.5f * (lo + hi);
   std::vector<std::int32_t> copy(nv, -1);
   std::vector<char> left(nv, 0);
   for (std::size_t f = 0; f < m.face_count(); ++f) {
     float cx = 0;
-    for (int k = 0; k < 3; ++k) cx += m.positions[3 * std::size_t(m.triangles[3 * f + std::size_t(k)])];
+    for (int k = 0; k < 3; ++k)
+      cx += m.positions[3 * std::size_t(m.triangles[3 * f + std::size_t(k)])];
     if (cx / 3 < mid)
-      for (int k = 0; k < 3; ++k) left[std::size_t(m.triangles[3 * f + std::size_t(k)])] = 1;
+      for (int k = 0; k < 3; ++k)
+        left[std::size_t(m.triangles[3 * f + std::size_t(k)])] = 1;
   }
   for (std::size_t f = 0; f < m.face_count(); ++f) {
     float cx = 0;
-    for (int k = 0; k < 3; ++k) cx += m.positions[3 * std::size_t(m.triangles[3 * f + std::size_t(k)])];
+    for (int k = 0; k < 3; ++k)
+      cx += m.positions[3 * std::size_t(m.triangles[3 * f + std::size_t(k)])];
     if (cx / 3 < mid) continue; // the left piece keeps the originals
     for (int k = 0; k < 3; ++k) {
       std::int32_t& v = m.triangles[3 * f + std::size_t(k)];
       if (copy[std::size_t(v)] < 0) {
         copy[std::size_t(v)] = std::int32_t(m.vertex_count());
-        for (int c = 0; c < 3; ++c) m.positions.push_back(m.positions[3 * std::size_t(v) + std::size_t(c)]);
+        for (int c = 0; c < 3; ++c)
+          m.positions.push_back(m.positions[3 * std::size_t(v) + std::size_t(c)]);
       }
       v = copy[std::size_t(v)];
     }
@@ -50,7 +55,8 @@ Mesh two_pieces(const Mesh& grid, std::size_t& copies, std::size_t& seam) {
   m.uvs = {0, 0};
   m.uv_triangles.assign(m.triangles.size(), 0);
   m.face_labels.resize(m.face_count());
-  for (std::size_t f = 0; f < m.face_count(); ++f) m.face_labels[f] = std::int32_t(f % 2);
+  for (std::size_t f = 0; f < m.face_count(); ++f)
+    m.face_labels[f] = std::int32_t(f % 2);
   m.label_names = {"a", "b"};
   return m;
 }
@@ -124,8 +130,8 @@ TEST(Weld, SeamsRoundedApartAreJoinedAndLiningsAndInteriorsAreNot) {
   Mesh two = grid;
   const auto n = std::int32_t(grid.vertex_count());
   for (std::size_t v = 0; v < grid.vertex_count(); ++v)
-    two.positions.insert(two.positions.end(), {grid.positions[3 * v], grid.positions[3 * v + 1] + 1e-3f,
-                                                grid.positions[3 * v + 2]});
+    two.positions.insert(two.positions.end(),
+                         {grid.positions[3 * v], grid.positions[3 * v + 1] + 1e-3f, grid.positions[3 * v + 2]});
   for (std::int32_t t : grid.triangles)
     two.triangles.push_back(t + n);
   const std::size_t interior = 4 * 9 + 4; // the middle of the 9 × 9 grid
