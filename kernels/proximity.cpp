@@ -292,6 +292,27 @@ void ProximityIndex::closest_points(std::span<const float> queries, std::span<co
   embree::throw_if_failed(m_impl->errors, "rtcPointQuery");
 }
 
+void ProximityIndex::requery_closest_points(std::span<const float> queries, float max_distance,
+                                            ClosestHits& hits) const {
+  check_queries(queries, max_distance);
+  const std::size_t count = queries.size() / 3;
+  if (hits.size() != count)
+    throw Error("proximity queries", 0,
+                "re-query of " + std::to_string(count) + " points with " + std::to_string(hits.size()) +
+                    " previous answers");
+  std::vector<float> radii(count, max_distance);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (hits.triangles[i] < 0) continue;
+    double d2 = 0;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double d = double(queries[3 * i + c]) - double(hits.points[3 * i + c]);
+      d2 += d * d;
+    }
+    radii[i] = std::min(max_distance, float(std::sqrt(d2)) * (1.0f + 1e-5f) + 1e-6f);
+  }
+  closest_points(queries, radii, hits);
+}
+
 void ProximityIndex::closest_points_serial(std::span<const float> queries, float max_distance,
                                            ClosestHits& hits) const {
   check_queries(queries, max_distance);

@@ -157,6 +157,17 @@ public:
   /// radius is negative or NaN.
   void closest_points(std::span<const float> queries, std::span<const float> max_distances, ClosestHits& hits) const;
 
+  /// Re-queries points that moved a little since `hits` answered them (same index, same #Q,
+  /// e.g. a garment shifted by a few millimetres between two rounds of a placement search).
+  /// The previous closest point of query i still lies on the mesh, so the new closest
+  /// distance is at most |queries_i − hits.points_i|: query i searches only that far (times
+  /// 1 + 1e-5, plus 1e-6 m for float rounding), which prunes most of Embree's traversal. The
+  /// answers equal closest_points(queries, max_distance, hits) but for ties between equally
+  /// close triangles. A row without a previous hit searches within `max_distance` (m, ≥ 0 or
+  /// +∞). Throws vfit::Error ("proximity queries: …") as closest_points() does, and when
+  /// hits.size() ≠ #Q. O(#Q · log #F) for small moves.
+  void requery_closest_points(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
+
   /// Serial reference of closest_points(): the same Embree query, one point after another.
   void closest_points_serial(std::span<const float> queries, float max_distance, ClosestHits& hits) const;
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <map>
 #include <thread>
@@ -79,6 +80,15 @@ int run_table1(Args& args) {
   const std::optional<std::string> json_path = args.value("json");
   const bool quiet = args.flag("quiet");
   const bool simulate = !args.flag("no-simulation");
+  // --min-speedup X: exit 1 when a row's total is under X times the paper's (a regression check).
+  const std::optional<std::string> bar_value = args.value("min-speedup");
+  double bar = 0;
+  if (bar_value) {
+    char* end = nullptr;
+    bar = std::strtod(bar_value->c_str(), &end);
+    if (end == bar_value->c_str() || *end != '\0' || !(bar > 0))
+      throw Error("--min-speedup", 0, "expected a positive number, got '" + *bar_value + "'");
+  }
   args.positionals(1, 1);
 
   MannequinOptions mo;
@@ -88,6 +98,7 @@ int run_table1(Args& args) {
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   FitReport report;
   double paper_sum = 0, ours_sum = 0;
+  std::vector<std::string> under_bar; // rows whose total is under --min-speedup
   std::printf("%-14s %6s %6s %6s | %-22s | %-22s | %-22s | %-22s | %s\n", "garment", "V", "F", "paperF",
               "segmentation ms", "deformation ms", "penetration ms", "total ms", "simulation ms");
   std::printf("%-14s %6s %6s %6s | %-22s | %-22s | %-22s | %-22s | %s\n", "", "", "", "", "paper  ours(min)  x",
@@ -131,6 +142,12 @@ int run_table1(Args& args) {
     std::printf("\n");
     paper_sum += row.paper_total_ms;
     ours_sum += stats(times.at("total")).median;
+    if (const double x = row.paper_total_ms / stats(times.at("total")).median; bar_value && x < bar) {
+      char line[200];
+      std::snprintf(line, sizeof line, "%s: total %.2f ms, %.0fx the paper's %.0f ms", row.garment.c_str(),
+                    stats(times.at("total")).median, x, row.paper_total_ms);
+      under_bar.push_back(line);
+    }
     rows.push_back(j);
   }
   std::printf("all nine rows: paper %.0f ms, ours %.1f ms (medians of %d runs), %.0fx\n", paper_sum, ours_sum, runs,
@@ -146,7 +163,9 @@ int run_table1(Args& args) {
     out["total"] = {{"paper_ms", paper_sum}, {"median_ms", ours_sum}, {"speedup", paper_sum / ours_sum}};
     write_file_atomically(*json_path, out.dump(2) + "\n");
   }
-  return 0;
+  for (const std::string& row : under_bar)
+    std::fprintf(stderr, "vfit: bench: under the bar of %gx: %s\n", bar, row.c_str());
+  return under_bar.empty() ? 0 : 1;
 }
 
 // Least-squares slope of log(time) against log(vertices): time ∝ vertices^slope.
@@ -237,6 +256,7 @@ int run_bench(Args& args) {
     peek.value("max-vertices");
     peek.value("garment");
     peek.value("rows");
+    peek.value("min-speedup");
     peek.flag("quiet");
     peek.flag("no-simulation");
     return peek.positionals(1, 1);

@@ -85,8 +85,13 @@ struct Linearised {
   std::vector<Eigen::Vector3d> n;
 };
 
-Linearised linearise(std::span<const float> moved, const ProximityIndex& body, ClosestHits& hits) {
-  body.closest_points(moved, INFINITY, hits);
+// `warm`: `hits` holds the answers for the points before their last small move, so each query
+// searches only as far as its previous closest point (same answers, less traversal).
+Linearised linearise(std::span<const float> moved, const ProximityIndex& body, bool warm, ClosestHits& hits) {
+  if (warm)
+    body.requery_closest_points(moved, INFINITY, hits);
+  else
+    body.closest_points(moved, INFINITY, hits);
   Linearised out;
   const std::size_t n = moved.size() / 3;
   for (std::size_t i = 0; i < n; ++i) {
@@ -147,7 +152,7 @@ Eigen::Vector3d contact_translation(std::span<const float> points, const Proximi
   std::vector<float> moved(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(3 * n));
   ClosestHits hits;
   for (int round = 0; round < options.max_iterations; ++round) {
-    const Linearised lin = linearise(moved, body, hits);
+    const Linearised lin = linearise(moved, body, round > 0, hits);
     if (lin.s.empty()) break;
     // A garment touching the body nowhere where its key joints put it (loose all round, like
     // the catalogue's eased trousers) has no contact to level: it stays.

@@ -360,7 +360,11 @@ double pocket_offset(std::span<const float> points, const ProximityIndex& body, 
     for (std::size_t i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c)
         moved[3 * i + static_cast<std::size_t>(c)] = points[3 * i + static_cast<std::size_t>(c)] + d[c];
-    body.closest_points(moved, INFINITY, hits);
+    // Successive offsets are POCKET_STEP apart: each re-query starts from the last answers.
+    if (k == -steps)
+      body.closest_points(moved, INFINITY, hits);
+    else
+      body.requery_closest_points(moved, INFINITY, hits);
     s.clear();
     for (std::size_t i = 0; i < n; ++i)
       if (hits.triangles[i] >= 0) s.push_back(hits.signed_distances[i]);

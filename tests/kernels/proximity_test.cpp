@@ -376,6 +376,35 @@ TEST(ProximityRadius, PerQueryRadiiActAsTheScalarRadius) {
   EXPECT_THROW(index.closest_points(q, radii, each), Error);
 }
 
+// The warm re-query: points moved by up to 5 cm from where `hits` answered them get the same
+// closest distances as a fresh unlimited query (to DISTANCE_TOLERANCE: ties may go to another
+// triangle at the same distance); a row without a previous hit searches the whole mesh; a
+// hits table of another size is refused.
+TEST(ProximityRequery, AnswersAsAFreshQueryAfterASmallMove) {
+  const Mesh& m = sphere_mesh();
+  const ProximityIndex index(m.position_view(), m.triangle_view());
+  const std::vector<float> q = make_queries(m, 200, 21u);
+  const std::size_t n = q.size() / 3;
+  ClosestHits warm, fresh;
+  index.closest_points(q, 0.05f, warm); // far queries have no hit: they search without a limit
+  std::mt19937 rng(22u);
+  std::uniform_real_distribution<float> shift(-0.05f, 0.05f);
+  std::vector<float> moved = q;
+  for (float& x : moved)
+    x += shift(rng);
+  index.requery_closest_points(moved, INFINITY, warm);
+  index.closest_points(moved, INFINITY, fresh);
+  for (std::size_t i = 0; i < n; ++i) {
+    SCOPED_TRACE("query " + std::to_string(i));
+    ASSERT_GE(warm.triangles[i], 0);
+    EXPECT_NEAR(warm.signed_distances[i], fresh.signed_distances[i],
+                distance_tolerance(std::abs(fresh.signed_distances[i])));
+  }
+  ClosestHits other;
+  index.closest_points(std::span<const float>(q).first(3 * (n - 1)), INFINITY, other);
+  EXPECT_THROW(index.requery_closest_points(moved, INFINITY, other), Error);
+}
+
 TEST(ProximityEdgeCases, EmptyQuerySpanGivesEmptyHits) {
   const Mesh& m = sphere_mesh();
   const ProximityIndex index(m.position_view(), m.triangle_view());
