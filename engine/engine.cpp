@@ -1,9 +1,11 @@
-#include "engine.h"
+#include "engine/engine.h"
 
 #include <optional>
 
 #include <tbb/global_control.h>
 
+#include "engine/fit/pipeline.h"
+#include "kernels/error.h"
 #include "kernels/opencl_context.h"
 #include "kernels/opencl_vertex_normals.h"
 #include "kernels/parallel.h"
@@ -41,6 +43,31 @@ std::string Engine::description() const {
   }
   }
   return "unknown";
+}
+
+SourcedBody Engine::make_body(const BodySource& source) const { return vfit::make_body(source); }
+
+std::vector<FitResult> Engine::fit(std::span<const Body* const> bodies, const std::vector<FitGarmentInput>& garments,
+                                   FitOptions options) const {
+  if (m_impl->options.backend == Backend::OPENCL)
+    throw Error("engine", 0,
+                "the fit's cloth simulation (implicit Euler) has no OpenCL path: create the engine with the serial or "
+                "tbb backend");
+  options.backend = m_impl->options.backend;
+  return fit_garments_onto_bodies(bodies, garments, options);
+}
+
+FitResult Engine::fit(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options) const {
+  const Body* bodies[] = {&body};
+  return std::move(fit(bodies, garments, options).front());
+}
+
+FitResult Engine::fit(const BodySource& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options,
+                      SourcedBody* made) const {
+  SourcedBody sourced = make_body(body);
+  FitResult result = fit(sourced.body, garments, options);
+  if (made) *made = std::move(sourced);
+  return result;
 }
 
 void Engine::vertex_normals(const Mesh& mesh, std::vector<float>& normals) {

@@ -1,12 +1,20 @@
 #pragma once
 /// \file
-/// The runtime apps link: it picks the compute backend and device and owns their state.
-/// No backend types appear here (TBB arenas and OpenCL objects live in the implementation).
+/// The one object an app creates: it picks the compute backend, the device and the thread
+/// count, owns their state, and runs the engine's work with them — a body made from what the
+/// app has and garments fitted onto it (engine/fit/), vertex normals. `vfit` creates one per
+/// command. No backend types appear here (TBB arenas and OpenCL objects live in the
+/// implementation).
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "engine/fit/body_source.h"
+#include "engine/fit/fit_options.h"
+#include "engine/fit/fit_report.h"
+#include "geometry/body/body.h"
 #include "geometry/mesh/mesh.h"
 #include "kernels/backend.h"
 
@@ -34,6 +42,22 @@ public:
   std::string description() const;
   /// Threads the CPU backends use.
   int thread_count() const;
+
+  /// The body of `source`, loaded and posed (make_body(), engine/fit/body_source.h).
+  SourcedBody make_body(const BodySource& source) const;
+
+  /// Fits `garments` onto each of `bodies` (fit_garments_onto_bodies(), engine/fit/pipeline.h)
+  /// with this engine's threads, the cloth simulation on its backend (options.backend is set to
+  /// it). Throws as fit_garments_onto_bodies() does, and vfit::Error on an OPENCL engine: the
+  /// fit's cloth simulation (implicit Euler) has no OpenCL path.
+  std::vector<FitResult> fit(std::span<const Body* const> bodies, const std::vector<FitGarmentInput>& garments,
+                             FitOptions options = {}) const;
+  /// One body, posed: as above for one body.
+  FitResult fit(const Body& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options = {}) const;
+  /// Body and garments in one call: make_body(body), then fit() onto it. `made`, when not null,
+  /// receives the body (as loaded and posed).
+  FitResult fit(const BodySource& body, const std::vector<FitGarmentInput>& garments, const FitOptions& options = {},
+                SourcedBody* made = nullptr) const;
 
   /// Area-weighted unit vertex normals of `mesh` (#V × 3, zero for isolated vertices) on this
   /// engine's backend; see kernels/vertex_normals.h.

@@ -8,7 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "cloth_springs.h"
+#include "spring_adjacency.h"
 
 #if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__)
 #include <immintrin.h>

@@ -12,7 +12,7 @@
 
 #include "chunk_team.h"
 #include "cloth_gather.h"
-#include "cloth_implicit.h"
+#include "cloth_implicit_system.h"
 #include "parallel.h"
 
 namespace vfit::cloth_detail {

@@ -19,7 +19,7 @@
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCore>
 
-#include "cloth_implicit.h"
+#include "cloth_implicit_system.h"
 
 namespace vfit {
 

@@ -106,11 +106,6 @@ void finish_image_size(Args&, const std::vector<std::string>& rest, KeypointOpti
   options.image_size->y() = positive_number("--image-size", rest[0]);
 }
 
-Pose pose_from_arg(const std::string& value, RestPose rest) {
-  std::error_code ec;
-  return std::filesystem::is_regular_file(value, ec) ? read_pose_json(value) : named_pose(value, rest);
-}
-
 KeypointFit fit_keypoint_file(const std::string& file, const KeypointOptions& options, bool quiet, Keypoints* read) {
   Keypoints kp = read_keypoints(file, options);
   if (!quiet)
@@ -119,12 +114,6 @@ KeypointFit fit_keypoint_file(const std::string& file, const KeypointOptions& op
   KeypointFit fit = fit_keypoints(kp);
   if (read) *read = std::move(kp);
   return fit;
-}
-
-Pose pose_from_keypoint_fit(const KeypointFit& fit, RestPose rest) {
-  Pose pose = pose_for_rest(fit.pose, rest);
-  pose.translation.setZero();
-  return pose;
 }
 
 } // namespace vfit::cli

@@ -1,7 +1,8 @@
 #pragma once
-// Options that pick a body, shared by `vfit body`, `vfit measure` and (later) `vfit fit`.
+// Options that pick a body, shared by `vfit body`, `vfit measure` and `vfit fit`.
 
 #include "args.h"
+#include "engine/fit/body_source.h"
 #include "geometry/body/body_loader.h"
 #include "geometry/body/keypoint_fit.h"
 #include "geometry/body/keypoints.h"
@@ -25,19 +26,10 @@ KeypointOptions keypoint_options_from_args(Args& args, bool& image_size_needs_to
 /// Completes --image-size from the positionals left over (see keypoint_options_from_args()).
 void finish_image_size(Args& args, const std::vector<std::string>& rest, KeypointOptions& options);
 
-/// A --pose value: a pose JSON file when `value` names one, else a built-in pose for a skeleton
-/// whose rest pose is `rest` (pose_io.h; throws vfit::Error naming --pose for an unknown name).
-Pose pose_from_arg(const std::string& value, RestPose rest);
-
 /// --keypoints FILE read (keypoints.h) and fitted (keypoint_fit.h); the file's warnings go to
 /// stderr unless `quiet`. `read` (optional) receives the keypoints. Errors are vfit::Error
 /// naming the file and the element.
 KeypointFit fit_keypoint_file(const std::string& file, const KeypointOptions& options, bool quiet,
                               Keypoints* read = nullptr);
-
-/// The pose a keypoint fit gives a body whose rest pose is `rest`: re-expressed for that rest
-/// (pose_for_rest()) and with the camera's translation dropped, so the body stands in its own
-/// frame.
-Pose pose_from_keypoint_fit(const KeypointFit& fit, RestPose rest);
 
 } // namespace vfit::cli

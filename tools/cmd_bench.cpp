@@ -13,7 +13,7 @@
 #include <tbb/info.h>
 
 #include "commands.h"
-#include "engine/fit_pipeline.h"
+#include "engine/fit/pipeline.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/table1.h"

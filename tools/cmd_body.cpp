@@ -111,7 +111,7 @@ int run_scan(Args& args, const std::string& path) {
   // --pose: the rigged scan driven to that pose (T-pose-relative, the scan staying where it is).
   Body body = fit.rigged;
   if (pose_arg) {
-    Pose to = pose_from_arg(*pose_arg, RestPose::TPOSE);
+    Pose to = pose_by_name_or_file(*pose_arg, RestPose::TPOSE);
     to.translation += fit.pose.translation;
     body = pose_body(fit.rigged, relative_pose(fit.rest_joints, fit.pose, to, fit.rigged.joints));
   }
@@ -172,7 +172,7 @@ int run_body(Args& args) {
   Pose pose;
   // The body in its own frame (the camera's translation dropped), ready for `vfit fit`.
   if (fit) pose = pose_from_keypoint_fit(*fit, loaded.rest.rest_pose);
-  if (pose_arg) pose = pose_from_arg(*pose_arg, loaded.rest.rest_pose);
+  if (pose_arg) pose = pose_by_name_or_file(*pose_arg, loaded.rest.rest_pose);
   const Body body = loaded.posed(pose);
   if (!quiet)
     for (const auto& w : loaded.warnings)

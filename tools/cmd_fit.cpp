@@ -1,4 +1,4 @@
-// `vfit fit`: fits garments onto a body (the pipeline of engine/fit_pipeline.h) and writes the
+// `vfit fit`: fits garments onto a body (the pipeline of engine/fit/pipeline.h) and writes the
 // fitted meshes, a JSON report and pictures. Everything is computed before anything is
 // written, and every file is written atomically, so bad input leaves no partial output. The
 // one exception, --debug DIR, writes each stage's meshes as the stage finishes, and only once
@@ -16,8 +16,10 @@
 
 #include "body_args.h"
 #include "commands.h"
-#include "engine/fit_pipeline.h"
-#include "engine/render.h"
+#include "engine/engine.h"
+#include "engine/fit/pipeline.h"
+#include "engine/view/render.h"
+#include "fit_debug.h"
 #include "geometry/body/keypoint_fit.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/mesh/atomic_write.h"
@@ -295,9 +297,9 @@ int run_fit(Args& args) {
   options.simulate = !args.flag("no-simulation");
   if (auto b = args.value("backend")) {
     if (*b == "serial")
-      options.backend = ClothBackend::SERIAL;
+      options.backend = Backend::SERIAL;
     else if (*b == "tbb")
-      options.backend = ClothBackend::TBB;
+      options.backend = Backend::TBB;
     else
       throw Error("--backend", 0, "expected serial or tbb, got '" + *b + "'");
   }
@@ -331,9 +333,10 @@ int run_fit(Args& args) {
     else
       throw Error("--layer-order", 0, "expected auto, type or given, got '" + *order + "'");
   }
+  std::optional<FitDebugFiles> debug_files; // --debug: the fit's snapshots as files
   if (debug_dir) {
     if (debug_dir->empty()) throw Error("--debug", 0, "expected a folder");
-    options.debug_dir = *debug_dir;
+    options.observer = &debug_files.emplace(*debug_dir);
   }
   if (progress) options.progress = print_progress;
   int render_size = 512;
@@ -391,19 +394,17 @@ int run_fit(Args& args) {
                    kp.points.size(), keypoint_fit->total_ms, keypoint_fit->mean_reprojection_px);
   }
   // Every body is loaded (and checked) before any fit, so a bad body file fails at once.
+  const Engine engine({options.backend, "", 0});
   std::vector<LoadedBody> loaded;
   std::vector<Body> bodies;
   std::vector<double> body_ms;
   for (const std::string& source : sources) {
     const auto t0 = Clock::now();
-    BodyRequest request = body_flags;
-    request.source = source;
-    if (keypoint_fit) request.mannequin.measurements = keypoint_fit->measurements;
-    loaded.push_back(load_body(request));
-    Pose pose;
-    if (keypoint_fit) pose = pose_from_keypoint_fit(*keypoint_fit, loaded.back().rest.rest_pose);
-    if (pose_arg) pose = pose_from_arg(*pose_arg, loaded.back().rest.rest_pose);
-    bodies.push_back(loaded.back().posed(pose));
+    BodySource body_source{body_flags, keypoint_fit, pose_arg.value_or("")};
+    body_source.request.source = source;
+    SourcedBody made = engine.make_body(body_source);
+    loaded.push_back(std::move(made.loaded));
+    bodies.push_back(std::move(made.body));
     body_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count() + keypoint_ms);
     if (progress)
       std::fprintf(stderr, "vfit: body: %s, %zu vertices, %.1f ms\n", loaded.back().kind.c_str(),
@@ -416,7 +417,7 @@ int run_fit(Args& args) {
   std::vector<const Body*> body_list;
   for (const Body& b : bodies)
     body_list.push_back(&b);
-  std::vector<FitResult> results = fit_garments_onto_bodies(body_list, garments, options);
+  std::vector<FitResult> results = engine.fit(body_list, garments, options);
   const std::vector<std::string> tags = body_tags(sources);
   for (std::size_t b = 0; b < results.size(); ++b) {
     const FitResult& result = results[b];

@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "engine/render.h"
+#include "engine/view/render.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/mesh_io.h"
 #include "kernels/error.h"

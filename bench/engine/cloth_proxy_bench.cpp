@@ -13,7 +13,7 @@
 #include <cmath>
 #include <vector>
 
-#include "engine/cloth_proxy.h"
+#include "engine/cloth/cloth_proxy.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/decimate.h"
 

@@ -6,7 +6,7 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
-#include "engine/render.h"
+#include "engine/view/render.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/garment/catalogue.h"
 #include "kernels/ray_caster.h"

@@ -56,8 +56,8 @@
 #include <memory>
 #include <random>
 
-#include "engine/cloth_sim.h"
-#include "engine/penetration.h"
+#include "engine/cloth/cloth_sim.h"
+#include "engine/dress/penetration.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"

@@ -15,7 +15,7 @@
 #include <array>
 #include <vector>
 
-#include "keypoint_fit.h"
+#include "keypoint_model.h"
 
 namespace vfit::keypoint_detail {
 

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "segment.h"
 #include "segment_parts.h"
 
 namespace vfit::segment_detail {

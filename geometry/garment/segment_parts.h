@@ -7,8 +7,12 @@
 #include <optional>
 #include <vector>
 
-#include "segment.h"
+#include "garment.h"
 #include "surface_graph.h"
+
+namespace vfit {
+struct GarmentSegmentation; // segment.h
+}
 
 namespace vfit::segment_detail {
 

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "geodesic.h"
+#include "segment.h"
 #include "segment_parts.h"
 
 namespace vfit::segment_detail {

@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/penetration.h"
+#include "engine/dress/penetration.h"
 #include "geometry/body/gltf_body.h"
 #include "geometry/garment/segment.h"
 #include "geometry/garment/skeleton_driving.h"

@@ -17,8 +17,8 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/fit_feedback.h"
-#include "engine/fit_pipeline.h"
+#include "engine/fit/fit_feedback.h"
+#include "engine/fit/pipeline.h"
 #include "geometry/body/gltf_body.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/mesh/mesh_io.h"

@@ -1,4 +1,4 @@
-#include "engine/penetration.h"
+#include "engine/dress/penetration.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/layer_order.h"
-#include "engine/layering.h"
+#include "engine/dress/layer_order.h"
+#include "engine/dress/layering.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/primitives.h"
 #include "geometry/mesh/units.h"

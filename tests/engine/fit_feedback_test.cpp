@@ -1,6 +1,6 @@
 // Fit feedback: strain against a known stretch, and the size verdicts of seed 000 Fig. 13 (the
 // catalogue's trousers P1-P4 on one body: tight, good, loose, falls off) and of tops by size.
-#include "engine/fit_feedback.h"
+#include "engine/fit/fit_feedback.h"
 
 #include <map>
 

@@ -15,10 +15,10 @@
 
 #include "test_support.h"
 
-#include "engine/cloth_proxy.h"
-#include "engine/fit_debug.h"
-#include "engine/fit_pipeline.h"
-#include "engine/layering.h"
+#include "engine/cloth/cloth_proxy.h"
+#include "tools/fit_debug.h"
+#include "engine/fit/pipeline.h"
+#include "engine/dress/layering.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
@@ -222,7 +222,8 @@ TEST(FitPipeline, FitsTheSameGarmentsOntoSeveralBodiesAsSeparateFitsWould) {
   EXPECT_NE(both[0].garments[0].mesh.positions, both[1].garments[0].mesh.positions);
   EXPECT_TRUE(fit_garments_onto_bodies({}, tee_and_trousers(), o).empty());
   FitOptions debug = o;
-  debug.debug_dir = testing::TempDir() + "/vfit_two_bodies_debug";
+  FitObserver observer; // snapshots of one body only
+  debug.observer = &observer;
   EXPECT_THROW(fit_garments_onto_bodies(bodies, tee_and_trousers(), debug), Error);
 }
 
@@ -825,7 +826,8 @@ TEST(FitPipeline, WritesEveryStageOfEveryGarmentForDebugging) {
   test::TempDir dir;
   FitOptions o;
   o.max_simulated_seconds = 0.01;         // one step: the simulation stage runs and writes its mesh
-  o.debug_dir = (dir / "debug").string(); // created by the pipeline
+  FitDebugFiles files(dir / "debug"); // created when the fit starts
+  o.observer = &files;
   const FitResult r = fit_garments(mannequin(), tee_and_trousers(), o);
   const auto d = dir / "debug";
   EXPECT_TRUE(std::filesystem::is_regular_file(d / "legend.txt"));
@@ -878,7 +880,8 @@ TEST(FitPipeline, WritesNoSimulationFileWhenNotSimulating) {
   test::TempDir dir;
   FitOptions o;
   o.simulate = false;
-  o.debug_dir = dir.path().string();
+  FitDebugFiles files(dir.path());
+  o.observer = &files;
   (void)fit_garments(mannequin(), {tee_and_trousers()[1]}, o);
   EXPECT_TRUE(std::filesystem::is_regular_file(dir / "trousers_05_penetration.ply"));
   EXPECT_FALSE(std::filesystem::exists(dir / "trousers_06_simulation.ply"));

@@ -1,4 +1,4 @@
-#include "engine/layer_order.h"
+#include "engine/dress/layer_order.h"
 
 #include <algorithm>
 #include <vector>

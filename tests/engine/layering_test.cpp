@@ -1,4 +1,4 @@
-#include "engine/layering.h"
+#include "engine/dress/layering.h"
 
 #include <algorithm>
 #include <cmath>

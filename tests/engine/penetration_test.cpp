@@ -1,4 +1,4 @@
-#include "engine/penetration.h"
+#include "engine/dress/penetration.h"
 
 #include <cmath>
 #include <cstdio>

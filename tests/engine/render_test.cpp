@@ -1,4 +1,4 @@
-#include "engine/render.h"
+#include "engine/view/render.h"
 
 #include <cmath>
 #include <filesystem>
@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/bitmap_font.h"
-#include "engine/image.h"
+#include "engine/view/bitmap_font.h"
+#include "engine/view/image.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/skeleton.h"
 #include "geometry/garment/catalogue.h"

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/image.h"
+#include "engine/view/image.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/primitives.h"

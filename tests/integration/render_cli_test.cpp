@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/image.h"
+#include "engine/view/image.h"
 #include "geometry/mesh/mesh_io.h"
 #include "geometry/mesh/primitives.h"
 #include "test_support.h"
