@@ -2,14 +2,13 @@
 // Private to kernels/: a team of threads held for the length of one iterative solve, which
 // runs its passes over fixed chunks without a TBB fork and join per pass. Not a public header.
 //
-// Why: the implicit step's CG runs two passes over the particles per iteration, each a few
-// tens of microseconds on a 6,000-vertex garment. Run as two tbb::parallel_for calls per
-// iteration, a worker went to sleep between passes: waking it (a futex call) took ~11 % of
-// the calling thread's time in the tee drape, and the pass started before the worker did, so
-// the caller ran ~60 % of its chunks. A team's followers spin between passes instead (they
-// sleep only after a long gap, see follow()), for the step only, and each lane starts on its
-// own contiguous share of the chunks, the same share in every pass, so its rows stay in its
-// own cache.
+// Why: the implicit step's CG runs two passes over the particles per iteration, each short on a
+// garment-sized mesh. Run as two tbb::parallel_for calls per iteration, a worker went to sleep
+// between passes: waking it (a futex call) cost the calling thread time on every pass, and the
+// pass started before the worker did, so the caller ran most of its chunks. A team's followers
+// spin between passes instead (they sleep only after a long gap, see follow()), for the step
+// only, and each lane starts on its own contiguous share of the chunks, the same share in every
+// pass, so its rows stay in its own cache.
 //
 // How: lead(lanes, body) runs body(team) on the calling thread (the leader) and enqueues
 // lanes − 1 follower tasks. team.run(n, kernel) publishes a pass; every lane that has started
@@ -108,7 +107,7 @@ private:
 
   // Spins, then yields, until done(): the lanes wait for each other microseconds at a time.
   // With `give_up`, returns false after that many yields instead (a follower then sleeps).
-  static constexpr unsigned SPINS = 1u << 10; // ~10-30 µs of pauses, a pass or two
+  static constexpr unsigned SPINS = 1u << 10; // pauses lasting about a pass or two
   static constexpr unsigned YIELDS = 64;
   template <typename Done> static bool spin_until(const Done& done, bool give_up = false) {
     for (unsigned k = 0; !done(); ++k) {

@@ -211,9 +211,7 @@ VFIT_CLOTH_AVX512_TARGET inline void store_rows16(float* d, const float in[3][16
 // slice_consecutive_columns; a mesh numbered row by row gives this in most columns) loads
 // their states as three contiguous vectors per array, which the compiler deinterleaves with
 // permutes, instead of 6·W scalar loads and inserts: the same values, so the same bits. The
-// scalar loads of a general column bound the pass: on the 10^6-particle bench grid this path
-// (with the vectorised stage update of cloth_rk4.cpp) takes a serial RK4 step from about 100
-// to about 65 ms of CPU time.
+// scalar loads of a general column bound the pass.
 //
 // ROW_LOADS (VFIT_CLOTH_AVX512_TARGET kernels only): a general column loads each neighbour's
 // row of x and of v with one masked vector load (gather_rows16) instead of scalar loads.

@@ -73,25 +73,23 @@ struct ImplicitSolveOptions {
   /// is A-orthogonal to every common translation and its energy norm no larger than Δv = 0's.
   /// The stopping test keeps ‖b‖ as its scale. Block Jacobi alone removes a smooth error
   /// slowly, one spring ring per iteration: a cloth falling freely before it touches the body
-  /// (the response to gravity is nearly a common translation) took the iteration cap at each of
-  /// the tee drape's first 8 steps, a quarter of its CG iterations.
+  /// (the response to gravity is nearly a common translation) can take the iteration cap at
+  /// every step.
   bool translation_start = true;
   /// translation_start is kept only when it leaves ‖r₀‖ ≤ translation_keep·‖b‖ (it answers
   /// most of the step, as in free fall); otherwise the solve starts from Δv = 0 as without
   /// it. Where contacts hold part of the cloth, a common translation is not the shape of the
   /// answer: started from it, the truncated solve left some of it in the resting parts, which
-  /// kept the tee drape moving 0.1–0.3 simulated s longer (kept always: 5,716 instead of 6,299
-  /// CG iterations, at rest after 1.09 instead of 0.97 s; kept at 0.1: 4,453, 0.92 s).
+  /// kept a drape moving longer before it came to rest.
   double translation_keep = 0.1;
   ImplicitPreconditioner preconditioner = ImplicitPreconditioner::BLOCK_JACOBI;
   /// TWO_LEVEL: the mean particles per aggregate to reach (see implicit_coarse_aggregates());
   /// 0 = as few coarsening passes as leave at most 2,048 aggregates.
   std::size_t aggregate_particles = 0;
-  /// AUTO: block-Jacobi iterations beyond which the workspace switches to TWO_LEVEL. 16: on
-  /// the 6,000-vertex tee drape (33 block-Jacobi iterations per step) the coarse level's
-  /// assembly, factorisation and per-iteration solve cost about as much as 5 iterations of
-  /// the product per step, and it saves more than half the iterations; the grid steps of
-  /// bench/kernels/cloth_bench.cpp's BM_implicit* take 7–8 iterations either way.
+  /// AUTO: block-Jacobi iterations beyond which the workspace switches to TWO_LEVEL. The
+  /// coarse level's assembly, factorisation and per-iteration solve cost a few iterations of
+  /// the product per step, so it pays where block Jacobi needs many more (a garment lying on a
+  /// body) and not where it needs a few (a mass-dominated system).
   int two_level_after = 16;
 };
 

@@ -16,20 +16,16 @@
 /// their states as vectors instead of lane by lane. Then the slice's 16 stage updates run as
 /// vectors too. The pass is compiled for AVX-512, AVX2 and baseline x86-64 and picked at load
 /// time, all without FMA contraction, so every instruction set gives the same bits as the
-/// scalar oracle (spring_forces_scatter). On one core of the benchmark machine (AMD EPYC,
-/// Zen 5), CPU time per step of BM_rk4_serial (bench/kernels/cloth_bench.cpp) on its grids,
-/// numbered row by row (98 % of the 10^6 grid's columns consecutive): 10^6 particles
-/// 98–104 → 63–69 ms, about 16 ns per particle-stage (with scalar loads of every neighbour and
-/// a scalar stage update; before the sliced rows, 162 ms); 10^4 (in cache) 0.46–0.47 ms. A
-/// garment's mesh has no consecutive column. There, on a CPU with AVX-512 (checked at run time;
-/// the build targets baseline x86-64), a column loads each neighbour's row of x and of v with
-/// one masked 16-byte load into a 128-bit lane and transposes them in registers (cloth_gather.h,
-/// gather_rows16: 32 loads and 12 shuffles a column instead of 96 scalar loads and their
-/// inserts; evaluating the springs from registers with GCC vector types instead of the
-/// vectorised loop over the transposed rows measured no faster); other CPUs load the
-/// neighbours lane by lane (GCC's generic tuning emulates the gather instruction, which made
-/// the pass twice as slow on that machine). Both give the same bits. The scattered loads hit the cache when the
-/// particles are numbered for locality (kernels/cloth_ordering.h, as ClothSim numbers them).
+/// scalar oracle (spring_forces_scatter). A grid numbered row by row has mostly consecutive
+/// columns (98 % of a 10^6 grid's); a garment's mesh has none. There, on a CPU with AVX-512
+/// (checked at run time; the build targets baseline x86-64), a column loads each neighbour's
+/// row of x and of v with one masked 16-byte load into a 128-bit lane and transposes them in
+/// registers (cloth_gather.h, gather_rows16: 32 loads and 12 shuffles a column instead of 96
+/// scalar loads and their inserts; evaluating the springs from registers with GCC vector types
+/// instead of the vectorised loop over the transposed rows gained nothing); other CPUs load the
+/// neighbours lane by lane (not with the gather instruction, which GCC's generic tuning
+/// emulates). Both give the same bits. The scattered loads hit the cache when the particles are
+/// numbered for locality (kernels/cloth_ordering.h, as ClothSim numbers them).
 ///
 /// The schedule: a step does not run the four stages as four passes over all particles, each
 /// streaming every spring row and state from memory (at 10^6 particles 0.3 GB a pass, far
@@ -40,23 +36,16 @@
 /// predecessor as closely as the neighbours allow, and a slice's rows are read by its four
 /// stages while still in cache. In the banded numbering of kernels/cloth_ordering.h the lag
 /// between stages is a few hundred slices at 10^6 particles (the catalogue tee: 450 slices from
-/// stage 0's front to stage 3's on average, 2.1 MB of rows and states, about one core's L2 on
-/// the benchmark host) against the whole mesh for a Morton curve. With more threads the slices
-/// are split into contiguous regions, each swept by two ends, one from either side, that claim
-/// stage 0's slices as they go and meet wherever they get to: a thread held up by other work
-/// (or started late) leaves more of its region to the other instead of holding up the step, as
-/// one fixed chunk per thread did (same work, but the step waited for the slower chunk). The
-/// slices near the meeting points and region boundaries are finished stage by stage after.
-/// Every slice's arithmetic is that of the stage-by-stage passes in any schedule, so the bits
-/// do not depend on it, on the thread count or on where the ends meet. The four plain passes
-/// stay selectable (Rk4Schedule::PASSES). Measured on the 2-core benchmark host (Intel Xeon,
-/// AVX-512; bench/kernels/cloth_bench.cpp BM_rk4_schedule_*, both schedules in one process,
-/// host loaded by other work, so process CPU time per step over all threads, the lowest of
-/// five interleaved rounds): the wavefront needs less CPU than the passes at 10^6 particles,
-/// on 1 and 2 threads alike (tee 105 and 116 ms against 118 and 121; grid 74 and 78 against 99
-/// and 98; the passes over the Morton numbering before: tee 139 and 135, grid 100 and 103),
-/// and about the same at 10^5 (tee 9.0–9.8 against 9.0–9.5 ms). Against the four passes over
-/// the Morton numbering, on one quiet core: tee at 10^6 151 → 112 ms, grid at 10^6 94 → 75 ms.
+/// stage 0's front to stage 3's on average, 2.1 MB of rows and states) against the whole mesh
+/// for a Morton curve. With more threads the slices are split into contiguous regions, each
+/// swept by two ends, one from either side, that claim stage 0's slices as they go and meet
+/// wherever they get to: a thread held up by other work (or started late) leaves more of its
+/// region to the other instead of holding up the step, as one fixed chunk per thread did (same
+/// work, but the step waited for the slower chunk). The slices near the meeting points and
+/// region boundaries are finished stage by stage after. Every slice's arithmetic is that of the
+/// stage-by-stage passes in any schedule, so the bits do not depend on it, on the thread count
+/// or on where the ends meet. The four plain passes stay selectable (Rk4Schedule::PASSES);
+/// bench/kernels/cloth_bench.cpp BM_rk4_schedule_* compares the two.
 ///
 /// Stability (the substep bound): the linearised system's eigenvalues λ satisfy
 /// λ² + c·λ + k = 0 for Rayleigh quotients c ∈ [0, γ_max], k ∈ [0, ω_max²] of the mass-scaled
@@ -113,9 +102,9 @@ enum class Rk4Schedule {
   PASSES,    ///< four passes over every slice, each split among the threads in CLOTH_PARTICLE_GRAIN tasks
 };
 
-/// The schedule Rk4Schedule::AUTO takes on more than one thread: the wavefront, which needs
-/// less CPU time per step than the passes at 10^6 particles on 2 threads as on 1 (file
-/// comment); bench/kernels/cloth_bench.cpp BM_rk4_schedule_* compares the two on a host.
+/// The schedule Rk4Schedule::AUTO takes on more than one thread: the wavefront, which reads a
+/// slice's rows from memory once per step instead of once per stage (file comment);
+/// bench/kernels/cloth_bench.cpp BM_rk4_schedule_* compares the two on a host.
 inline constexpr Rk4Schedule RK4_AUTO_SCHEDULE_THREADED = Rk4Schedule::WAVEFRONT;
 
 /// TBB driver of rk4_step_serial(): `schedule` (AUTO: see RK4_AUTO_SCHEDULE_THREADED), with

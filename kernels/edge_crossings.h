@@ -2,7 +2,7 @@
 /// \file
 /// Edge–triangle crossings: which edges of a garment pass through the surface of a body. A
 /// vertex test (kernels/proximity.h) misses an edge whose two ends are outside while its middle
-/// is inside, e.g. a sleeve edge cutting through a thin wrist (issue 5, item 2). Each edge a→b
+/// is inside, e.g. a sleeve edge cutting through a thin wrist. Each edge a→b
 /// is cast as an Embree ray from a along b − a, limited to t ∈ [0, 1] (the segment itself).
 
 #include <cstddef>
@@ -34,8 +34,7 @@ struct SegmentCrossings {
   std::size_t crossing_count() const;
 };
 
-/// Segments per TBB task in EdgeCrossingIndex::first_crossings (one incoherent ray each,
-/// ~0.2–1 µs).
+/// Segments per TBB task in EdgeCrossingIndex::first_crossings (one incoherent ray each).
 inline constexpr std::size_t EDGE_CROSSING_GRAIN = 1024;
 
 /// A segment-intersection scene over one triangle mesh (the body): an Embree BVH in robust

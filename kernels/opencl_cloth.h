@@ -24,9 +24,8 @@ struct ImplicitSystem;
 /// transfers); get_state() reads the state back. On a CPU device (PoCL) each stage runs one
 /// work-item per slice of 16 particles in float16 arithmetic, the C++ gather's scheme
 /// (cloth.cl's cloth_rk4_stage_slices): PoCL runs a one-particle-per-work-item kernel with a
-/// spring loop inside scalar. On PoCL on the 2-core benchmark machine that made the step 3.6×
-/// faster (10^5 particles: 36–41 → 10–15 ms per step, within one loaded run each). Other
-/// devices run one work-item per particle over the same sliced rows (coalesced across a slice).
+/// spring loop inside scalar. Other devices run one work-item per particle over the same sliced
+/// rows (coalesced across a slice).
 class OpenClClothRk4 {
 public:
   /// adjacency and particles as for rk4_step_serial() (#V particles).

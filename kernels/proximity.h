@@ -68,7 +68,7 @@ struct SegmentHits {
   void resize(std::size_t segment_count);
 };
 
-/// Queries per TBB task in ProximityIndex::closest_points (each query is ~1 µs of traversal).
+/// Queries per TBB task in ProximityIndex::closest_points (each query one BVH traversal).
 inline constexpr std::size_t PROXIMITY_QUERY_GRAIN = 256;
 
 /// How ProximityIndex decides the side of a query on a mesh with holes (boundary edges).

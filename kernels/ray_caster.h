@@ -35,7 +35,7 @@ struct RayHits {
   void resize(std::size_t ray_count);
 };
 
-/// Rays per TBB task in RayCaster::intersect (a coherent primary ray costs ~0.02–0.1 µs).
+/// Rays per TBB task in RayCaster::intersect (coherent primary rays, each cheap).
 inline constexpr std::size_t RAY_CAST_GRAIN = 1024;
 
 /// A static ray-intersection scene over several triangle meshes: one Embree BVH over the

@@ -36,9 +36,8 @@ inline constexpr std::uint32_t SPATIAL_HASH_PRIMES[3] = {73856093u, 19349663u, 8
 ///
 /// The cell side h is the mesh's mean edge length unless given: Teschner et al. (§5, Fig. 3)
 /// find the query cost lowest for a cell about the mean edge length, where a triangle spans a
-/// few cells and a cell holds a few triangles. (On the mannequin with queries up to a few cm
-/// off the surface, 2× the mean edge answers ~25 % faster and 0.5× half as fast:
-/// BM_hash_cell_size in bench/engine/cloth_sim_bench.cpp.) The table holds T buckets, T the
+/// few cells and a cell holds a few triangles. (BM_hash_cell_size in
+/// bench/engine/cloth_sim_bench.cpp compares other cell sides.) The table holds T buckets, T the
 /// smallest prime > 2 × the number of (triangle, cell) entries at construction (kept by
 /// update() while the entries stay within 2T), so hash collisions add on average under one
 /// foreign entry per visited bucket. Thread safety: queries are const and may run

@@ -17,9 +17,8 @@ namespace vfit {
 
 /// min_x ‖A x − b‖² for a fixed sparse A (#R × #N, full column rank) and any number of
 /// right-hand sides: AᵀA = LLᵀ is factored once, and each solve() costs two triangular solves
-/// per column of b. Measured on the normal equations of driven tees' free bands (one core
-/// of a loaded 2-core machine): 70,224 unknowns 1.6 s (simplicial LDLᵀ 2.6 s), 225,558
-/// unknowns 8.1 s (about 27 s); no faster below ~20,000 unknowns.
+/// per column of b. It pays on large systems (from about 20,000 unknowns); below, a simplicial
+/// LDLᵀ (SparseLeastSquares) is as fast.
 class SupernodalLeastSquares {
 public:
   /// Factors AᵀA. ok() is false when CHOLMOD finds it not positive definite, or when CHOLMOD's

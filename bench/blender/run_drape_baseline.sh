@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Issue 6's drape bar against Blender on this host, in one run: for each round, Blender 3.4's
+# The drape bar against Blender on this host, in one run: for each round, Blender 3.4's
 # cloth on the drape's meshes (bench/blender/drape_baseline.py), then vfit's
 # BM_drape_tee_to_rest/2 with blender_x and wall_s_at_reference_speed (the wall time scaled to
-# a host where Blender takes the issue's 1.6 s per frame) from that round's Blender time.
+# a host where Blender takes the reference 1.6 s per frame) from that round's Blender time.
 #   bench/blender/run_drape_baseline.sh [BUILD_DIR (build/release)] [FRAMES (24)] [ROUNDS (2)]
 # Needs `blender` on the PATH (Debian 12: apt-get install blender, 3.4.1).
 set -euo pipefail

@@ -1,11 +1,11 @@
-// Penetration removal (issue 5's speed bars): remove_penetration() on the state the pipeline
+// Penetration removal against its speed bars: remove_penetration() on the state the pipeline
 // hands it, i.e. each garment after segmentation, skeleton driving and the coarse move onto the
 // posed body (fit_garments() with no removal rounds and no simulation), with the pipeline's
 // options (κ = 3 mm, λ2/λ1 = 1, edge crossings on).
 //  - BM_RemoveTable1/r: the nine Table-1 twins (geometry/garment/table1.h) on their posed
 //    mannequins. Counters: the paper's penetration ms, our median ms (removal's own clock, the
 //    mesh copy excluded), `speedup` = paper ms / our median ms, vertices
-//    inside and crossing edges before and after, rounds. Issue 5's bar: ≤ 10 ms per row.
+//    inside and crossing edges before and after, rounds. Bar: ≤ 10 ms per row.
 //  - BM_RemoveScaled/N/S: the catalogue T-pose tee of N vertices (10^4 … 10^6) driven onto the
 //    arms-down mannequin; `vertices_per_s` is the throughput. Bar: 10^6 vertices under 2 s.
 //    Second argument: the region solver, 0 = PenetrationSolver::CHOLESKY, 1 = CONJUGATE_GRADIENT.

@@ -1,6 +1,6 @@
 // Keypoint fit (geometry/body/keypoint_fit.h): time per image and Ceres iterations per stage,
 // on synthetic BODY_25 keypoints of the mannequin (3 px noise, fixed seed). The body model is
-// built before timing (once per process). Bar (issue 8): ≤ 200 ms per image on 2 cores.
+// built before timing (once per process). Bar: ≤ 200 ms per image on 2 cores.
 #include <random>
 
 #include <benchmark/benchmark.h>

@@ -1,7 +1,7 @@
 // Scan fit (geometry/body/scan_fit.h): time per scan and Ceres iterations per stage, on a
 // 15,000-vertex synthetic scan (the tall mannequin in its A-pose rest, posed: an elbow and a
 // knee bent, the head turned). The scan and the fit's template are built before timing (once per
-// process: about 4 s and 3 s on first use). Bar (issue 8): ≤ 1 s per 15k-vertex scan on 2 cores.
+// process: about 4 s and 3 s on first use). Bar: ≤ 1 s per 15k-vertex scan on 2 cores.
 #include <numbers>
 
 #include <benchmark/benchmark.h>

@@ -1,7 +1,7 @@
 // Part skeletons (seed 000 §5.1) speed and centredness: a 6k-vertex tube (proxy or full
 // resolution, uniform or cotangent contraction) and the sleeves and legs of catalogue
 // garments at 5k / 20k / 100k vertices. With CGAL found at configure time, the same tube
-// through CGAL::extract_mean_curvature_flow_skeleton as the reference (issue 4: about 0.6 s).
+// through CGAL::extract_mean_curvature_flow_skeleton as the reference (about 0.6 s).
 // Serial by design. Reports vertices/s; meshes are built once, untimed. Centredness: mean
 // distance of the skeleton's nodes to the true axis divided by the tube's radius.
 #include <algorithm>

@@ -8,7 +8,7 @@
 // Ratios (counters): each peer's row carries `ours_ratio` = ProximityIndex's queries/s over the
 // peer's on the same queries and mesh, measured earlier in the same run: the serial entry for
 // brute force, the TBB entry at the same thread count for raw Embree and CGAL, at 2 threads for
-// OpenCL and the open body. On the raw-Embree row ours_ratio ≥ 0.8 is issue 5's bar.
+// OpenCL and the open body. On the raw-Embree row ours_ratio ≥ 0.8 is the bar.
 // Throughput is per wall-clock second (UseRealTime): the parallel runs work off the main thread.
 // Queries: points of the surface moved by N(0, 2 cm) in each axis, like garment vertices near
 // a body; fixed seed.

@@ -29,7 +29,7 @@ struct JointEstimate {
 /// Estimates the canonical joints of an upright body scan: a closed or nearly closed triangle
 /// mesh (holes at the soles, neck or eyes are tolerated) in metres, Y up, facing +Z, standing
 /// with the legs apart and the arms away from the torso (T-pose: upper arms within 25° of
-/// horizontal; A-pose: 25°–70° below it). No skeleton is needed. About 50 ms for 15k vertices.
+/// horizontal; A-pose: 25°–70° below it). No skeleton is needed.
 ///
 /// Landmarks: the crotch (where the torso's section splits into two legs), the armpits (where
 /// the arms join the torso's section), the top of the shoulders and the neck's narrowest

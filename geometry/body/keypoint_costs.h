@@ -4,9 +4,9 @@
 /// robust reprojection error of the body's points and the anatomical pose prior. Each is one
 /// function that writes the residuals and, on request, their Jacobians, so that the forward
 /// kinematics runs once per evaluation in doubles, on the joints that move the observed points
-/// (automatic differentiation with one 79-wide Jet per number cost ~0.45 ms per Jacobian, ~70 %
-/// of a fit). The prior comes in terms on 1–3 joints each (pose_prior_terms()), so that a solver
-/// can assemble sparse normal equations. The rotation derivatives are the
+/// (instead of automatic differentiation with one 79-wide Jet per number). The prior comes in
+/// terms on 1–3 joints each (pose_prior_terms()), so that a solver can assemble sparse normal
+/// equations. The rotation derivatives are the
 /// articulated chain rule: a change δ of joint k's axis-angle θ_k turns everything below k about
 /// the posed joint t_k, ∂X/∂θ_k = −[X − t_k]× R_k J_r(θ_k), with R_k the joint's world rotation
 /// and J_r the right Jacobian of SO(3) (R(θ + δ) ≈ R(θ) exp([J_r(θ) δ]×)).

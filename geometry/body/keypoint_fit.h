@@ -36,15 +36,14 @@ namespace vfit {
 
 /// The mannequin's keypoint model, built on first use and cached; thread-safe. The first use
 /// places 9 uncalibrated mannequins (MannequinShape::uncalibrated(), whose skeleton and head
-/// and foot shapes are the calibrated ones).
+/// and foot shapes are the calibrated ones, without the girth calibration's cost).
 const KeypointBodyModel& mannequin_keypoint_model();
 
 /// Settings of fit_keypoints().
 struct KeypointFitOptions {
   int max_iterations = 60; ///< per stage and start (Levenberg–Marquardt iterations)
   /// Ceres threads, at most 2. The residual blocks are small (a limb's keypoints, one prior
-  /// term; ~35 µs of evaluation per iteration in all), so a second thread costs more than it
-  /// shares: measured slower (keypoint_fit_bench: 31-52 against 39-110 ms per image); default 1.
+  /// term), so a second thread costs more than it shares; default 1.
   int threads = 1;
   bool fit_shape = true; ///< stage 3 (shape + pose); false: the average body's shape
   /// A warm start (e.g. the previous video frame's fit, or a known pose in a test): when set,

@@ -57,8 +57,7 @@ public:
   /// zero set measures within about 0.5 % of the request before meshing).
   MannequinShape(const BodyMeasurements& m, RestPose pose);
 
-  /// The same mannequin without the girth calibration (built in milliseconds; the calibration
-  /// costs ~0.2–0.6 s on the Intel host): the
+  /// The same mannequin without the girth calibration, and so far cheaper to build: the
   /// skeleton (joints(), bone_segments()) and the head, hand, foot, arm and neck shapes are
   /// bit-for-bit those of the calibrated shape, since the calibration only rescales the torso,
   /// buttocks and leg shapes and moves the torso's bottom; the torso, buttocks and legs are as

@@ -26,9 +26,9 @@ namespace vfit {
 namespace {
 
 // The 95th-percentile scan-to-template distance (m) past which the fit is reported as poor.
-// Measured (stop 26): the 27 corpus poses of hm08_body 29–34 mm (its shape is not the
+// Measured: the 27 corpus poses of hm08_body 29–34 mm (its shape is not the
 // template's), 20 random poses of the survey 30–33 mm, the mannequin's presets as walking scans
-// 11–31 mm; a kneeling hm08 (both knees at 90°) 279 mm, with exit 0 and no word of it before.
+// 11–31 mm; a kneeling hm08 (both knees at 90°) 279 mm.
 constexpr double POOR_FIT_P95 = 0.06;
 
 using namespace scan_detail;

@@ -209,8 +209,8 @@ SkinWeights transfer_skin_weights(const Mesh& source, const SkinWeights& source_
       // hand lies 5 cm off, nearer the other forearm or the belly, keeps its own arm's (the
       // nearest surface's tore 250 of the corpus body's hand vertices off their arm), and so
       // does a chain as near as another's (hands or an arm and the belly pressed into each
-      // other: until stop 24 a chain within 0.1 mm of the closest point counted as the closest,
-      // which handed elbows_bent's wrists the other hand's weights: re-posed 94 cm off).
+      // other: counting a chain within 0.1 mm of the closest point as the closest handed
+      // elbows_bent's wrists the other hand's weights, re-posed 94 cm off).
       const int closest_chain = triangle_chain[static_cast<std::size_t>(closest.triangles[v])];
       const bool own_closest = c == UNSURE || hits[static_cast<std::size_t>(c)].triangles[v] < 0 || closest_chain == c;
       if (own_closest)

@@ -17,8 +17,8 @@ struct HoleFillOptions {
   double dome_height = 1.0;
   /// A cap's rings have at most this many vertices, and it has at most a quarter as many
   /// rings (0: unbounded). Unbounded, a cap over a loop of n vertices has about n²/6 vertices,
-  /// which on a 10^5-vertex tee was 1.7× the sleeves' own vertices and most of the cost of
-  /// skeletonising them (the proxy's input), while the proxy keeps ~one vertex per cm² of cap
+  /// which on a 10^5-vertex tee was 1.7× the sleeves' own vertices, all of them input to the
+  /// proxy that skeletonises them, while the proxy keeps ~one vertex per cm² of cap
   /// whatever its resolution. Loops of up to this many vertices (every corpus and Table-1
   /// garment's) get the same caps as unbounded.
   std::size_t max_ring_vertices = 128;

@@ -56,12 +56,11 @@ enum class BandSolver {
   /// least-squares solution up to round-off, the iterative ones within BAND_MULTIGRID_TOLERANCE.
   AUTO = 0,
   /// Simplicial sparse LDLᵀ (SparseLeastSquares) of the whole band at once: exact; fastest for
-  /// small bands, but its fill-in makes the factorisation grow about as #F^1.8 (27 s for the
-  /// 225,558-vertex band of a 10^6-vertex tee).
+  /// small bands, but its fill-in makes the factorisation grow about as #F^1.8.
   DIRECT = 1,
   /// CHOLMOD's supernodal Cholesky (SupernodalLeastSquares) of each connected piece of the
   /// band, the pieces concurrently: exact, the same fill-in worked in dense blocks; still
-  /// superlinear (about #F^1.4: 4.4 s of one core for that band).
+  /// superlinear (about #F^1.4).
   SUPERNODAL = 2,
   /// Conjugate gradients preconditioned by a two-grid cycle (TwoGridLeastSquares: aggregates
   /// of ~20 free vertices carrying the constant and linear functions, the coarse system
@@ -78,14 +77,10 @@ enum class BandSolver {
 /// keep their single simplicial factorisation.
 inline constexpr std::size_t BAND_SUPERNODAL_UNKNOWNS = 5000;
 /// BandSolver::AUTO: pieces with at least this many free vertices are factored by SUPERNODAL,
-/// smaller ones by DIRECT (one core of a loaded machine: pieces of 3,500 free vertices cost the
-/// same either way, 27 against 30 ms for two; pieces of 11,000, 64 against 87 ms each).
+/// smaller ones by DIRECT (below about this size the two cost about the same).
 inline constexpr std::size_t BAND_PIECE_SUPERNODAL_UNKNOWNS = 5000;
-/// BandSolver::AUTO: pieces with at least this many free vertices are solved by MULTIGRID.
-/// Set up and solved on one core of a loaded machine, a driven tee's two armhole pieces
-/// together took 0.27–0.29 s against CHOLMOD's 0.23 s at 11,000 free vertices each
-/// (10^5-vertex tee), 0.66–0.83 s against 0.93 s at 35,000 (3.16·10^5) and 2.4–2.7 s against
-/// 4.4 s at 113,000 (10^6).
+/// BandSolver::AUTO: pieces with at least this many free vertices are solved by MULTIGRID,
+/// about where its near-linear cost overtakes SUPERNODAL's superlinear factorisation.
 inline constexpr std::size_t BAND_PIECE_ITERATIVE_UNKNOWNS = 25000;
 /// BandSolver::MULTIGRID's stopping rule: ‖L_Fᵀ(b − L_F x)‖ ≤ this × ‖L_Fᵀ b‖ per axis, ‖L_Fᵀ b‖
 /// the largest of the three axes' (positions share one unit). On driven tees (from the blended
@@ -103,9 +98,9 @@ inline constexpr int BAND_MULTIGRID_ITERATIONS = 50;
 /// no free vertex are constant and dropped, so the factorisation is of the free band's system
 /// alone (#F unknowns, not #V): far cheaper when most of the mesh is handles, as in skeleton
 /// driving (seed 000 §5.4). (The square system of the free rows alone, L_FF x_F = δ_F − L_FH t,
-/// factors 4× faster at 10^5 vertices, 53 against 231 ms for a tee's 22,500-vertex band, but
-/// leaves the handle rows next to the band all the residual: the driven catalogue tee's mean
-/// edge-length change away from the joints rose from 2.5 % to 3.7 %, over the 3 %.)
+/// factors faster, but leaves the handle rows next to the band all the residual: the driven
+/// catalogue tee's mean edge-length change away from the joints rose from 2.5 % to 3.7 %, over
+/// the 3 % that skeleton_driving_test allows.)
 /// ok() is false when the reduced system is singular: a connected piece of free vertices with
 /// no handle in its Laplacian stencil.
 class BandLaplacianDeformer {

@@ -20,18 +20,17 @@
 namespace vfit {
 
 struct PartSkeletonOptions {
-  /// Proxy size and contraction weights. The default proxy (800 vertices) keeps a part's
-  /// skeleton to a few ms at any resolution.
+  /// Proxy size and contraction weights. The default proxy (800 vertices) bounds the
+  /// contraction's cost whatever the part's resolution.
   CurveSkeletonOptions skeleton;
   HoleFillOptions hole_fill;
   /// When set, the part is skeletonised through a proxy and hole_fill.edge_length is 0, its
   /// caps are built at the proxy's spacing, sqrt(2·A / (√3·P)) for a piece of area A and a
   /// proxy of P vertices (equilateral triangles, two per vertex), instead of the rim's: the
   /// proxy's edge collapses then spend no time on cap vertices (a Table-1 shorts' caps had
-  /// 1.2× the legs' own vertices; Shorts 1's deformation fell from 53.7 to about 40 ms of
-  /// one core's CPU time). Opt-in: with it, the catalogue trousers' last leg node missed the
-  /// hem's centre by more than the hem's radius (curve_skeleton_test), and trousers driven
-  /// onto their own pose moved 10.4 mm (skeleton_driving_test's bar: 10 mm).
+  /// 1.2× the legs' own vertices). Opt-in: with it, the catalogue trousers' last leg node
+  /// missed the hem's centre by more than the hem's radius (curve_skeleton_test), and trousers
+  /// driven onto their own pose moved 10.4 mm (skeleton_driving_test's bar: 10 mm).
   bool caps_at_proxy_spacing = false;
 };
 

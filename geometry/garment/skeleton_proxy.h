@@ -25,17 +25,16 @@ struct SkeletonProxy {
 /// their edge: a pinched or non-manifold result) or leave a vertex of valence < 3; it may stop
 /// above the target when no legal collapse is left. Geometry is not guarded (a fold is
 /// harmless to the uniform-Laplacian contraction, which sees connectivity only). Far cheaper
-/// than quadric decimation (geometry/mesh/decimate.h: OpenMesh took ~100 ms for 2,400 → 600
-/// vertices and rejected every collapse on a tube of thin triangles). A mesh with at most
-/// `target_vertices` vertices is returned as is. Throws vfit::Error for a bad index.
-/// A mesh of more than 16 × `target_vertices` vertices is first brought to about 8 × the target
-/// by rounds of collapses in which each vertex takes part at most once (shortest edge first
-/// within a round, only edges up to 1.5 × the round's lower-quartile length, under the same
-/// link and valence rules), each round a few passes over the mesh: the shortest-first queue
-/// alone cost about 0.5 s of one core for a 100,000-vertex sleeve. The queue then takes it to
-/// the target, ordering collapses by the distance between the means of the coarse vertices it
-/// merges; the output positions stay the means of the input vertices. Smaller meshes (the
-/// Table-1 garments' parts) take the shortest-first collapses alone, exactly as before.
+/// than quadric decimation (geometry/mesh/decimate.h, which also rejected every collapse on a
+/// tube of thin triangles). A mesh with at most `target_vertices` vertices is returned as is.
+/// Throws vfit::Error for a bad index. A mesh of more than 16 × `target_vertices` vertices is
+/// first brought to about 8 × the target by rounds of collapses in which each vertex takes part
+/// at most once (shortest edge first within a round, only edges up to 1.5 × the round's
+/// lower-quartile length, under the same link and valence rules), each round a few passes over
+/// the mesh, so that the shortest-first queue only orders the last ~8 × target vertices. The
+/// queue then takes it to the target, ordering collapses by the distance between the means of
+/// the coarse vertices it merges; the output positions stay the means of the input vertices.
+/// Smaller meshes (the Table-1 garments' parts) take the shortest-first collapses alone.
 SkeletonProxy simplify_for_skeleton(const Mesh& closed_mesh, std::size_t target_vertices);
 
 } // namespace vfit

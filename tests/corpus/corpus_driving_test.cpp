@@ -1,4 +1,4 @@
-// Skeleton driving on real garments (issue 4, "works on real garments"): every MakeHuman garment
+// Skeleton driving on real garments: every MakeHuman garment
 // of corpus/makehuman/derived/parts_on_hm08/ was modelled on hm08 in its rest pose, so driving
 // it onto the rigged hm08 body in that same pose must leave it where it is. Skipped, saying
 // why, when the corpus is absent.
@@ -84,7 +84,7 @@ constexpr double MAX_INSIDE_DEPTH = 0.045;
 // Known defect of the joints alone: the long-sleeve tops are placed 29-42 mm forward by their
 // sleeve boundary planes' key joints (the tops' rule, eq. 16), which sinks their back into the
 // body. With the body surface (RestPoseLeavesTheGarmentInPlace) the contact translation
-// corrects it; the pipeline drives with the surface since stop 26 (FitOptions::contact_placement).
+// corrects it; the pipeline drives with the surface (FitOptions::contact_placement).
 const std::map<std::string, std::string> KNOWN_SUNK = {
     {"male_casualsuit02__longsleeve_tshirt", "29 mm forward, 45.2 mm deep"},
     {"male_casualsuit03__longsleeve_shirt", "33 mm forward, 64.9 mm deep"},

@@ -1,6 +1,6 @@
-// The corpus run of issue 7 (item 6): every MakeHuman garment refitted to hm08
+// The corpus run: every MakeHuman garment refitted to hm08
 // (corpus/MANIFEST.md, makehuman/derived/parts_on_hm08/) fitted by fit_garments(), simulation
-// included, onto the rigged hm08 body posed by its rig in three poses. Issue 7's quality bars,
+// included, onto the rigged hm08 body posed by its rig in three poses. The quality bars,
 // recomputed on the returned mesh: the detected type is the one the file's name promises, no
 // NaN, no vertex inside the body by more than 1 mm, no garment edge crossing the body. Pieces
 // that are not garments on their own (a shirt collar, an inner shirt panel) must be refused
@@ -31,7 +31,7 @@
 namespace vfit {
 namespace {
 
-// Issue 7's bar: no garment vertex inside the body by more than this (m).
+// The bar: no garment vertex inside the body by more than this (m).
 constexpr double MAX_INSIDE_DEPTH = 0.001;
 
 // Arms down with a small abduction (15° from the body), the left knee bent 60° with the hip
@@ -163,7 +163,7 @@ TEST_P(CorpusFit, MeetsIssue7sBars) {
 
 // Penetration removal must not draw the garment far out: no edge of the garment after removal
 // is longer than twice its length after driving by more than MAX_REMOVAL_ELONGATION. Before the
-// direct rounds' pushes were limited (limit_stretch(), engine/penetration.cpp; stop 26) they
+// direct rounds' pushes were limited (limit_stretch(), engine/penetration.cpp) they
 // carried a sleeve vertex squeezed between arm and torso 25 cm out in front (the worksuit's tee
 // on arms_down: edges up to 317 mm longer), a skirt's hem on knee_bent 280 mm, a long-sleeve
 // shirt 146 mm and the casual jacket 140 mm. Without the simulation, so the stage is seen alone;

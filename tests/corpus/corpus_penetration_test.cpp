@@ -38,10 +38,10 @@ TEST(CorpusPenetration, FemaleOutfitsEndUpOutsideTheBody) {
     const PenetrationReport r = remove_penetration(g.mesh, index, crossings);
     const double stretch = test::mean_edge_length_change(before, g.mesh);
     EXPECT_GT(r.before.inside_count, 0u);
-    EXPECT_LE(r.after.max_depth, 0.0005);  // the bar: nothing inside by more than 0.5 mm
-    EXPECT_EQ(r.after.crossing_edges, 0u); // the bar: no garment edge crossing the body
+    EXPECT_LE(r.after.max_depth, 0.0005);  // the bar: nothing inside by more than 0.5 mm
+    EXPECT_EQ(r.after.crossing_edges, 0u); // the bar: no garment edge crossing the body
     EXPECT_EQ(measure_penetration(g.mesh, index, crossings, 0.002).crossing_edges, 0u);
-    EXPECT_LT(stretch, 0.02); // the bar: the garment's shape kept
+    EXPECT_LT(stretch, 0.02); // the bar: the garment's shape kept
     std::printf("%-32s inside %4zu -> %zu, max depth %.2f -> %.2f mm, crossing edges %zu -> %zu, edge change %.2f %%, "
                 "%d rounds, %.1f ms\n",
                 name, r.before.inside_count, r.after.inside_count, 1e3 * r.before.max_depth, 1e3 * r.after.max_depth,

@@ -35,10 +35,10 @@ struct PoseCase {
   const char* name;
   Pose scan;   ///< the pose of the "scan"
   Pose repose; ///< the pose the rigged scan is driven to afterwards
-  /// Joints not yet within the 3 cm in this pose, each with its own limit (m): about
+  /// Joints not yet within the 3 cm bar in this pose, each with its own limit (m): about
   /// 1.3 × the measured error, so that regressions show.
   std::vector<std::pair<Joint, double>> known_gaps;
-  double repose_limit = 0.01; ///< mean re-pose error limit (m): the issue's bar unless noted
+  double repose_limit = 0.01; ///< mean re-pose error limit (m): the bar unless noted
 };
 
 std::vector<PoseCase> pose_cases() {
@@ -312,7 +312,7 @@ FitErrors fit_and_measure(const Body& rig, const PoseCase& c) {
   return out;
 }
 
-// The bars, 3 cm per joint and 1 cm mean re-posing, or the case's own guards.
+// The bars, 3 cm per joint and 1 cm mean re-posing, or the case's own guards.
 void expect_within_bars(const PoseCase& c, const FitErrors& e) {
   for (int j = 0; j < JOINT_COUNT; ++j) {
     double limit = 0.03;
@@ -322,8 +322,8 @@ void expect_within_bars(const PoseCase& c, const FitErrors& e) {
   }
   EXPECT_LT(e.repose_mean, c.repose_limit) << c.name;
   // No vertex torn off its limb: a vertex given another part's weights stays behind with that
-  // part, tens of cm off in these re-posings (elbows_bent's wrists, given the other hand's
-  // weights until stop 24: 94 cm). The worst vertex of the 26 poses is 8.7 cm off (weights
+  // part, tens of cm off in these re-posings (elbows_bent's wrists, once given the other hand's
+  // weights: 94 cm). The worst vertex of the 26 poses is 8.7 cm off (weights
   // blended a little differently from the rig's near the shoulders and hips).
   EXPECT_LT(e.repose_max, 0.15) << c.name;
   EXPECT_FALSE(e.poor_fit_warned) << c.name << ": a good fit warned of as poor";
@@ -331,7 +331,7 @@ void expect_within_bars(const PoseCase& c, const FitErrors& e) {
 
 // A scan in a pose the fit does not reach is not passed off as fitted: hm08 kneeling (both knees
 // at 90°, the shins back along the floor) fits with 279 mm at the 95th percentile and the
-// search's A-pose start, and fit_scan() says so (before stop 26 it said nothing of the fit).
+// search's A-pose start, and fit_scan() says so.
 TEST_F(CorpusScanFit, AKneelingScanIsWarnedOfAsAPoorFit) {
   Pose kneel;
   kneel.axis_angle.row(idx(Joint::LEFT_KNEE)) << std::numbers::pi / 2, 0, 0;

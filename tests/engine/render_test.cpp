@@ -265,7 +265,7 @@ TEST(Render, ViewsLookFromTheirSides) {
   EXPECT_LT(mean_x(r.views[1]), 24.0); // side from +X: the front (+Z) on the left
 }
 
-// The check: in the front view, garment pixels cover the torso.
+// The check: in the front view, garment pixels cover the torso.
 TEST(Render, AGarmentOnTheMannequinCoversTheTorsoInTheFrontView) {
   MannequinOptions mo;
   mo.target_vertices = 1500;

@@ -82,7 +82,7 @@ TEST(BodyCli, ScanOfAPosedMannequinGivesItsJointsAndARiggedScan) {
   r = test::run_cli(
       {"body", "--scan", scan.string(), "--joints", fitted.string(), "--rigged", rigged.string(), "--quiet"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_LE(mean_joint_distance(truth, fitted), 0.03) << "mean joint distance (m); issue 8's bar for scans is 3 cm";
+  EXPECT_LE(mean_joint_distance(truth, fitted), 0.03) << "mean joint distance (m); the bar for scans is 3 cm";
   // The rigged scan keeps the scan's own vertices and faces, with skin weights for each.
   const Body b = read_gltf_body(rigged.string());
   const ParsedMesh m = read_mesh(scan);
@@ -110,7 +110,7 @@ TEST(BodyCli, ScanOfAWalkingPointCloudGivesItsJoints) {
   r = test::run_cli({"body", "--scan", cloud.string(), "--joints", fitted.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("0 faces"), std::string::npos) << r.out;
-  EXPECT_LE(mean_joint_distance(truth, fitted), 0.03) << "mean joint distance (m); issue 8's bar for scans is 3 cm";
+  EXPECT_LE(mean_joint_distance(truth, fitted), 0.03) << "mean joint distance (m); the bar for scans is 3 cm";
 }
 
 // Before, `vfit body --from b.obj --out b.obj` replaced the body file it read (exit 0).

@@ -115,7 +115,7 @@ TEST(Cli, DemoRunsOnBuiltInMeshesAndWritesItsOutputs) {
   const auto report = nlohmann::json::parse(test::read_file(tmp / "demo" / "fit_report.json"));
   for (const char* stage : {"segmentation", "skeletons", "driving", "penetration", "simulation", "total"})
     EXPECT_TRUE(report["timings_ms"].contains(stage)) << stage;
-  // The demo's bar is the issue's: nothing inside the body by more than 1 mm.
+  // The demo's bar: nothing inside the body by more than 1 mm.
   EXPECT_LE(report["penetration"]["after"]["max_depth_mm"].get<double>(), 1.0);
   EXPECT_TRUE(std::filesystem::exists(tmp / "demo" / "fit_views.png"));
 }

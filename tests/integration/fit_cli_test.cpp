@@ -427,7 +427,7 @@ TEST(FitCli, WritesEachStageIntoTheDebugFolder) {
   EXPECT_EQ(file_count(debug), 8u);
 }
 
-// Bad input to `vfit fit` (issue 7): a body with no recognisable skeleton, a garment that is
+// Bad input to `vfit fit`: a body with no recognisable skeleton, a garment that is
 // not a garment, a missing file. Each gives one line `vfit: error: <file>: ...`, exit code 2,
 // and no output file (mesh, report, picture, debug folder).
 struct BadFit {

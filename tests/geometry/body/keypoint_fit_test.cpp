@@ -227,12 +227,12 @@ constexpr int X = 0, Y = 1, Z = 2;
 struct SyntheticPose {
   const char* name;
   Pose pose;
-  double max_error_mm = 30; ///< the issue's bar, or a regression guard where the fit misses it
+  double max_error_mm = 30; ///< the bar, or a regression guard where the fit misses it
 };
 
-// Poses whose fit misses the issue's 30 mm bar (mean 3D joint error after Procrustes), guarded
+// Poses whose fit misses the 30 mm bar (mean 3D joint error after Procrustes), guarded
 // at ~1.3 × the error measured when the priors were last changed, so that regressions still
-// fail; see the report of issue 8. The fit of each is no worse a minimiser of its objective than
+// fail. The fit of each is no worse a minimiser of its objective than
 // a fit started from the truth (asserted below), and for all but boxing_guard (32.6 against
 // 29.7 mm) the fit started from the truth ends within 0.2 mm of the cold fit: the misses are where
 // the objective's minimum lies for these keypoints, not search failures. Why it lies there: a
@@ -246,8 +246,8 @@ struct SyntheticPose {
 // ray with the bone's sphere), and under perspective the partner of a bone swung away from the
 // camera lies near the image plane, where the pull toward the relaxed pose prefers it: walking's
 // left elbow 10.7 cm nearer the camera reprojects within 0.6 px of the truth's, noise-free, with
-// the true limb lengths, and the priors prefer that arm by 28 units (½ px²) over the truth. Measured
-// (stop 23): bones whose fitted end took the other intersection than the truth's (chord > 2 cm):
+// the true limb lengths, and the priors prefer that arm by 28 units (½ px²) over the truth. Measured:
+// bones whose fitted end took the other intersection than the truth's (chord > 2 cm):
 // 25 over the 23 poses; setting those bones to the truth takes the mean 32.8 → 26.0 mm (walking
 // 44.8 → 23.2, lunge 64.7 → 38.8, basketball_shot 56.7 → 27.1, running 52.4 → 24.3, head_turned
 // 41.3 → 24.4, back_view 41.7 → 23.5). The other parts are smaller: noise-free 30.5, no drops 27.3,
@@ -523,7 +523,7 @@ TEST_P(SyntheticKeypointFit, RecoversJointsAndReprojectsWithin5px) {
 
 // A warm start skips stage 1 and the multi-start search and stays in the basin it is given:
 // from the true pose of noise-free keypoints, the fit ends near the truth (a 2D-only objective
-// with priors moves it a little: 30 mm is the issue's bar; measured 14 mm for standing and 3 mm
+// with priors moves it a little: 30 mm is the bar; measured 14 mm for standing and 3 mm
 // for side_view_walking), not at the priors' relaxed pose.
 TEST(KeypointFit, WarmStartFromTheTruthStaysNearIt) {
   const auto poses = synthetic_poses();
@@ -594,12 +594,12 @@ TEST(LimbLift, PutsJointsOnTheirRaysAndOneChoiceIsTheTruth) {
 // on the whole, not on each: some draws are monocularly ambiguous (a bent arm seen end-on, a limb
 // whose keypoints were dropped). Four draws: 2026, the set checked when the priors were first
 // tuned, 7919, added later as a second held-out check of every prior or search change (a change
-// that helps the 23 named poses but not the draws is not kept), and 4242 and 1234, added when the
-// arms' three rest places were (stop 18). Bars at ~1.3 × the medians measured then, and at most 2
+// that helps the 23 named poses but not the draws is not kept), and 4242 and 1234, added with the
+// arms' three rest places. Bars at ~1.3 × the medians measured then, and at most 2
 // fewer poses within 30 mm (median / within 30 mm, before → after the rest places: 2026 50.1 / 6 →
 // 48.0 / 6; 7919 61.2 / 3 → 50.6 / 4; 4242 53.4 / 6 → 44.4 / 4; 1234 54.0 / 5 → 54.4 / 4; the
 // means 72.6, 57.8, 65.6, 64.3 → 65.4, 55.2, 57.4, 68.6 mm); every fit reprojects within the
-// issue's 5 px.
+// 5 px bar.
 struct HeldOutDraw {
   unsigned pose_seed;     ///< seed of the pose, shape and view draws
   unsigned keypoint_seed; ///< first seed of the keypoint noise and drops (one per pose)

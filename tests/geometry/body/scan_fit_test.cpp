@@ -83,7 +83,7 @@ TEST_F(ScanFitTest, RecoversTheJointsOfAPosedMannequinAndRigsTheScan) {
     std::cout << "  " << std::setw(15) << std::left << joint_name(j) << std::right << std::setw(6) << 100 * e
               << " cm\n";
     worst = std::max(worst, e);
-    // 3 cm, the bar for scans: the template's joints sit where the same generator puts
+    // 3 cm, the bar for scans: the template's joints sit where the same generator puts
     // them, but limb lengths are fitted through 3 shape parameters and a scale, not 11.
     EXPECT_LT(e, 0.03) << joint_name(j);
   }
@@ -112,7 +112,7 @@ TEST_F(ScanFitTest, RecoversTheJointsOfAPosedMannequinAndRigsTheScan) {
   }
   std::cout << "re-posed rigged scan vs the source's own posing: mean " << 1000 * sum / double(n) << " mm, max "
             << 1000 * far << " mm\n";
-  EXPECT_LT(sum / double(n), 0.01); // the bar
+  EXPECT_LT(sum / double(n), 0.01); // the bar
 }
 
 // A scan leaning sideways: the spine bent 6° to the body's right above the waist at spine2,
@@ -143,7 +143,7 @@ TEST_F(ScanFitTest, FitsASidewaysLeanOfTheSpineInTheSpine) {
   for (int j = 0; j < JOINT_COUNT; ++j)
     worst = std::max(worst, (fit.joints.row(j) - scan.joints.row(j)).norm());
   std::cout << "worst joint error " << 100 * worst << " cm\n";
-  EXPECT_LT(worst, 0.03); // the bar
+  EXPECT_LT(worst, 0.03); // the bar
 }
 
 // A walking scan (arms 72° down and swinging, one thigh forward, the other back with its knee
@@ -181,7 +181,7 @@ TEST_F(ScanFitTest, FitsAWalkingPointCloud) {
     EXPECT_LT(e, 0.065) << joint_name(j);
   }
   std::cout << "mean joint error " << 100 * sum / JOINT_COUNT << " cm\n";
-  EXPECT_LT(sum / JOINT_COUNT, 0.03); // the bar, as a mean
+  EXPECT_LT(sum / JOINT_COUNT, 0.03); // the bar, as a mean
 }
 
 TEST(ScanFitWeights, InterpolationReproducesTheWeightsAtTheMeshVertices) {

@@ -217,7 +217,7 @@ TEST(CurveSkeleton, StraightTubeNodesLieOnTheAxisInOrder) {
   EXPECT_LT(s.contraction.final_area_ratio, ContractionOptions{}.area_ratio);
   for (std::size_t n = 0; n < s.nodes.size(); ++n) {
     const Eigen::Vector3d& p = s.nodes[n];
-    EXPECT_LT(std::hypot(p.x(), p.z()), 0.1 * r) << "node " << n; // the issue's bar: 10 % of the radius
+    EXPECT_LT(std::hypot(p.x(), p.z()), 0.1 * r) << "node " << n; // the bar: 10 % of the radius
     EXPECT_GE(p.y(), 0);                                          // an end node may be exactly the end ring
     EXPECT_LE(p.y(), length);
     if (n > 0) {
@@ -239,12 +239,12 @@ TEST(CurveSkeleton, CotangentContractionGivesTheSameAxis) {
   CurveSkeleton s = extract_curve_skeleton(filled.mesh, filled.original_vertices, o);
   ExpectDisjointCover(s, tube.vertex_count());
   ASSERT_GE(s.nodes.size(), 10u);
-  // Through the default proxy: the issue's bar, 10 % of the radius (see BentTube).
+  // Through the default proxy: the bar, 10 % of the radius (see BentTube).
   for (std::size_t n = 0; n < s.nodes.size(); ++n)
     EXPECT_LT(std::hypot(s.nodes[n].x(), s.nodes[n].z()), 0.1 * r) << n;
 }
 
-// The issue's bar, 10 % of the radius, at full resolution and through the default proxy. The
+// The bar, 10 % of the radius, at full resolution and through the default proxy. The
 // proxy's clusters leave ragged slab borders that the re-cut does not always straighten: plain
 // centroids of such slabs were up to 0.17 r off the arc, their cross-section centres
 // (cross_section_centres(), curve_skeleton.h) within 0.045 r.
@@ -323,7 +323,7 @@ TEST(PartSkeleton, LargeTubeThroughAProxyStartsAtTheSeam) {
   for (std::size_t n = 0; n < owned.size(); ++n)
     EXPECT_GT(owned[n], 0u) << n;
   for (std::size_t n = 0; n < s.nodes.size(); ++n) {
-    EXPECT_LT(std::hypot(s.nodes[n].x(), s.nodes[n].z()), 0.1 * r) << "node " << n; // the issue's bar, see BentTube
+    EXPECT_LT(std::hypot(s.nodes[n].x(), s.nodes[n].z()), 0.1 * r) << "node " << n; // the bar, see BentTube
     if (n > 0) {
       EXPECT_GT(s.nodes[n].y(), s.nodes[n - 1].y()) << "node " << n;
     }
@@ -472,7 +472,7 @@ TEST_P(GarmentSkeletons, EachLimbIsOneChainFromAttachmentToOpening) {
 }
 
 // Shorts are left out: their legs are wider than long, and one of their nodes lands 11 cm off
-// the thigh bone (outside its cross-section); a known limitation (see the report of issue 4).
+// the thigh bone (outside its cross-section); a known limitation.
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, GarmentSkeletons,
     ::testing::Values(GarmentCase{"tee_tpose", GarmentType::TEE, RestPose::TPOSE, false},

@@ -299,7 +299,7 @@ void PrintTo(const PoseCase& c, std::ostream* os) { *os << c.pose; }
 
 class DrivenOntoPose : public ::testing::TestWithParam<PoseCase> {};
 
-// The bars of issue 4 on a driven garment: `surface`, when given, is the posed body's.
+// The bars on a driven garment: `surface`, when given, is the posed body's.
 // `rest` (with `surface`): the body's joints in the garment's own pose.
 void expect_limbs_follow_the_bones(const PoseCase& c, const JointPositions& j, const ProximityIndex* surface,
                                    const JointPositions* rest = nullptr) {
@@ -339,7 +339,7 @@ void expect_limbs_follow_the_bones(const PoseCase& c, const JointPositions& j, c
         worst_node_distance(s, d.positions, joint_at(j, a), joint_at(j, b), joint_at(j, e), rest_offset);
     std::printf("  %s: %zu nodes, worst node–bone distance beyond its rest offset %.4f m\n",
                 garment_part_name(s.part).c_str(), s.nodes.size(), worst);
-    // 2 cm: the issue's bar for skeletons on the bones after driving. Deformed nodes keep
+    // 2 cm: the bar for skeletons on the bones after driving. Deformed nodes keep
     // their rest offset from the limb's axis (a slanted armhole ring's centroid lies a few cm
     // off it), so that offset is allowed on top.
     EXPECT_LT(worst, 0.02) << garment_part_name(s.part);
@@ -353,7 +353,7 @@ void expect_limbs_follow_the_bones(const PoseCase& c, const JointPositions& j, c
                 0.02)
           << garment_part_name(s.part);
   }
-  // Away from the joints the cloth moves rigidly, up to the Laplacian's smoothing: the issue's
+  // Away from the joints the cloth moves rigidly, up to the Laplacian's smoothing: the
   // bar is ≤ 3 % mean edge-length change there. Away: more than 2 cm (along the surface) from
   // the seams where sleeves or legs meet the torso, which keeps 4 of the 6 cm of free band on
   // each side of a seam in the measure, and more than 10 cm (about the cloth's radius around
