@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -13,6 +14,7 @@
 #include "chunk_team.h"
 #include "cloth_gather.h"
 #include "cloth_implicit_system.h"
+#include "cloth_rk4.h"
 #include "parallel.h"
 
 namespace vfit::cloth_detail {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cassert>
 
+#include "cloth_implicit.h"
 #include "cloth_implicit_blocks.h"
 #include "parallel.h"
 

@@ -16,6 +16,7 @@
 
 #include "body_args.h"
 #include "commands.h"
+#include "engine/cloth/fabric.h"
 #include "engine/engine.h"
 #include "engine/fit/pipeline.h"
 #include "engine/view/render.h"

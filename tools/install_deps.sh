@@ -11,6 +11,7 @@ packages=(
   libopenmesh-dev libceres-dev
   libbenchmark-dev libgtest-dev libgmock-dev
   libpng-dev zlib1g-dev nlohmann-json3-dev
+  clang-format clang-tidy
 )
 
 missing=()

@@ -24,9 +24,9 @@
 #include <utility>
 #include <vector>
 
-#include "engine/fit/pipeline.h"
 #include "engine/dress/layer_order.h"
 #include "engine/dress/penetration.h"
+#include "engine/fit/pipeline.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"

@@ -8,8 +8,6 @@
 
 namespace vfit::dress {
 
-constexpr float NEAR_REACH = 0.01f;
-constexpr double NEAR_REACH_PER_CLEARANCE = 3.0;
 bool on_layer_boundary(const LayerObstacle& layer, std::int32_t triangle, std::int8_t feature) {
   const std::uint8_t mask = layer.boundary[std::size_t(triangle)];
   const auto f = static_cast<TriangleFeature>(feature);
@@ -49,7 +47,6 @@ void closest_points_of(const ProximityIndex& index, std::span<const float> posit
     all.copy_row((*moved)[k], part, k);
 }
 
-constexpr float FAR_RAY_LENGTH = 1000.0f; // m: beyond any body
 void resolve_far_vertices(std::span<const float> positions, const ProximityIndex& body,
                           const EdgeCrossingIndex* crossings, const std::vector<std::size_t>* subset, float reach,
                           const SparseMatrix* adjacency, ClosestHits& all) {

@@ -27,9 +27,8 @@ inline constexpr float NEAR_SEARCH = 0.05f;
 // Removal's reach (m): queries stop at max(NEAR_REACH, NEAR_REACH_PER_CLEARANCE·κ), beyond
 // which a vertex cannot be near (it only needs its side: one ray per piece of such vertices,
 // resolve_far_vertices()). A short reach makes the queries far cheaper: Embree prunes at once
-// the BVH nodes beyond it. Measured on the Table-1 garments after the coarse move (medians 3–20 mm
-// from the body), one thread: Shorts 1's 8,196 queries take 6.1 ms within 5 cm, 3.5 within 2 cm
-// and 2.8 within 1 cm; Shirt 2's 3,550 take 3.2, 2.3 and 1.2 ms.
+// the BVH nodes beyond it (on the Table-1 garments after the coarse move, a 1 cm reach takes
+// about half the time of 5 cm: docs/benchmarks.md).
 inline constexpr float NEAR_REACH = 0.01f;
 inline constexpr double NEAR_REACH_PER_CLEARANCE = 3.0;
 inline float near_reach(double clearance) {
@@ -39,7 +38,7 @@ inline float near_reach(double clearance) {
 // The garment's edges (lower end first, in (lower, higher) order: mesh_edge_endpoints()'s
 // order) and their reverses, so crossings can be found from either end. Read off the garment's
 // uniform Laplacian, which removal builds anyway: row v's off-diagonal columns above v are the
-// edges from v (sorted), a fifth of the time of a separate edge table (Table-1 Shorts 1: 1.4 ms).
+// edges from v (sorted), a fifth of the time of a separate edge table.
 // An edge of a degenerate triangle joining a vertex to itself has no Laplacian entry; it has
 // no length and crosses nothing.
 struct GarmentEdges {
@@ -116,7 +115,7 @@ void closest_points_of(const ProximityIndex& index, std::span<const float> posit
 // intersects itself, an arm pressed into the torso, the closest sheet's pseudo-normal can call
 // a point outside that lies inside the other sheet; measured on the corpus overalls, that left a
 // vertex 11 mm inside.) Without a crossing index every far vertex is taken as possibly inside
-// (slower: ~5 µs each). Those inside are queried again without a limit, so every vertex inside
+// (slower: a full query each). Those inside are queried again without a limit, so every vertex inside
 // has a hit and its depth; those outside get f = +reach, a lower bound of their distance.
 // `subset`: the vertices just queried (null: all).
 inline constexpr float FAR_RAY_LENGTH = 1000.0f; // m: beyond any body

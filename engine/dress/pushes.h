@@ -54,14 +54,10 @@ inline constexpr double STRETCH_LIMIT = 1.5;
 // pushed vertex grows past STRETCH_LIMIT times its length in d.reference (or by κ, when that
 // is more). The direct rounds move each vertex by its push as it is, with no Laplacian term
 // holding it to its neighbours, round after round, so pushes that trade an edge's crossing
-// back and forth walk a vertex far out: measured (stop 26) on the 63 corpus fits of the corpus
-// test's three poses without the simulation, the worksuit's tee on arms_down had a sleeve
-// vertex squeezed between arm and torso carried 25 cm out in front (80 edge sides torn, up to
-// 317 mm), a skirt's hem on knee_bent 280 mm, a shirt 146 mm; with `vfit fit`'s own rig a
-// shirt's collar point was drawn 44 cm out. With the limit: at most 105 mm (the solved rounds'
-// pushes of vertices deep inside, which this does not touch), and the edges the limit leaves
-// crossing (412 against 232 over the 63) are resolved by the simulation and the cleanup after
-// it (0 left after the fit, as before). An edge the push shortens, or keeps within the limit,
+// back and forth walk a vertex far out (on the corpus fits, a sleeve vertex squeezed between
+// arm and torso was carried 25 cm out in front without the limit: docs/benchmarks.md). The
+// edges the limit leaves crossing are resolved by the simulation and the clean-up after
+// it. An edge the push shortens, or keeps within the limit,
 // leaves the push as it is; one already past the limit stops a push that lengthens it. A
 // neighbour's own push counts as proposed.
 void limit_stretch(std::span<const float> positions, const Detection& d, double clearance, Pushes& proposed);

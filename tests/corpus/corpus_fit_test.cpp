@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/dress/penetration.h"
 #include "engine/fit/fit_feedback.h"
 #include "engine/fit/pipeline.h"
 #include "geometry/body/gltf_body.h"
@@ -108,7 +109,7 @@ protected:
   static inline std::map<std::string, PosedBody> s_posed;
 };
 
-TEST_P(CorpusFit, MeetsIssue7sBars) {
+TEST_P(CorpusFit, MeetsTheFitBars) {
   const std::string pose = std::get<0>(GetParam());
   const std::string name = std::get<1>(GetParam());
   const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
@@ -179,7 +180,7 @@ TEST_P(CorpusFit, PenetrationRemovalDrawsNoEdgeFarOut) {
   const auto path = *s_corpus / "makehuman" / "derived" / "parts_on_hm08" / (name + ".obj");
   if (!std::filesystem::is_regular_file(path)) GTEST_SKIP() << path << " absent";
   if (!expected_type(name))
-    GTEST_SKIP() << name << " is not a garment on its own (MeetsIssue7sBars checks it is refused)";
+    GTEST_SKIP() << name << " is not a garment on its own (MeetsTheFitBars checks it is refused)";
   Mesh garment = read_mesh(path).mesh;
   scale_positions(garment.positions, 0.1); // MakeHuman files are in decimetres
   const PosedBody& body = posed(pose);

@@ -16,9 +16,8 @@
 #include "test_support.h"
 
 #include "engine/cloth/cloth_proxy.h"
-#include "tools/fit_debug.h"
-#include "engine/fit/pipeline.h"
 #include "engine/dress/layering.h"
+#include "engine/fit/pipeline.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
@@ -27,6 +26,7 @@
 #include "kernels/edge_crossings.h"
 #include "kernels/error.h"
 #include "kernels/proximity.h"
+#include "tools/fit_debug.h"
 
 namespace vfit {
 namespace {
@@ -825,7 +825,7 @@ ColouredVertices read_coloured_ply(const std::filesystem::path& path) {
 TEST(FitPipeline, WritesEveryStageOfEveryGarmentForDebugging) {
   test::TempDir dir;
   FitOptions o;
-  o.max_simulated_seconds = 0.01;         // one step: the simulation stage runs and writes its mesh
+  o.max_simulated_seconds = 0.01;     // one step: the simulation stage runs and writes its mesh
   FitDebugFiles files(dir / "debug"); // created when the fit starts
   o.observer = &files;
   const FitResult r = fit_garments(mannequin(), tee_and_trousers(), o);

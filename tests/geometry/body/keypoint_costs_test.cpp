@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "geometry/body/keypoint_costs.h"
+#include "geometry/body/keypoint_fit.h"
 
 namespace vfit {
 namespace {
