@@ -11,8 +11,8 @@
 #include <span>
 #include <utility>
 
-#include "engine/cloth_proxy.h"
-#include "engine/fabric.h"
+#include "engine/cloth/cloth_proxy.h"
+#include "engine/cloth/fabric.h"
 #include "engine/fit_debug.h"
 #include "engine/fit_feedback.h"
 #include "engine/layer_order.h"

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/cloth_sim.h"
+#include "engine/cloth/cloth_sim.h"
 #include "engine/fit_feedback.h"
 #include "engine/penetration.h"
 #include "geometry/body/body.h"

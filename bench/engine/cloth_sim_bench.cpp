@@ -33,7 +33,7 @@
 #include <tuple>
 #include <vector>
 
-#include "engine/cloth_sim.h"
+#include "engine/cloth/cloth_sim.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/garment/catalogue.h"
 #include "geometry/mesh/primitives.h"

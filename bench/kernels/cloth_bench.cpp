@@ -56,7 +56,7 @@
 #include <memory>
 #include <random>
 
-#include "engine/cloth_sim.h"
+#include "engine/cloth/cloth_sim.h"
 #include "engine/penetration.h"
 #include "geometry/body/mannequin.h"
 #include "geometry/body/pose_io.h"

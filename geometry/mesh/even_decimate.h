@@ -2,7 +2,7 @@
 /// \file
 /// Fast decimation to even edge lengths by half-edge collapses (each removes one vertex and
 /// leaves the other where it was), for the coarse simulation proxy of a high-resolution
-/// garment (engine/cloth_proxy.h). OpenMesh's quadric decimater (geometry/mesh/decimate.h, one
+/// garment (engine/cloth/cloth_proxy.h). OpenMesh's quadric decimater (geometry/mesh/decimate.h, one
 /// heap, every collapse re-queueing its ring) took 134 s wall to bring a 1.2·10^6-vertex tee to
 /// 15,000 vertices on this 2-core machine (bench/engine/cloth_proxy_bench.cpp); this runs in
 /// rounds of independent collapses instead, each round a few passes over the mesh.

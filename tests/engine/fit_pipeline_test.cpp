@@ -15,7 +15,7 @@
 
 #include "test_support.h"
 
-#include "engine/cloth_proxy.h"
+#include "engine/cloth/cloth_proxy.h"
 #include "engine/fit_debug.h"
 #include "engine/fit_pipeline.h"
 #include "engine/layering.h"
@@ -249,7 +249,7 @@ double mean_distance(const Mesh& a, const Mesh& b) {
   return sum / double(a.vertex_count());
 }
 
-// Garments above FitOptions::cloth_proxy_above are simulated on a coarse proxy (engine/
+// Garments above FitOptions::cloth_proxy_above are simulated on a coarse proxy (engine/cloth/
 // cloth_proxy.h) and rebuilt from it, then cleaned up as a full simulation is: the pipeline's
 // quality bars hold (nothing inside the body by more than 1 mm, no edge through it, no NaN, a
 // report that agrees with the meshes), the verdicts are those of the full simulation, and the

@@ -1,6 +1,6 @@
 #include "kernels/opencl_cloth.h"
 
-#include "engine/cloth_sim.h"
+#include "engine/cloth/cloth_sim.h"
 #include "kernels/error.h"
 
 #include <cmath>

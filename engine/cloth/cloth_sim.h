@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/fabric.h"
+#include "engine/cloth/fabric.h"
 
 namespace vfit {
 enum class ImplicitPreconditioner : std::int8_t; // kernels/cloth_implicit.h

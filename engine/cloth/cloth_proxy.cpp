@@ -1,4 +1,4 @@
-#include "engine/cloth_proxy.h"
+#include "engine/cloth/cloth_proxy.h"
 
 #include <algorithm>
 #include <string>

@@ -1,4 +1,4 @@
-#include "cloth_sim.h"
+#include "engine/cloth/cloth_sim.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "fabric.h"
+#include "engine/cloth/fabric.h"
 
 #include "kernels/error.h"
 
