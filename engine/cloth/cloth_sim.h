@@ -219,9 +219,10 @@ struct ClothOptions {
   float resting_contact_stiffness = 20.0f;
 
   /// Waistband auto-pins: when a body is first set, the band of the garment within
-  /// waistband_width of its waist opening (waistband_vertices() of the cloth's positions at that
-  /// moment) is attached to the body (attach_to_body()), so a bottom garment (trousers, shorts,
-  /// skirt) cannot slide down and follows the body. A cloth without a boundary pins nothing.
+  /// waistband_width of its waist opening (waistband_vertices(), geometry/garment/waistband.h,
+  /// of the cloth's positions at that moment) is attached to the body (attach_to_body()), so a
+  /// bottom garment (trousers, shorts, skirt) cannot slide down and follows the body. A cloth
+  /// without a boundary pins nothing.
   /// waistband_width is checked then: set_body() throws vfit::Error ("waistband: band_width
   /// must be finite and ≥ 0") for a negative or non-finite one.
   bool waistband_pins = false;
@@ -363,14 +364,5 @@ private:
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
-
-/// The waistband of a bottom garment (trousers, shorts, skirt): the vertices whose distance
-/// along the mesh's edges (shortest path, Dijkstra over edge lengths in m) from the waist
-/// opening is at most band_width (m), the opening's own vertices included. The waist opening
-/// is the topmost boundary loop, the one of highest mean Y (Y up). positions: #V × 3 (m),
-/// triangles: #F × 3. Ascending indices; empty when the mesh has no boundary. Throws
-/// vfit::Error for an index out of range or a negative or non-finite band_width.
-std::vector<std::int32_t> waistband_vertices(std::span<const float> positions, std::span<const std::int32_t> triangles,
-                                             double band_width);
 
 } // namespace vfit
