@@ -936,7 +936,7 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
     const Body& body = *bodies[b];
     FitResult& result = results[b];
     FitReport& report = result.report;
-    report.backend = options.backend == ClothBackend::SERIAL ? "serial" : "tbb";
+    report.backend = options.backend == Backend::SERIAL ? "serial" : "tbb";
     report.threads = parallel_thread_count();
     report.cpu_model = cpu_model_name();
     report.body_vertices = body.mesh.vertex_count();

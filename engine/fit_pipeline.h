@@ -77,10 +77,10 @@ enum class ClothProxyMode {
 
 /// Every option of the pipeline.
 struct FitOptions {
-  ClothBackend backend = ClothBackend::TBB; ///< runs the cloth simulation
-  bool simulate = true;                     ///< false: stop after penetration removal
-  std::string fabric = "cotton_jersey";     ///< fabric_preset() name for the simulation
-  double clearance = 0.003;                 ///< κ (m): gap left to the body by removal and simulation
+  Backend backend = Backend::TBB;       ///< runs the cloth simulation
+  bool simulate = true;                 ///< false: stop after penetration removal
+  std::string fabric = "cotton_jersey"; ///< fabric_preset() name for the simulation
+  double clearance = 0.003;             ///< κ (m): gap left to the body by removal and simulation
   /// Simulated time after which run_to_rest stops (s). 3: `vfit demo`'s garments on the posed
   /// mannequin come to rest after 1.97 (tee M) and 2.59 s (trousers P2), and a garment that
   /// never rests (one sliding off) costs at most 1.5 times the former limit of 2 s.

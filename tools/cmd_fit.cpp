@@ -295,9 +295,9 @@ int run_fit(Args& args) {
   options.simulate = !args.flag("no-simulation");
   if (auto b = args.value("backend")) {
     if (*b == "serial")
-      options.backend = ClothBackend::SERIAL;
+      options.backend = Backend::SERIAL;
     else if (*b == "tbb")
-      options.backend = ClothBackend::TBB;
+      options.backend = Backend::TBB;
     else
       throw Error("--backend", 0, "expected serial or tbb, got '" + *b + "'");
   }

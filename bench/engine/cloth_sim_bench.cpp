@@ -210,7 +210,7 @@ void BM_rk4_backend(benchmark::State& state) {
   tbb::global_control control(tbb::global_control::max_allowed_parallelism, 2);
   vfit::ClothOptions o;
   o.integrator = vfit::ClothIntegrator::RK4;
-  o.backend = opencl ? vfit::ClothBackend::OPENCL : vfit::ClothBackend::TBB;
+  o.backend = opencl ? vfit::Backend::OPENCL : vfit::Backend::TBB;
   vfit::ClothSim probe(grid.position_view(), grid.triangle_view(), o);
   probe.pin(std::vector<std::int32_t>{0, side - 1});
   const double dt = 10 * probe.stable_substep();

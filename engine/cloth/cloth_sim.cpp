@@ -106,7 +106,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
     throw Error("cloth", 0, "implicit_step must be finite and > 0, got " + std::to_string(options.implicit_step));
   for (std::size_t f = 0; f < options.fabrics.size(); ++f)
     check_fabric(options.fabrics[f], f);
-  if (options.backend == ClothBackend::OPENCL) {
+  if (options.backend == Backend::OPENCL) {
     if (options.integrator != ClothIntegrator::RK4)
       throw Error("cloth", 0, "the OpenCL backend runs the RK4 integrator only (set integrator = RK4)");
 #ifndef VFIT_WITH_OPENCL
@@ -175,7 +175,7 @@ ClothSim::ClothSim(std::span<const float> positions, std::span<const std::int32_
   if (std::isfinite(options.contact_thickness)) m.stretch_floor = std::max(m.stretch_floor, options.contact_thickness);
   m.update_substep();
   m.state_changed();
-  if (options.backend == ClothBackend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);
+  if (options.backend == Backend::OPENCL) m.cl_context = std::make_unique<OpenClContext>(options.opencl_device);
 }
 
 ClothSim::~ClothSim() = default;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/cloth/fabric.h"
+#include "kernels/backend.h"
 
 namespace vfit {
 enum class ImplicitPreconditioner : std::int8_t; // kernels/cloth_implicit.h
@@ -35,25 +36,6 @@ enum class ClothStatus : std::int8_t {
 
 /// "ok", "diverged: non-finite state", "diverged: energy blow-up", "diverged: runaway stretch".
 const char* to_string(ClothStatus status);
-
-/// Which implementation runs the integrator. SERIAL and TBB give the same bits for the same
-/// input; OPENCL agrees with them within float tolerance (a device's sqrt and division may
-/// differ by an ulp; tests/opencl/opencl_cloth_test.cpp states the bound after N steps; PoCL on
-/// a CPU and an H100's OpenCL gave the same bits as TBB there).
-enum class ClothBackend : std::int8_t {
-  SERIAL = 0, ///< one thread (the reference)
-  TBB = 1,    ///< TBB over particles (gather per particle, no atomics)
-  /// RK4 forces and stages on an OpenCL device (kernels/opencl_cloth.h; PoCL on a CPU, or a
-  /// GPU's ICD), picked by ClothOptions::opencl_device. Body contacts stay on the host (the
-  /// proximity core): every contact window uploads the state (#V × 6 floats) and reads it back
-  /// after the window's substeps, so a contact window costs two transfers of 24 bytes per
-  /// particle; without a body, one upload and one read per step(dt). RK4 only: constructing a
-  /// ClothSim with IMPLICIT_EULER and OPENCL throws vfit::Error ("cloth: the OpenCL backend
-  /// runs the RK4 integrator only"); a build without OpenCL throws vfit::Error ("cloth: … this
-  /// build has no OpenCL"). An OpenCL call failing later (allocation, kernel launch) throws
-  /// std::runtime_error ("OpenCL: <what>: … failed with code N"), not vfit::Error.
-  OPENCL = 2,
-};
 
 /// Which broad phase finds each particle's closest body triangle for the contacts. The BVH is
 /// the default: on the 7,000-vertex mannequin it answers 1.5–2.3× more queries per second
@@ -124,8 +106,23 @@ struct ClothOptions {
   /// capped by max_substep. Below 1 to cover compressed springs, which the bound ignores.
   double substep_safety = 0.8;
   double max_substep = 2e-3; ///< s
-  ClothBackend backend = ClothBackend::TBB;
-  /// ClothBackend::OPENCL: the device selector of select_opencl_device() (kernels/
+  /// Which implementation runs the integrator (kernels/backend.h). SERIAL and TBB give the same
+  /// bits for the same input; OPENCL agrees with them within float tolerance (a device's sqrt
+  /// and division may differ by an ulp; tests/opencl/opencl_cloth_test.cpp states the bound after
+  /// N steps; PoCL on a CPU and an H100's OpenCL gave the same bits as TBB there).
+  /// - SERIAL: one thread (the reference).
+  /// - TBB: TBB over particles (gather per particle, no atomics).
+  /// - OPENCL: RK4 forces and stages on an OpenCL device (kernels/opencl_cloth.h; PoCL on a CPU,
+  ///   or a GPU's ICD), picked by opencl_device. Body contacts stay on the host (the proximity
+  ///   core): every contact window uploads the state (#V × 6 floats) and reads it back after the
+  ///   window's substeps, so a contact window costs two transfers of 24 bytes per particle;
+  ///   without a body, one upload and one read per step(dt). RK4 only: constructing a ClothSim
+  ///   with IMPLICIT_EULER and OPENCL throws vfit::Error ("cloth: the OpenCL backend runs the
+  ///   RK4 integrator only"); a build without OpenCL throws vfit::Error ("cloth: … this build
+  ///   has no OpenCL"). An OpenCL call failing later (allocation, kernel launch) throws
+  ///   std::runtime_error ("OpenCL: <what>: … failed with code N"), not vfit::Error.
+  Backend backend = Backend::TBB;
+  /// Backend::OPENCL: the device selector of select_opencl_device() (kernels/
   /// opencl_context.h); empty = VFIT_OPENCL_DEVICE or the first device. The context is opened
   /// in the ClothSim constructor, which throws vfit::Error listing the devices when none
   /// matches or none exists. Ignored by the other backends.

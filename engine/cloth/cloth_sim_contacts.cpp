@@ -18,7 +18,7 @@ constexpr float CONTACT_REACH_GUARD = 1e-4f;
 constexpr int CONTACT_FULL_QUERY_PASSES = 32;
 
 void ClothSim::Impl::query_body(std::span<const float> queries, float radius, ClosestHits& out) const {
-  const bool serial = options.backend == ClothBackend::SERIAL;
+  const bool serial = options.backend == Backend::SERIAL;
   if (hash) {
     if (serial)
       hash->closest_points_serial(queries, radius, out);
@@ -90,7 +90,7 @@ void ClothSim::Impl::update_hits() {
             : std::min(options.contact_search_radius, std::sqrt(to_old_point2) * (1.0f + 1e-5f) + CONTACT_REACH_GUARD);
     requery_radii.push_back(radius);
   }
-  if (body && options.backend != ClothBackend::SERIAL)
+  if (body && options.backend != Backend::SERIAL)
     body->closest_points(requery_points, requery_radii, requery_hits);
   else
     query_body(requery_points, options.contact_search_radius, requery_hits);

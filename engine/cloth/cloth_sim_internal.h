@@ -75,7 +75,7 @@ struct ClothSim::Impl {
   std::optional<SpatialHash> hash;
   std::vector<BodyAttachment> attachments; // ascending vertex
   bool waistband_attached = false;
-  // ClothBackend::OPENCL: the device context, and the RK4 integrator holding the adjacency and
+  // Backend::OPENCL: the device context, and the RK4 integrator holding the adjacency and
   // the inverse masses on the device (null when pin() or attach_to_body() made it stale). The
   // integrator is declared after the context so it is destroyed first.
   std::unique_ptr<OpenClContext> cl_context;
@@ -206,7 +206,7 @@ struct ClothSim::Impl {
       for (std::size_t b = b0; b < b1; ++b)
         kernel(b, b * STATE_SUM_BLOCK, std::min(n, (b + 1) * STATE_SUM_BLOCK));
     };
-    if (options.backend == ClothBackend::SERIAL)
+    if (options.backend == Backend::SERIAL)
       run(0, blocks);
     else
       parallel_for_range(blocks, 1, run);

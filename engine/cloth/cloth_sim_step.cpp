@@ -25,12 +25,12 @@ void ClothSim::Impl::integrate_opencl([[maybe_unused]] double h, [[maybe_unused]
 
 void ClothSim::Impl::integrate(double h, int count) {
   hits_valid = false;
-  if (options.backend == ClothBackend::OPENCL) {
+  if (options.backend == Backend::OPENCL) {
     integrate_opencl(h, count);
     return;
   }
   for (int s = 0; s < count; ++s) {
-    if (options.backend == ClothBackend::SERIAL)
+    if (options.backend == Backend::SERIAL)
       rk4_step_serial(x, v, adjacency, particles, static_cast<float>(h), workspace);
     else
       rk4_step_tbb(x, v, adjacency, particles, static_cast<float>(h), workspace);
@@ -60,7 +60,7 @@ int ClothSim::Impl::implicit_step(double h, std::size_t& contacts) {
   }
   mark_step_start(0.0);
   const ImplicitSolveReport r =
-      options.backend == ClothBackend::SERIAL
+      options.backend == Backend::SERIAL
           ? implicit_euler_step_serial(x, v, adjacency, particles, hf, solve, implicit_workspace, c, cs)
           : implicit_euler_step_tbb(x, v, adjacency, particles, hf, solve, implicit_workspace, c, cs);
   if (c != nullptr || cs != nullptr) {
@@ -100,7 +100,7 @@ ClothStatus ClothSim::Impl::check() const {
     ke += energy[b];
   }
   if (ke > 0.5 * total_mass * options.max_speed * options.max_speed) return ClothStatus::DIVERGED_ENERGY;
-  if (max_spring_stretch(x, springs, stretch_floor, options.backend != ClothBackend::SERIAL) > options.max_stretch)
+  if (max_spring_stretch(x, springs, stretch_floor, options.backend != Backend::SERIAL) > options.max_stretch)
     return ClothStatus::DIVERGED_STRETCH;
   return ClothStatus::OK;
 }

@@ -169,7 +169,7 @@ TEST(ClothSim, SameInputGivesTheSameBitsAndSerialEqualsTbb) {
     o.integrator = integrator;
     std::vector<float> out[3];
     for (int run = 0; run < 3; ++run) {
-      o.backend = run == 2 ? ClothBackend::SERIAL : ClothBackend::TBB;
+      o.backend = run == 2 ? Backend::SERIAL : Backend::TBB;
       ClothSim sim(m.position_view(), m.triangle_view(), o);
       sim.pin(std::vector<std::int32_t>{0, 59});
       for (int f = 0; f < 3; ++f)
@@ -409,7 +409,7 @@ TEST(ClothSim, ContactCandidatesGiveTheSameBitsAsQueryingEveryParticle) {
       ClothOptions o;
       o.contacts_in_solve = in_solve;
       o.contact_candidates = run != 0;
-      o.backend = run == 2 ? ClothBackend::SERIAL : ClothBackend::TBB;
+      o.backend = run == 2 ? Backend::SERIAL : Backend::TBB;
       ClothSim sim(t.tee.position_view(), t.tee.triangle_view(), o);
       sim.set_body(t.body.mesh.position_view(), t.body.mesh.triangle_view());
       for (int f = 0; f < 24; ++f) {

@@ -178,7 +178,7 @@ Parity opencl_tbb_parity(int frames, bool sphere) {
   for (int run = 0; run < 2; ++run) {
     ClothOptions o;
     o.integrator = ClothIntegrator::RK4;
-    o.backend = run == 0 ? ClothBackend::TBB : ClothBackend::OPENCL;
+    o.backend = run == 0 ? Backend::TBB : Backend::OPENCL;
     o.fabrics[0].stretch_stiffness = 200.0;
     o.fabrics[0].bend_stiffness = 2.0;
     o.global_damping = 1.0;
@@ -235,7 +235,7 @@ TEST(OpenClClothSim, ImplicitEulerOnOpenClIsRefused) {
   const Mesh cloth = make_grid(5, 5, 0.2f, 0.2f);
   ClothOptions o;
   o.integrator = ClothIntegrator::IMPLICIT_EULER;
-  o.backend = ClothBackend::OPENCL;
+  o.backend = Backend::OPENCL;
   EXPECT_THROW(ClothSim(cloth.position_view(), cloth.triangle_view(), o), Error);
 }
 
