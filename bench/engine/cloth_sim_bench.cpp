@@ -1,4 +1,4 @@
-// ClothSim's body broad phases and backends (issue 6):
+// ClothSim's body broad phases and backends:
 // - BM_body_queries: closest-point queries/s of the Embree BVH (ProximityIndex) and of seed 004's
 //   spatial hash (SpatialHash, Teschner et al. 2003) against the default mannequin (7,000
 //   vertices), 10^4 and 10^5 particles near the surface (N(0, 2 cm) off it), within the contact

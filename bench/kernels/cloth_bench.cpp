@@ -29,7 +29,7 @@
 // BM_rk4_schedule_* runs each of rk4_step_tbb()'s schedules (Rk4Schedule) on 1 and 2 threads.
 //
 // Implicit Euler (kernels/cloth_implicit.h) on the same grids at h = 1/120 s: one step's wall
-// time, its CG iterations, particle-steps/s. And the fitting case of issue 6's speed bar: a
+// time, its CG iterations, particle-steps/s. And the fitting case the speed bar is set on: a
 // catalogue tee (6,000 vertices) draped to rest on the posed mannequin (7,000 vertices) by
 // ClothSim::run_to_rest() with its defaults (implicit Euler, cotton jersey, resting contacts as
 // springs in the solve and a contact pass after every step): wall seconds to rest, simulated
@@ -145,7 +145,7 @@ double model_bytes_per_step(const Cloth& c) {
 // 3 arrays moved, as STREAM does; write-allocate traffic not counted), measured afresh at each
 // call: report() calls it right after each benchmark's timed steps, so that the step and the
 // bound it is compared with are measured at the same moment. On a shared host the triad alone
-// swings between processes (29-46 GB/s over three minutes on stop 24's 2-core AMD host), and a
+// swings between processes (29-46 GB/s over three minutes on a 2-core AMD host), and a
 // triad measured once per process made a step's bw_fraction swing with it.
 double triad_gbps() {
   const std::size_t n = std::size_t(1) << 25;
@@ -393,8 +393,8 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   state.counters["sim_s_per_wall_s"] = rate;
   state.counters["wall_s_to_rest"] = wall / double(state.iterations());
   state.counters["cg_iterations"] = double(last.solver_iterations);
-  // Blender's wall seconds per 1/24 s frame: 1.6 (the issue's figure, measured on the AMD host
-  // of stops 1-17), or VFIT_BLENDER_S_PER_FRAME as bench/blender/run_drape_baseline.sh measures
+  // Blender's wall seconds per 1/24 s frame: 1.6 (measured on a 2-core AMD host),
+  // or VFIT_BLENDER_S_PER_FRAME as bench/blender/run_drape_baseline.sh measures
   // it on this host in the same run.
   static const double blender_s_per_frame = [] {
     const char* e = std::getenv("VFIT_BLENDER_S_PER_FRAME");
@@ -403,7 +403,7 @@ void drape_bench(benchmark::State& state, vfit::ClothIntegrator integrator, doub
   }();
   state.counters["blender_x"] = rate / ((1.0 / 24.0) / blender_s_per_frame);
   state.counters["blender_s_per_frame"] = blender_s_per_frame;
-  // The wall time to rest on a host as fast as the one the issue's ≤ 1 s bar was set on, where
+  // The wall time to rest on a host as fast as the one the ≤ 1 s bar was set on, where
   // Blender took 1.6 s per frame: this host's wall time scaled by how much faster than this
   // host's Blender (in the same run) that one was. Equal to wall_s_to_rest unless
   // VFIT_BLENDER_S_PER_FRAME is given; this host's speed swings ~1.6× within minutes, so the
@@ -459,7 +459,7 @@ BENCHMARK(BM_drape_tee_to_rest_cg_tolerance)
 // run_to_rest() steps by 0.01 s (or by implicit_step when longer), each split into
 // ⌈0.01 / implicit_step⌉ equal steps: 60 and 90 step by 1/60 and 1/90 s, 100 by 10 ms, 200 (as
 // the default 120) by 5 ms, 300 by 3.3 ms. Per-step work (assembly, contact passes) against CG
-// iterations per step. Measured (stop 21): 1/60 diverges; at 1/90 the tee rests after 3.4
+// iterations per step. Measured: 1/60 diverges; at 1/90 the tee rests after 3.4
 // simulated s and at 10 ms not within 10 s; run at 1/120 s steps (strides of 1/120 s), it does
 // not rest within 10 s either: a standing two-step jiggle of the resting contacts keeps the mean
 // displacement near 0.0125 mm per 0.01 s after 2 s, above the 0.008 mm threshold.

@@ -1,5 +1,5 @@
 // The fitting pipeline end to end on the mannequin: a catalogue tee and trousers, with and
-// without simulation. Quality bars of issue 7: nothing inside the body by more than 1 mm, no
+// without simulation. Quality bars: nothing inside the body by more than 1 mm, no
 // NaN, a report that agrees with the returned meshes, every stage timed.
 #include <algorithm>
 #include <array>
@@ -31,7 +31,7 @@
 namespace vfit {
 namespace {
 
-// Garment vertices may sit inside the body by at most this much (issue 7's quality bar).
+// Garment vertices may sit inside the body by at most this much (the quality bar).
 constexpr double MAX_INSIDE_DEPTH = 0.001;
 // Simulated time (s) for the tee to settle onto the trousers under it.
 constexpr double SETTLE_SECONDS = 0.5;
@@ -75,7 +75,7 @@ void expect_consistent(const FitResult& r, const FitOptions& options) {
     EXPECT_LE(now.max_depth, MAX_INSIDE_DEPTH);
     EXPECT_EQ(now.inside_count, gr.after.inside_count);
     EXPECT_DOUBLE_EQ(now.max_depth, gr.after.max_depth);
-    // Issue 7's bar: no garment edge crossing the body, recomputed on the returned mesh.
+    // The quality bar: no garment edge crossing the body, recomputed on the returned mesh.
     EXPECT_EQ(measure_penetration(g.mesh, body, crossings, options.clearance).crossing_edges, 0u);
     EXPECT_TRUE(gr.before.crossings_checked);
     EXPECT_TRUE(gr.after.crossings_checked);
