@@ -15,7 +15,7 @@
 /// The numbering renames particles and nothing else: renumber_cloth_springs() keeps the springs
 /// in their order, so each particle's row lists the same springs in the same order and every
 /// gather, force and RK4 step gives, particle for particle, the bits of the original numbering.
-/// ClothSim (engine/cloth_sim.h) applies it when it builds its springs and keeps it internal;
+/// ClothSim (engine/cloth/cloth_sim.h) applies it when it builds its springs and keeps it internal;
 /// the benchmarks (bench/kernels/cloth_bench.cpp) apply the same function.
 ///
 /// What it buys (catalogue tee, bench/kernels/cloth_bench.cpp BM_rk4_tbb_tee): the catalogue's

@@ -1,4 +1,4 @@
-// The coarse simulation proxy of a high-resolution garment (engine/cloth_proxy.h).
+// The coarse simulation proxy of a high-resolution garment (engine/cloth/cloth_proxy.h).
 //  - BM_BuildClothProxy/S/P: build_cloth_proxy() (decimation and embedding) of the catalogue
 //    T-pose tee M of 5,000 vertices midpoint-subdivided S times (S = 2, 3, 4: about 8·10^4,
 //    3.2·10^5, 1.3·10^6 vertices; subdividing is far quicker than generating the catalogue

@@ -37,24 +37,8 @@ enum class ClothStatus : std::int8_t {
 /// "ok", "diverged: non-finite state", "diverged: energy blow-up", "diverged: runaway stretch".
 const char* to_string(ClothStatus status);
 
-// The integrator runs on a kernels/backend.h Backend (ClothOptions::backend). SERIAL and TBB
-// give the same bits for the same input; OPENCL agrees with them within float tolerance (a
-// device's sqrt and division may differ by an ulp; tests/opencl/opencl_cloth_test.cpp states
-// the bound after N steps). OPENCL runs the RK4 forces and stages on an OpenCL device
-// (kernels/opencl_cloth.h; PoCL on a CPU, or a GPU's ICD), picked by ClothOptions::
-// opencl_device. Body contacts stay on the host (the proximity core): every contact window
-// uploads the state (#V × 6 floats) and reads it back after the window's substeps; without a
-// body, one upload and one read per step(dt). RK4 only: constructing a ClothSim with
-// IMPLICIT_EULER and OPENCL throws vfit::Error ("cloth: the OpenCL backend runs the RK4
-// integrator only"); a build without OpenCL throws vfit::Error ("cloth: … this build has no
-// OpenCL"). An OpenCL call failing later (allocation, kernel launch) throws std::runtime_error
-// ("OpenCL: <what>: … failed with code N"), not vfit::Error.
-
 /// Which broad phase finds each particle's closest body triangle for the contacts. The BVH is
-/// the default: on the 7,000-vertex mannequin it answers 1.5–2.3× more queries per second
-/// than the hash (particles up to a few cm off the body), refits in half the hash's refill
-/// time, and a 6,000-vertex tee's step costs about the same with either (0.9–1.1×,
-/// bench/engine/cloth_sim_bench.cpp).
+/// the default.
 enum class ClothBroadPhase : std::int8_t {
   BVH = 0, ///< the Embree BVH of the proximity core (kernels/proximity.h), refitted on move_body
   /// seed 004's spatial hash of the body (Teschner et al. 2003, kernels/spatial_hash.h),
@@ -79,7 +63,7 @@ struct ClothOptions {
   double global_damping = 0.5;             ///< μ (1/s): the drag force −μ·m·v (eq. 22's f^d)
   bool bending = true;                     ///< bending springs across adjacent triangles
   /// The integrator. Implicit Euler is the default: its step is not bounded by the springs'
-  /// stiffness, which makes run_to_rest() for fitting tens of times faster than RK4; its
+  /// stiffness (RK4's is, ≈ √(m/k)), so run_to_rest() for fitting takes far fewer steps; its
   /// numerical damping (of the fast modes chiefly) only shortens the way to rest. RK4 is the
   /// accurate choice for dynamics at small steps.
   ClothIntegrator integrator = ClothIntegrator::IMPLICIT_EULER;
@@ -88,38 +72,42 @@ struct ClothOptions {
   /// default step, under half the thinnest limb, so contacts still catch it.
   double implicit_step = 1.0 / 120.0;
   /// Implicit Euler: CG stops at ‖r‖ ≤ cg_tolerance·‖b‖ (residual and right-hand side impulses,
-  /// N·s) and, with cg_per_patch, at the same ratio on every patch of the cloth. 1e-2 takes a
-  /// third of the iterations of 1e-3 on the drape benchmark; the rest state is unaffected (at
-  /// rest the relative test still solves f(x) = 0 to 1 %, see
+  /// N·s) and, with cg_per_patch, at the same ratio on every patch of the cloth. At rest the
+  /// relative test solves f(x) = 0 to cg_tolerance (see
   /// ClothSim.ImplicitEulerSettlesToTheSameSagAsRk4).
   double cg_tolerance = 1e-2;
   /// Implicit Euler: the relative test also holds per patch of 512 particles (kernels/
   /// cloth_implicit.h, ImplicitSolveOptions::per_patch): every patch's RMS residual impulse per
   /// particle within cg_tolerance of the whole cloth's RMS right-hand side per particle, so the
-  /// test does not loosen as the particle count grows. Without it a 10⁶-vertex tee fitted to
-  /// the mannequin, whose global test passed with an error held by a few thousand particles,
-  /// grew a runaway-stretch front on its upper back and was reported diverged after 9 steps of
-  /// 10 ms; with it, 60 steps (0.6 s) ran, settling (113–251 CG iterations per 10 ms, 174 on
-  /// average). On the 6,000-vertex tee drape (bench/kernels/cloth_bench.cpp,
-  /// BM_drape_tee_to_rest) it costs 6,678 instead of 6,299 iterations (+6 %), at rest after
-  /// 0.99 instead of 0.97 simulated s.
+  /// test does not loosen as the particle count grows (the global test alone can pass with the
+  /// error held by a few particles, which on a large cloth can grow into a runaway stretch).
   bool cg_per_patch = true;
   int cg_max_iterations = 200; ///< implicit Euler: CG iteration cap per step
   /// Implicit Euler: the CG's preconditioner (kernels/cloth_implicit.h); value-initialised to
   /// BLOCK_JACOBI. AUTO switches to the two-level preconditioner once a step takes more than 16
-  /// iterations (a garment resting on a body): on the 6,000-vertex tee drape
-  /// (bench/kernels/cloth_bench.cpp, BM_drape_tee_to_rest_preconditioner) it took about 2,300–
-  /// 2,700 instead of 6,313 CG iterations to rest, reached after 0.7–0.8 instead of 0.95
-  /// simulated s. Not the default yet: it moves the catalogue tee's rest height by 1.1 mm with
-  /// the resting contacts and 2.5 mm with the contact pass alone
-  /// (ClothSim.CatalogueTeeSettlesOnTheMannequinWithNoVertexInside's two models then differ by
-  /// 5.0 mm, against its 3 mm bound).
+  /// iterations (a garment resting on a body). AUTO is not the default: it changes where the
+  /// cloth comes to rest (by millimetres on the catalogue tee).
   ImplicitPreconditioner cg_preconditioner{};
   /// RK4: substep = substep_safety × the RK4 stability bound of kernels/cloth_rk4.h (≈ √(m/k)),
   /// capped by max_substep. Below 1 to cover compressed springs, which the bound ignores.
   double substep_safety = 0.8;
-  double max_substep = 2e-3;      ///< s
-  Backend backend = Backend::TBB; ///< SERIAL (the reference), TBB (per particle, no atomics) or OPENCL (above)
+  double max_substep = 2e-3; ///< s
+  /// Which implementation runs the integrator (kernels/backend.h). SERIAL and TBB give the same
+  /// bits for the same input; OPENCL agrees with them within float tolerance (a device's sqrt
+  /// and division may differ by an ulp; tests/opencl/opencl_cloth_test.cpp states the bound after
+  /// N steps).
+  /// - SERIAL: one thread (the reference).
+  /// - TBB: TBB over particles (gather per particle, no atomics).
+  /// - OPENCL: RK4 forces and stages on an OpenCL device (kernels/opencl_cloth.h; PoCL on a CPU,
+  ///   or a GPU's ICD), picked by opencl_device. Body contacts stay on the host (the proximity
+  ///   core): every contact window uploads the state (#V × 6 floats) and reads it back after the
+  ///   window's substeps, so a contact window costs two transfers of 24 bytes per particle;
+  ///   without a body, one upload and one read per step(dt). RK4 only: constructing a ClothSim
+  ///   with IMPLICIT_EULER and OPENCL throws vfit::Error ("cloth: the OpenCL backend runs the
+  ///   RK4 integrator only"); a build without OpenCL throws vfit::Error ("cloth: … this build
+  ///   has no OpenCL"). An OpenCL call failing later (allocation, kernel launch) throws
+  ///   std::runtime_error ("OpenCL: <what>: … failed with code N"), not vfit::Error.
+  Backend backend = Backend::TBB;
   /// Backend::OPENCL: the device selector of select_opencl_device() (kernels/
   /// opencl_context.h); empty = VFIT_OPENCL_DEVICE or the first device. The context is opened
   /// in the ClothSim constructor, which throws vfit::Error listing the devices when none
@@ -138,30 +126,23 @@ struct ClothOptions {
   /// queries once the cloth slows down; a body with holes (capped for the side test) is always
   /// queried in full, as the side across a hole's cap can flip away from the surface. With the
   /// BVH and a parallel backend a re-query also searches only as far as the particle's previous
-  /// closest point (which bounds the new distance). On the 6,000-vertex tee drape about 15 % of
-  /// the particles are queried per pass once it has landed; when it was added, the whole run
-  /// to rest took 2.8 instead of 4.4 CPU s (bench/kernels/cloth_bench.cpp,
-  /// BM_drape_tee_to_rest vs BM_drape_tee_to_rest_full_queries, one run on 2 shared cores).
+  /// closest point (which bounds the new distance).
   bool contact_candidates = true;
-  /// Implicit Euler's body contacts are continuous (BVH broad phase; RK4's are not yet: the
-  /// particles put back stretched their springs past what its explicit substeps absorb, the 4 cm
-  /// rod drop below from 1.8 m diverging by runaway stretch): a particle that moved, relative to
-  /// the body, at least as far as its distance to the body at the step's start (the distance being
-  /// 1-Lipschitz, no other can have crossed the surface) and at least 2τ (a shorter path from
-  /// the surface cannot pass the middle of a part thicker than 4τ, 1.2 cm by default) has its
-  /// path tested against the body (ProximityIndex::first_hits); when the path entered the body
-  /// and the particle now lies outside beyond it (through a limb) or inside nearer the far side
-  /// (where the closest point, hence the push-out, is on the far side), it is put back where its
-  /// path entered, and the contact response takes it from there. The path is relative to the
-  /// body: move_body() moves it a frame at a time, before the frame's steps, so the next contact
-  /// pass tests the paths over that move. The discrete test alone lets cloth tunnel once it moves
-  /// about half a limb's thickness per step: dropped onto a 4 cm rod in frames of 1/60 s
-  /// (engine/cloth_sim_test.cpp, ClothSim.FastClothDoesNotTunnelThroughAThinRod) it went through
-  /// from 5.7 m/s on (a 6 cm rod from 5.4 m/s), and a rod moved at 6 m/s passed through cloth in
-  /// its way (ClothSim.AFastRodCarriesClothInsteadOfPassingThroughIt); with the paths tested both
-  /// stay on the rod (up to 12 m/s measured). Cost: under 1 % of the tee drape's profile, whose
-  /// result is unchanged (no path of it needed undoing). Particles starting inside the body are
-  /// left to the discrete test. With the spatial hash broad phase the test is not made.
+  /// Implicit Euler's body contacts are continuous (BVH broad phase; RK4's are discrete: the
+  /// particles put back would stretch their springs past what its explicit substeps absorb): a
+  /// particle that moved, relative to the body, at least as far as its distance to the body at the
+  /// step's start (the distance being 1-Lipschitz, no other can have crossed the surface) and at
+  /// least 2τ (a shorter path from the surface cannot pass the middle of a part thicker than 4τ,
+  /// 1.2 cm by default) has its path tested against the body (ProximityIndex::first_hits); when the
+  /// path entered the body and the particle now lies outside beyond it (through a limb) or inside
+  /// nearer the far side (where the closest point, hence the push-out, is on the far side), it is
+  /// put back where its path entered, and the contact response takes it from there. The path is
+  /// relative to the body: move_body() moves it a frame at a time, before the frame's steps, so the
+  /// next contact pass tests the paths over that move. The discrete test alone lets cloth tunnel
+  /// once it moves about half a limb's thickness per step (tests/engine/cloth_sim_test.cpp:
+  /// ClothSim.FastClothDoesNotTunnelThroughAThinRod,
+  /// ClothSim.AFastRodCarriesClothInsteadOfPassingThroughIt). Particles starting inside the body
+  /// are left to the discrete test. With the spatial hash broad phase the test is not made.
   bool continuous_contacts = true;
   float contact_thickness = 0.003f; ///< τ (m): gap kept to the body
   float contact_friction = 0.3f;    ///< Coulomb μ_f against the body
@@ -178,15 +159,9 @@ struct ClothOptions {
   /// the solve (Baraff & Witkin §5.3's filter: no velocity change into the body, the step ends
   /// at the gap τ, Coulomb friction from the constraint's impulse), released for one step when
   /// the constraint pulled; particles the constraints miss (fast ones) are still caught by the
-  /// contact pass after every step. Off by default: with steps of 1/60 s (which diverge
-  /// without it, snagging between arm and torso) it is only marginally stable: of the tees of
-  /// 4,500, 6,000 and 7,500 vertices on the benchmark's mannequin, one diverges within 0.25 s,
-  /// which one depending on float rounding (a change of the CG's summation order moved it from
-  /// the 4,500 to the 6,000 one); the others run at 1.3–2.1 simulated s per wall s on 2 threads
-  /// but do not come to rest (run_to_rest()'s test) within 3 simulated s, nor within 10 at the
-  /// default step: particles at the edge of the contact region alternate between constrained
-  /// and released. Varying its velocity target (no pull onto the gap; the approach speed
-  /// capped) and margin (0.2–2 mm) did not help. Takes precedence over resting_contacts.
+  /// contact pass after every step. Off by default: it is only marginally stable (particles at
+  /// the edge of the contact region alternate between constrained and released, so the cloth
+  /// may not come to rest, and may diverge). Takes precedence over resting_contacts.
   bool contacts_in_solve = false;
   float contact_margin = 0.002f; ///< m; see contacts_in_solve
   /// Implicit Euler: the particles resting on the body (those the last contact pass found
@@ -197,26 +172,19 @@ struct ClothOptions {
   /// and kept the cloth creeping; a spring that would pull is removed and the step solved again
   /// (5 more CG iterations at most), and left off for the next step; the contact's friction
   /// comes from the spring's impulse (apply_contact_friction), the contact pass still catches
-  /// the particles arriving. On the 6,000-vertex tee drape benchmark the cloth comes to rest
-  /// after 0.95 instead of 2.15 simulated s (6,313 instead of 9,236 CG iterations, 1.3 instead
-  /// of 2.2 CPU s on one thread: bench/kernels/cloth_bench.cpp, BM_drape_tee_to_rest vs
-  /// BM_drape_tee_to_rest_contact_pass; the rest times move by ~0.1 s with the float rounding
-  /// of the spring math), and, when it was added, after 0.9–1.3 instead of 1.5–2.1 s on tees of
-  /// 3,000–9,000 vertices, at the same mean height within about a millimetre. It does not make
-  /// longer steps pay: at 1/100 s either model rests erratically (after 1.5 to over 8 s).
+  /// the particles arriving.
   bool resting_contacts = true;
   /// κ, dimensionless: a resting contact's spring has stiffness κ·m/h² (m: the particle's mass,
-  /// h: the step), so one step leaves 1/(1 + κ) of the particle's velocity into the body. 20:
-  /// of κ = 20, 30, 50 and 100 on the tees above, 20 rested soonest over all sizes; 100, the
-  /// nearest to a hard constraint, took up to twice as long. The penetration it allows before
-  /// the contact pass, h²·g/κ ≈ 0.01 mm under the particle's own weight at the default step,
-  /// is far below τ.
+  /// h: the step), so one step leaves 1/(1 + κ) of the particle's velocity into the body. The
+  /// penetration it allows before the contact pass, h²·g/κ ≈ 0.01 mm under the particle's own
+  /// weight at the default step, is far below τ.
   float resting_contact_stiffness = 20.0f;
 
   /// Waistband auto-pins: when a body is first set, the band of the garment within
-  /// waistband_width of its waist opening (waistband_vertices() of the cloth's positions at that
-  /// moment) is attached to the body (attach_to_body()), so a bottom garment (trousers, shorts,
-  /// skirt) cannot slide down and follows the body. A cloth without a boundary pins nothing.
+  /// waistband_width of its waist opening (waistband_vertices(), geometry/garment/waistband.h,
+  /// of the cloth's positions at that moment) is attached to the body (attach_to_body()), so a
+  /// bottom garment (trousers, shorts, skirt) cannot slide down and follows the body. A cloth
+  /// without a boundary pins nothing.
   /// waistband_width is checked then: set_body() throws vfit::Error ("waistband: band_width
   /// must be finite and ≥ 0") for a negative or non-finite one.
   bool waistband_pins = false;
@@ -227,11 +195,10 @@ struct ClothOptions {
   double max_speed = 50; ///< m/s: the energy blow-up threshold (as an RMS speed)
   /// Runaway stretch: any spring longer than this × its rest length, a rest length being taken
   /// as at least half the median edge length (so slivers of a generated mesh do not trip it)
-  /// and at least contact_thickness: the contact pass moves a particle by up to τ at once, and
-  /// on a 10⁶-vertex tee fitted to the mannequin (0.8 mm median edge, 16,000 particles left
-  /// within τ of the body) the first 10 ms stretched a spring to 15× half the median edge
-  /// (5.6 mm) near the armpit, then 9.1×, 4.6×, 4.1× over the next steps: not a runaway. A
-  /// real blow-up grows step by step and is caught once a spring passes 10·τ (3 cm by default).
+  /// and at least contact_thickness: the contact pass moves a particle by up to τ at once, which
+  /// on a fine mesh can stretch a short spring many times over for a step or two without a
+  /// runaway. A real blow-up grows step by step and is caught once a spring passes
+  /// max_stretch·τ (3 cm by default).
   double max_stretch = 10;
 };
 
@@ -270,11 +237,8 @@ struct ClothRestReport {
 /// ρ times one third of the area of their triangles (a vertex in no triangle, having no mass,
 /// is pinned). Springs per kernels/cloth_springs.h with rest lengths from the input positions.
 /// Internally the particles are renumbered for the force gathers' locality (kernels/
-/// cloth_ordering.h, cloth_particle_order(): with the row loads of kernels/cloth_rk4.h, an RK4
-/// step on the catalogue tee takes about a third less CPU time than in the catalogue's
-/// numbering, bench/kernels/cloth_bench.cpp BM_rk4_tbb_tee); every index and array of this
-/// API (positions, velocities, masses, pins, attachments, per-vertex fabrics) is in the
-/// caller's numbering.
+/// cloth_ordering.h, cloth_particle_order()); every index and array of this API (positions,
+/// velocities, masses, pins, attachments, per-vertex fabrics) is in the caller's numbering.
 class ClothSim {
 public:
   /// positions: #V × 3 (m), also the rest shape; triangles: #F × 3 indices. Throws vfit::Error
@@ -358,14 +322,5 @@ private:
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
-
-/// The waistband of a bottom garment (trousers, shorts, skirt): the vertices whose distance
-/// along the mesh's edges (shortest path, Dijkstra over edge lengths in m) from the waist
-/// opening is at most band_width (m), the opening's own vertices included. The waist opening
-/// is the topmost boundary loop, the one of highest mean Y (Y up). positions: #V × 3 (m),
-/// triangles: #F × 3. Ascending indices; empty when the mesh has no boundary. Throws
-/// vfit::Error for an index out of range or a negative or non-finite band_width.
-std::vector<std::int32_t> waistband_vertices(std::span<const float> positions, std::span<const std::int32_t> triangles,
-                                             double band_width);
 
 } // namespace vfit

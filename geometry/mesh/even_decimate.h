@@ -2,7 +2,7 @@
 /// \file
 /// Fast decimation to even edge lengths by half-edge collapses (each removes one vertex and
 /// leaves the other where it was), for the coarse simulation proxy of a high-resolution
-/// garment (engine/cloth_proxy.h). Unlike OpenMesh's quadric decimater (geometry/mesh/decimate.h,
+/// garment (engine/cloth/cloth_proxy.h). Unlike OpenMesh's quadric decimater (geometry/mesh/decimate.h,
 /// one heap, every collapse re-queueing its ring), this runs in rounds of independent
 /// collapses, each round a few passes over the mesh.
 

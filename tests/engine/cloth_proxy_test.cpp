@@ -1,4 +1,4 @@
-// The coarse simulation proxy (engine/cloth_proxy.h) of a catalogue tee: its vertices are the
+// The coarse simulation proxy (engine/cloth/cloth_proxy.h) of a catalogue tee: its vertices are the
 // tee's, its openings the tee's, every tee vertex is embedded and comes back at rest, and the
 // per-vertex inputs map through the proxy's vertices.
 #include "engine/cloth/cloth_proxy.h"
