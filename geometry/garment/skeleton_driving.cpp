@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <queue>
 #include <string>
@@ -343,6 +344,88 @@ constexpr double CLEARANCE_QUANTILE = 0.01;
 // must be deeper than this on both sides, or the placement stays.
 constexpr double POCKET_TOLERANCE = 0.002;
 
+// The clearance (CLEARANCE_QUANTILE of the signed distances to the body) of `points` (#Q × 3,
+// m) moved by each of the offsets k·POCKET_STEP·up, k = −steps … steps, in order; empty when a
+// point has no closest point on the body (no body). Only the smallest distances decide a
+// quantile, so a point is queried at an offset only while it may be among them: the signed
+// distance to a closed surface that does not intersect itself changes by at most the distance
+// moved (it is 1-Lipschitz), so a point last queried j offsets away is at least its distance
+// then minus j·POCKET_STEP from the body, and the points are queried in the order of that bound
+// until the quantile among those queried is at most the bound of every point left. Each query
+// searches only as far as the point's last closest point (requery_closest_points()). The
+// quantiles equal those of every point queried at every offset.
+std::vector<double> pocket_clearances(std::span<const float> points, const ProximityIndex& body,
+                                      const Eigen::Vector3d& up, int steps) {
+  const std::size_t n = points.size() / 3;
+  const auto q = static_cast<std::size_t>(CLEARANCE_QUANTILE * double(n - 1));
+  auto offset = [&](int k) { return Eigen::Vector3f((k * POCKET_STEP * up).cast<float>()); };
+  std::vector<float> moved(3 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c)
+      moved[3 * i + std::size_t(c)] = points[3 * i + std::size_t(c)] + offset(-steps)[c];
+  ClosestHits hits; // per point, its answer at the offset queried_at[i]
+  body.closest_points(moved, INFINITY, hits);
+  if (std::any_of(hits.triangles.begin(), hits.triangles.end(), [](std::int32_t t) { return t < 0; })) return {};
+  std::vector<int> queried_at(n, -steps);
+  std::vector<double> clearance;
+  std::vector<float> values(hits.signed_distances.begin(), hits.signed_distances.end());
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(q), values.end());
+  clearance.push_back(values[q]);
+
+  std::vector<std::size_t> order(n), batch;
+  std::vector<double> bound(n);
+  std::vector<float> queries, radii;
+  ClosestHits some;
+  std::vector<char> exact(n);
+  for (int k = -steps + 1; k <= steps; ++k) {
+    const Eigen::Vector3f d = offset(k);
+    // 1e-6 m: the float rounding of the positions and distances.
+    for (std::size_t i = 0; i < n; ++i)
+      bound[i] = double(hits.signed_distances[i]) - (k - queried_at[i]) * POCKET_STEP - 1e-6;
+    auto query = [&](const std::vector<std::size_t>& which) {
+      queries.clear();
+      radii.clear();
+      for (const std::size_t i : which) {
+        double r2 = 0;
+        for (std::size_t c = 0; c < 3; ++c) {
+          const float x = points[3 * i + c] + d[int(c)];
+          queries.push_back(x);
+          r2 += (double(x) - hits.points[3 * i + c]) * (double(x) - hits.points[3 * i + c]);
+        }
+        radii.push_back(float(std::sqrt(r2)) * (1.0f + 1e-5f) + 1e-6f);
+      }
+      body.closest_points(queries, radii, some);
+      for (std::size_t j = 0; j < which.size(); ++j) {
+        hits.copy_row(which[j], some, j);
+        queried_at[which[j]] = k;
+        exact[which[j]] = 1;
+      }
+    };
+    auto exact_quantile = [&] {
+      values.clear();
+      for (std::size_t i = 0; i < n; ++i)
+        if (exact[i]) values.push_back(hits.signed_distances[i]);
+      std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(q), values.end());
+      return values[q];
+    };
+    // The q + 1 points of least bound, then every other point whose bound is below their
+    // quantile: the quantile of all is then among those queried (it can only fall).
+    std::fill(exact.begin(), exact.end(), char(0));
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::nth_element(order.begin(), order.begin() + std::ptrdiff_t(q), order.end(),
+                     [&](std::size_t a, std::size_t b) { return bound[a] < bound[b]; });
+    batch.assign(order.begin(), order.begin() + std::ptrdiff_t(q + 1));
+    query(batch);
+    const float first = exact_quantile();
+    batch.clear();
+    for (std::size_t i = 0; i < n; ++i)
+      if (!exact[i] && bound[i] < double(first)) batch.push_back(i);
+    if (!batch.empty()) query(batch);
+    clearance.push_back(batch.empty() ? first : exact_quantile());
+  }
+  return clearance;
+}
+
 // The offset along `up` (m) moving `points` (#Q × 3, m) to the height of the most clearance
 // from the body within ±POCKET_RANGE; 0 when the clearance does not fall by POCKET_TOLERANCE
 // both below and above its best (no pocket: a garment loose all round, or held only from one
@@ -351,28 +434,8 @@ double pocket_offset(std::span<const float> points, const ProximityIndex& body, 
   const std::size_t n = points.size() / 3;
   if (n == 0) return 0;
   const int steps = static_cast<int>(std::lround(POCKET_RANGE / POCKET_STEP));
-  std::vector<double> clearance;
-  std::vector<float> moved(3 * n);
-  ClosestHits hits;
-  std::vector<float> s;
-  for (int k = -steps; k <= steps; ++k) {
-    const Eigen::Vector3f d = (k * POCKET_STEP * up).cast<float>();
-    for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c)
-        moved[3 * i + static_cast<std::size_t>(c)] = points[3 * i + static_cast<std::size_t>(c)] + d[c];
-    // Successive offsets are POCKET_STEP apart: each re-query starts from the last answers.
-    if (k == -steps)
-      body.closest_points(moved, INFINITY, hits);
-    else
-      body.requery_closest_points(moved, INFINITY, hits);
-    s.clear();
-    for (std::size_t i = 0; i < n; ++i)
-      if (hits.triangles[i] >= 0) s.push_back(hits.signed_distances[i]);
-    if (s.empty()) return 0;
-    const auto q = s.begin() + static_cast<std::ptrdiff_t>(CLEARANCE_QUANTILE * double(s.size() - 1));
-    std::nth_element(s.begin(), q, s.end());
-    clearance.push_back(*q);
-  }
+  const std::vector<double> clearance = pocket_clearances(points, body, up, steps);
+  if (clearance.empty()) return 0;
   const double best = *std::max_element(clearance.begin(), clearance.end());
   if (clearance.front() > best - POCKET_TOLERANCE || clearance.back() > best - POCKET_TOLERANCE) return 0;
   const auto lowest =
