@@ -30,8 +30,8 @@ inline void store3(float* p, std::size_t i, vfit_vec3 v) {
 // (GCC/Clang function multiversioning on x86-64 ELF): its spring loops are gathers and
 // square roots over 8 or 16 lanes instead of 4. Neither instruction set brings FMA, so the
 // arithmetic (IEEE single precision, no contraction) and the bits are those of the default
-// build.
-#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__)
+// build. GCC only: Clang does not multiversion function templates.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__ELF__)
 #define VFIT_CLOTH_MULTIVERSION __attribute__((target_clones("avx512f", "avx2", "default")))
 #define VFIT_CLOTH_INLINE __attribute__((always_inline)) inline // into each clone
 #else

@@ -77,7 +77,7 @@ public:
   ImplicitCoarseSpace& get(); ///< the coarse level, created empty on the first call
 
 private:
-  std::unique_ptr<ImplicitCoarseSpace> space_;
+  std::unique_ptr<ImplicitCoarseSpace> m_space;
 };
 
 /// Scratch of the solver (#V × 3 each, sized by the callee) and the system, reused across steps.

@@ -355,14 +355,14 @@ namespace vfit {
 ImplicitCoarseHolder::ImplicitCoarseHolder() = default;
 ImplicitCoarseHolder::ImplicitCoarseHolder(const ImplicitCoarseHolder&) {}
 ImplicitCoarseHolder& ImplicitCoarseHolder::operator=(const ImplicitCoarseHolder& other) {
-  if (this != &other) space_.reset();
+  if (this != &other) m_space.reset();
   return *this;
 }
 ImplicitCoarseHolder::ImplicitCoarseHolder(ImplicitCoarseHolder&&) noexcept = default;
 ImplicitCoarseHolder& ImplicitCoarseHolder::operator=(ImplicitCoarseHolder&&) noexcept = default;
 ImplicitCoarseHolder::~ImplicitCoarseHolder() = default;
 ImplicitCoarseSpace& ImplicitCoarseHolder::get() {
-  if (!space_) space_ = std::make_unique<ImplicitCoarseSpace>();
-  return *space_;
+  if (!m_space) m_space = std::make_unique<ImplicitCoarseSpace>();
+  return *m_space;
 }
 } // namespace vfit

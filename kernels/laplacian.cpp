@@ -48,7 +48,7 @@ SparseMatrix uniform_laplacian(std::span<const std::int32_t> triangles, std::siz
     }
   for (std::size_t v = 0; v < n; ++v)
     start[v + 1] += start[v];
-  std::vector<std::int32_t> neighbours(std::size_t(start[n]));
+  std::vector<std::int32_t> neighbours(static_cast<std::size_t>(start[n]));
   std::vector<std::int32_t> cursor(start.begin(), start.end() - 1);
   for (std::size_t c = 0; c < triangles.size(); ++c)
     if (const std::int32_t a = triangles[c], b = other(c); a != b) {

@@ -18,7 +18,7 @@
 namespace vfit {
 namespace {
 
-constexpr double NaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double NOT_A_NUMBER = std::numeric_limits<double>::quiet_NaN();
 
 bool is_bottom(GarmentType t) {
   return t == GarmentType::TROUSERS || t == GarmentType::SHORTS || t == GarmentType::SKIRT;
@@ -70,11 +70,11 @@ Eigen::Vector2d leg_axis(const Body& body, bool left, double y) {
   return {p.x(), p.z()};
 }
 
-// Garment girth minus body girth around (x, z) at height y; NaN when either has no closed
+// Garment girth minus body girth around (x, z) at height y; NOT_A_NUMBER when either has no closed
 // section around the point there.
 double girth_ease(const Mesh& garment, const Mesh& body, double y, const Eigen::Vector2d& at) {
   const double g = girth_around(garment, y, at.x(), at.y()), b = girth_around(body, y, at.x(), at.y());
-  return g > 0 && b > 0 ? g - b : NaN;
+  return g > 0 && b > 0 ? g - b : NOT_A_NUMBER;
 }
 
 // Convex-hull perimeter of the section loop of `mesh` at height y around `at` that does not
@@ -89,7 +89,7 @@ double single_leg_girth(const Mesh& mesh, double y, const Eigen::Vector2d& at, c
 
 // Thigh ease of one leg: garment minus body girth at the thigh landmark, or, where the garment's
 // legs are still joined there (its crotch hangs lower than the body's), at the first height
-// below, in 1 cm steps down to `reach`, where the garment's leg is a section of its own. NaN
+// below, in 1 cm steps down to `reach`, where the garment's leg is a section of its own. NOT_A_NUMBER
 // when there is none.
 double thigh_ease(const Mesh& garment, const Body& body, bool left, double y, double reach) {
   for (double d = 0; d <= reach + 1e-9; d += 0.01) {
@@ -98,7 +98,7 @@ double thigh_ease(const Mesh& garment, const Body& body, bool left, double y, do
     const double g = single_leg_girth(garment, h, at, other), b = single_leg_girth(body.mesh, h, at, other);
     if (g > 0 && b > 0) return g - b;
   }
-  return NaN;
+  return NOT_A_NUMBER;
 }
 
 } // namespace
@@ -217,7 +217,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
     RegionFeedback r = summarise(name, [&](std::size_t v) {
       return (parts[v] == GarmentPart::TORSO || parts[v] == GarmentPart::SKIRT) && near_height(v, y);
     });
-    r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, y, torso_axis(body, y)) : NaN;
+    r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, y, torso_axis(body, y)) : NOT_A_NUMBER;
     judge(r, min_ease);
     out.regions.push_back(r);
   };
@@ -230,7 +230,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
   } else {
     RegionFeedback r =
         summarise("waist", [&](std::size_t v) { return parts[v] == GarmentPart::TORSO && near_height(v, lm.waist); });
-    r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, lm.waist, torso_axis(body, lm.waist)) : NaN;
+    r.girth_ease = r.vertices ? girth_ease(placed, body.mesh, lm.waist, torso_axis(body, lm.waist)) : NOT_A_NUMBER;
     judge(r, 0.0);
     out.regions.push_back(r);
   }
@@ -247,7 +247,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
         ++count;
       }
     }
-    r.girth_ease = count ? sum / count : NaN;
+    r.girth_ease = count ? sum / count : NOT_A_NUMBER;
     judge(r, options.min_ease_thigh);
     out.regions.push_back(r);
   }
@@ -255,7 +255,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
     RegionFeedback r = summarise("sleeves", [&](std::size_t v) {
       return parts[v] == GarmentPart::LEFT_SLEEVE || parts[v] == GarmentPart::RIGHT_SLEEVE;
     });
-    r.girth_ease = NaN;
+    r.girth_ease = NOT_A_NUMBER;
     judge(r, 0.0);
     if (r.vertices) out.regions.push_back(r);
   }
@@ -274,7 +274,7 @@ FitFeedback fit_feedback(const Mesh& rest, const Mesh& fitted, std::span<const G
       return parts[v] != GarmentPart::LEFT_SLEEVE && parts[v] != GarmentPart::RIGHT_SLEEVE &&
              fitted.positions[3 * v + 1] < hem_top;
     });
-    r.girth_ease = NaN;
+    r.girth_ease = NOT_A_NUMBER;
     judge(r, 0.0);
     out.regions.push_back(r);
   }

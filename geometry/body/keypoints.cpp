@@ -12,7 +12,7 @@
 namespace vfit {
 namespace {
 
-constexpr int L(Landmark l) { return static_cast<int>(l); }
+constexpr int landmark_point(Landmark l) { return static_cast<int>(l); }
 
 constexpr std::array<std::string_view, BODY_POINT_COUNT - JOINT_COUNT> LANDMARK_NAMES = {
     "nose",      "left_eye",      "right_eye",        "left_ear",          "right_ear",    "head_top",
@@ -26,43 +26,54 @@ constexpr std::array<std::string_view, 25> BODY25_NAMES = {
     "Nose", "Neck",    "RShoulder", "RElbow", "RWrist",  "LShoulder", "LElbow", "LWrist", "MidHip",
     "RHip", "RKnee",   "RAnkle",    "LHip",   "LKnee",   "LAnkle",    "REye",   "LEye",   "REar",
     "LEar", "LBigToe", "LSmallToe", "LHeel",  "RBigToe", "RSmallToe", "RHeel"};
-const std::array<int, 25> BODY25_POINTS = {L(Landmark::NOSE),
-                                           L(Landmark::NECK_BASE),
+const std::array<int, 25> BODY25_POINTS = {landmark_point(Landmark::NOSE),
+                                           landmark_point(Landmark::NECK_BASE),
                                            idx(Joint::RIGHT_SHOULDER),
                                            idx(Joint::RIGHT_ELBOW),
                                            idx(Joint::RIGHT_WRIST),
                                            idx(Joint::LEFT_SHOULDER),
                                            idx(Joint::LEFT_ELBOW),
                                            idx(Joint::LEFT_WRIST),
-                                           L(Landmark::MID_HIP),
-                                           L(Landmark::RIGHT_HIP_SURFACE),
+                                           landmark_point(Landmark::MID_HIP),
+                                           landmark_point(Landmark::RIGHT_HIP_SURFACE),
                                            idx(Joint::RIGHT_KNEE),
                                            idx(Joint::RIGHT_ANKLE),
-                                           L(Landmark::LEFT_HIP_SURFACE),
+                                           landmark_point(Landmark::LEFT_HIP_SURFACE),
                                            idx(Joint::LEFT_KNEE),
                                            idx(Joint::LEFT_ANKLE),
-                                           L(Landmark::RIGHT_EYE),
-                                           L(Landmark::LEFT_EYE),
-                                           L(Landmark::RIGHT_EAR),
-                                           L(Landmark::LEFT_EAR),
-                                           L(Landmark::LEFT_BIG_TOE),
-                                           L(Landmark::LEFT_SMALL_TOE),
-                                           L(Landmark::LEFT_HEEL),
-                                           L(Landmark::RIGHT_BIG_TOE),
-                                           L(Landmark::RIGHT_SMALL_TOE),
-                                           L(Landmark::RIGHT_HEEL)};
+                                           landmark_point(Landmark::RIGHT_EYE),
+                                           landmark_point(Landmark::LEFT_EYE),
+                                           landmark_point(Landmark::RIGHT_EAR),
+                                           landmark_point(Landmark::LEFT_EAR),
+                                           landmark_point(Landmark::LEFT_BIG_TOE),
+                                           landmark_point(Landmark::LEFT_SMALL_TOE),
+                                           landmark_point(Landmark::LEFT_HEEL),
+                                           landmark_point(Landmark::RIGHT_BIG_TOE),
+                                           landmark_point(Landmark::RIGHT_SMALL_TOE),
+                                           landmark_point(Landmark::RIGHT_HEEL)};
 // COCO-18 (OpenPose's COCO model): BODY_25 without MidHip and the feet, in its own order.
-const std::array<int, 18> COCO18_POINTS = {
-    L(Landmark::NOSE),       L(Landmark::NECK_BASE),  idx(Joint::RIGHT_SHOULDER),
-    idx(Joint::RIGHT_ELBOW), idx(Joint::RIGHT_WRIST), idx(Joint::LEFT_SHOULDER),
-    idx(Joint::LEFT_ELBOW),  idx(Joint::LEFT_WRIST),  L(Landmark::RIGHT_HIP_SURFACE),
-    idx(Joint::RIGHT_KNEE),  idx(Joint::RIGHT_ANKLE), L(Landmark::LEFT_HIP_SURFACE),
-    idx(Joint::LEFT_KNEE),   idx(Joint::LEFT_ANKLE),  L(Landmark::RIGHT_EYE),
-    L(Landmark::LEFT_EYE),   L(Landmark::RIGHT_EAR),  L(Landmark::LEFT_EAR)};
+const std::array<int, 18> COCO18_POINTS = {landmark_point(Landmark::NOSE),
+                                           landmark_point(Landmark::NECK_BASE),
+                                           idx(Joint::RIGHT_SHOULDER),
+                                           idx(Joint::RIGHT_ELBOW),
+                                           idx(Joint::RIGHT_WRIST),
+                                           idx(Joint::LEFT_SHOULDER),
+                                           idx(Joint::LEFT_ELBOW),
+                                           idx(Joint::LEFT_WRIST),
+                                           landmark_point(Landmark::RIGHT_HIP_SURFACE),
+                                           idx(Joint::RIGHT_KNEE),
+                                           idx(Joint::RIGHT_ANKLE),
+                                           landmark_point(Landmark::LEFT_HIP_SURFACE),
+                                           idx(Joint::LEFT_KNEE),
+                                           idx(Joint::LEFT_ANKLE),
+                                           landmark_point(Landmark::RIGHT_EYE),
+                                           landmark_point(Landmark::LEFT_EYE),
+                                           landmark_point(Landmark::RIGHT_EAR),
+                                           landmark_point(Landmark::LEFT_EAR)};
 const std::array<int, 14> LSP14_POINTS = {idx(Joint::RIGHT_ANKLE),
                                           idx(Joint::RIGHT_KNEE),
-                                          L(Landmark::RIGHT_HIP_SURFACE),
-                                          L(Landmark::LEFT_HIP_SURFACE),
+                                          landmark_point(Landmark::RIGHT_HIP_SURFACE),
+                                          landmark_point(Landmark::LEFT_HIP_SURFACE),
                                           idx(Joint::LEFT_KNEE),
                                           idx(Joint::LEFT_ANKLE),
                                           idx(Joint::RIGHT_WRIST),
@@ -72,11 +83,12 @@ const std::array<int, 14> LSP14_POINTS = {idx(Joint::RIGHT_ANKLE),
                                           idx(Joint::LEFT_ELBOW),
                                           idx(Joint::LEFT_WRIST),
                                           idx(Joint::NECK),
-                                          L(Landmark::HEAD_TOP)};
+                                          landmark_point(Landmark::HEAD_TOP)};
 
 bool is_torso_point(int p) {
-  return p == idx(Joint::LEFT_SHOULDER) || p == idx(Joint::RIGHT_SHOULDER) || p == L(Landmark::LEFT_HIP_SURFACE) ||
-         p == L(Landmark::RIGHT_HIP_SURFACE) || p == idx(Joint::LEFT_HIP) || p == idx(Joint::RIGHT_HIP);
+  return p == idx(Joint::LEFT_SHOULDER) || p == idx(Joint::RIGHT_SHOULDER) ||
+         p == landmark_point(Landmark::LEFT_HIP_SURFACE) || p == landmark_point(Landmark::RIGHT_HIP_SURFACE) ||
+         p == idx(Joint::LEFT_HIP) || p == idx(Joint::RIGHT_HIP);
 }
 
 double finite_number(const nlohmann::json& v, const std::string& source, const std::string& element) {
@@ -177,7 +189,7 @@ int named_body_point(std::string_view name) {
   if (auto j = joint_from_name(name)) return *j;
   for (std::size_t i = 0; i < BODY25_NAMES.size(); ++i)
     if (BODY25_NAMES[i] == name) return BODY25_POINTS[i];
-  if (name == "head_top" || name == "HeadTop") return L(Landmark::HEAD_TOP);
+  if (name == "head_top" || name == "HeadTop") return landmark_point(Landmark::HEAD_TOP);
   return -1;
 }
 

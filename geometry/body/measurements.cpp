@@ -11,7 +11,7 @@
 namespace vfit {
 namespace {
 
-Eigen::Vector3d J(const JointPositions& j, Joint which) { return j.row(idx(which)).transpose(); }
+Eigen::Vector3d joint_at(const JointPositions& j, Joint which) { return j.row(idx(which)).transpose(); }
 
 // The point at height y on the polyline a → b (clamped to the segment).
 Eigen::Vector3d at_height(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double y) {
@@ -138,9 +138,9 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
     lm.floor = std::min(lm.floor, double(mesh.positions[3 * i + 1]));
     lm.top = std::max(lm.top, double(mesh.positions[3 * i + 1]));
   }
-  const Eigen::Vector3d pelvis = J(joints, Joint::PELVIS), spine3 = J(joints, Joint::SPINE3);
-  const Eigen::Vector3d lhip = J(joints, Joint::LEFT_HIP), rhip = J(joints, Joint::RIGHT_HIP);
-  const Eigen::Vector3d lknee = J(joints, Joint::LEFT_KNEE), lankle = J(joints, Joint::LEFT_ANKLE);
+  const Eigen::Vector3d pelvis = joint_at(joints, Joint::PELVIS), spine3 = joint_at(joints, Joint::SPINE3);
+  const Eigen::Vector3d lhip = joint_at(joints, Joint::LEFT_HIP), rhip = joint_at(joints, Joint::RIGHT_HIP);
+  const Eigen::Vector3d lknee = joint_at(joints, Joint::LEFT_KNEE), lankle = joint_at(joints, Joint::LEFT_ANKLE);
   const Eigen::Vector3d hips = 0.5 * (lhip + rhip);
 
   // Crotch: bisection on "the mid-line point under the pelvis is inside the body".
@@ -160,7 +160,7 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
 
   auto torso_axis = [&](double y) { return at_height(hips, spine3, y); };
   auto leg_axis = [&](double y) { return y > lknee.y() ? at_height(lhip, lknee, y) : at_height(lknee, lankle, y); };
-  const Eigen::Vector3d rknee = J(joints, Joint::RIGHT_KNEE);
+  const Eigen::Vector3d rknee = joint_at(joints, Joint::RIGHT_KNEE);
   auto other_leg_axis = [&](double y) { return at_height(rhip, rknee, y); };
   auto need = [](double g, const char* what) {
     if (g <= 0) throw Error("body", 0, std::string("cannot measure the ") + what + ": no section around the axis");
@@ -170,8 +170,8 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
   // Torso landmarks are searched between the hips and the shoulders, so they do not depend on
   // where a rig puts its spine joints. Loops holding an arm's axis (A-pose arms beside the
   // chest) are skipped.
-  const Eigen::Vector3d lsh = J(joints, Joint::LEFT_SHOULDER), rsh = J(joints, Joint::RIGHT_SHOULDER);
-  const Eigen::Vector3d lel = J(joints, Joint::LEFT_ELBOW), rel = J(joints, Joint::RIGHT_ELBOW);
+  const Eigen::Vector3d lsh = joint_at(joints, Joint::LEFT_SHOULDER), rsh = joint_at(joints, Joint::RIGHT_SHOULDER);
+  const Eigen::Vector3d lel = joint_at(joints, Joint::LEFT_ELBOW), rel = joint_at(joints, Joint::RIGHT_ELBOW);
   const double shoulder_y = 0.5 * (lsh.y() + rsh.y()), span = shoulder_y - hips.y();
   auto arm_at = [&](const Eigen::Vector3d& sh, const Eigen::Vector3d& el, double y) {
     return std::abs(el.y() - sh.y()) < 1e-6 ? Eigen::Vector3d(1e9, y, 1e9) : at_height(sh, el, y);
@@ -209,12 +209,12 @@ MeasuredBody measure_body(const Mesh& mesh, const JointPositions& joints) {
 
   v.height = lm.top - lm.floor;
   v.crotch_height = lm.crotch - lm.floor;
-  v.knee_height = 0.5 * (lknee.y() + J(joints, Joint::RIGHT_KNEE).y()) - lm.floor;
-  const Eigen::Vector3d sh = J(joints, Joint::LEFT_SHOULDER), el = J(joints, Joint::LEFT_ELBOW),
-                        wr = J(joints, Joint::LEFT_WRIST);
+  v.knee_height = 0.5 * (lknee.y() + joint_at(joints, Joint::RIGHT_KNEE).y()) - lm.floor;
+  const Eigen::Vector3d sh = joint_at(joints, Joint::LEFT_SHOULDER), el = joint_at(joints, Joint::LEFT_ELBOW),
+                        wr = joint_at(joints, Joint::LEFT_WRIST);
   v.forearm_length = (wr - el).norm();
   v.arm_length = (el - sh).norm() + v.forearm_length;
-  v.shoulder_width = (J(joints, Joint::LEFT_SHOULDER) - J(joints, Joint::RIGHT_SHOULDER)).norm();
+  v.shoulder_width = (joint_at(joints, Joint::LEFT_SHOULDER) - joint_at(joints, Joint::RIGHT_SHOULDER)).norm();
   return out;
 }
 

@@ -148,7 +148,7 @@ RigMapping parse_rig_mapping(std::string_view json_text, const std::string& path
                   "key " + json_quoted(key) + " is not a canonical joint name (pelvis, left_hip, ..., right_hand)");
     std::string bone;
     if (value.is_object()) {
-      const auto where = [&] { return "key " + json_quoted(key) + ": "; };
+      const auto where = [&key = key] { return "key " + json_quoted(key) + ": "; };
       for (const auto& [member, unused] : value.items())
         if (member != "bone" && member != "toward" && member != "at")
           throw Error(path, 0, where() + "unknown member " + json_quoted(member) + " (expected bone, toward, at)");

@@ -138,37 +138,37 @@ double narrowest_girth_height(const GarmentFrame& frame, double top, double bott
   std::size_t inside = 0;
   for (std::size_t v = 0; v < g.vertex_count(); ++v)
     inside += frame.main[v] && g.points[v].y() >= bottom && g.points[v].y() < top;
-  const int SLABS = std::clamp(int(inside / 30), 16, 64), HALF_WINDOW = 2;
-  const double h = (top - bottom) / SLABS;
+  const int slabs = std::clamp(int(inside / 30), 16, 64), half_window = 2;
+  const double h = (top - bottom) / slabs;
   // Girth of a slab as 2π × the RMS distance of its vertices from their centre in XZ: every
   // vertex votes, where extents would hang on two.
-  std::vector<double> n(SLABS, 0), sx(SLABS, 0), sz(SLABS, 0), sq(SLABS, 0);
+  std::vector<double> n(slabs, 0), sx(slabs, 0), sz(slabs, 0), sq(slabs, 0);
   for (std::size_t v = 0; v < g.vertex_count(); ++v) {
     if (!frame.main[v]) continue;
     const Eigen::Vector3d& p = g.points[v];
     const int s = int(std::floor((p.y() - bottom) / h));
-    if (s < 0 || s >= SLABS) continue;
+    if (s < 0 || s >= slabs) continue;
     n[s] += 1;
     sx[s] += p.x();
     sz[s] += p.z();
     sq[s] += p.x() * p.x() + p.z() * p.z();
   }
-  std::vector<double> radius(SLABS, NAN);
-  for (int s = 0; s < SLABS; ++s)
+  std::vector<double> radius(slabs, NAN);
+  for (int s = 0; s < slabs; ++s)
     if (n[s] >= 3) radius[s] = std::sqrt(std::max(0.0, sq[s] / n[s] - (sx[s] * sx[s] + sz[s] * sz[s]) / (n[s] * n[s])));
-  std::vector<double> smooth(SLABS, INFINITY);
+  std::vector<double> smooth(slabs, INFINITY);
   double least = INFINITY;
-  for (int s = HALF_WINDOW; s + HALF_WINDOW < SLABS; ++s) {
+  for (int s = half_window; s + half_window < slabs; ++s) {
     double sum = 0;
-    for (int k = -HALF_WINDOW; k <= HALF_WINDOW; ++k)
+    for (int k = -half_window; k <= half_window; ++k)
       sum += radius[s + k];
-    if (std::isfinite(sum)) smooth[s] = sum / (2 * HALF_WINDOW + 1);
+    if (std::isfinite(sum)) smooth[s] = sum / (2 * half_window + 1);
     least = std::min(least, smooth[s]);
   }
   if (!std::isfinite(least)) return 0.5 * (top + bottom);
   // The waist is a shallow valley whose floor is noisy; the skirt starts where the garment
   // begins to widen downwards: the lowest slab within 1.5 % of the floor.
-  for (int s = 0; s < SLABS; ++s)
+  for (int s = 0; s < slabs; ++s)
     if (smooth[s] <= (1 + WAIST_TOLERANCE) * least) return bottom + (s + 0.5) * h;
   return 0.5 * (top + bottom);
 }

@@ -350,10 +350,9 @@ constexpr double POCKET_TOLERANCE = 0.002;
 // quantile, so a point is queried at an offset only while it may be among them: the signed
 // distance to a closed surface that does not intersect itself changes by at most the distance
 // moved (it is 1-Lipschitz), so a point last queried j offsets away is at least its distance
-// then minus j·POCKET_STEP from the body, and the points are queried in the order of that bound
-// until the quantile among those queried is at most the bound of every point left. Each query
-// searches only as far as the point's last closest point (requery_closest_points()). The
-// quantiles equal those of every point queried at every offset.
+// then minus j·POCKET_STEP from the body: the points whose bound may put them among the closest
+// are queried, each only as far as its last closest point (and no farther than the quantile
+// when it is surely outside). The quantiles equal those of every point queried at every offset.
 std::vector<double> pocket_clearances(std::span<const float> points, const ProximityIndex& body,
                                       const Eigen::Vector3d& up, int steps) {
   const std::size_t n = points.size() / 3;
@@ -374,6 +373,10 @@ std::vector<double> pocket_clearances(std::span<const float> points, const Proxi
 
   std::vector<std::size_t> order(n), batch;
   std::vector<double> bound(n);
+  // A point queried within a capped radius and not found there is farther than that radius:
+  // far_from[i] (m) at offset far_at[i] (0 at −steps: nothing known beyond its distance).
+  std::vector<double> far_from(n, 0.0);
+  std::vector<int> far_at(n, -steps);
   std::vector<float> queries, radii;
   ClosestHits some;
   std::vector<char> exact(n);
@@ -381,8 +384,12 @@ std::vector<double> pocket_clearances(std::span<const float> points, const Proxi
     const Eigen::Vector3f d = offset(k);
     // 1e-6 m: the float rounding of the positions and distances.
     for (std::size_t i = 0; i < n; ++i)
-      bound[i] = double(hits.signed_distances[i]) - (k - queried_at[i]) * POCKET_STEP - 1e-6;
-    auto query = [&](const std::vector<std::size_t>& which) {
+      bound[i] = std::max(double(hits.signed_distances[i]) - std::abs(k - queried_at[i]) * POCKET_STEP,
+                          far_from[i] - std::abs(k - far_at[i]) * POCKET_STEP) -
+                 1e-6;
+    // Queries `which` at offset k, each within its distance to its last closest point, or within
+    // `cap` (m) when that is smaller and the point is surely outside (bound > 0).
+    auto query = [&](const std::vector<std::size_t>& which, double cap) {
       queries.clear();
       radii.clear();
       for (const std::size_t i : which) {
@@ -392,13 +399,20 @@ std::vector<double> pocket_clearances(std::span<const float> points, const Proxi
           queries.push_back(x);
           r2 += (double(x) - hits.points[3 * i + c]) * (double(x) - hits.points[3 * i + c]);
         }
-        radii.push_back(float(std::sqrt(r2)) * (1.0f + 1e-5f) + 1e-6f);
+        const float warm = float(std::sqrt(r2)) * (1.0f + 1e-5f) + 1e-6f;
+        radii.push_back(bound[i] > 0 ? std::min(warm, float(cap)) : warm);
       }
       body.closest_points(queries, radii, some);
       for (std::size_t j = 0; j < which.size(); ++j) {
-        hits.copy_row(which[j], some, j);
-        queried_at[which[j]] = k;
-        exact[which[j]] = 1;
+        const std::size_t i = which[j];
+        if (some.triangles[j] < 0) { // farther than the cap, outside
+          far_from[i] = radii[j];
+          far_at[i] = k;
+          continue;
+        }
+        hits.copy_row(i, some, j);
+        queried_at[i] = k;
+        exact[i] = 1;
       }
     };
     auto exact_quantile = [&] {
@@ -408,19 +422,20 @@ std::vector<double> pocket_clearances(std::span<const float> points, const Proxi
       std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(q), values.end());
       return values[q];
     };
-    // The q + 1 points of least bound, then every other point whose bound is below their
-    // quantile: the quantile of all is then among those queried (it can only fall).
+    // The q + 1 points of least bound, exactly; then every other point whose bound is below
+    // their quantile, within that quantile (a point not found there cannot lower it). The
+    // quantile of all is then that of the points found (it can only fall).
     std::fill(exact.begin(), exact.end(), char(0));
     std::iota(order.begin(), order.end(), std::size_t{0});
     std::nth_element(order.begin(), order.begin() + std::ptrdiff_t(q), order.end(),
                      [&](std::size_t a, std::size_t b) { return bound[a] < bound[b]; });
     batch.assign(order.begin(), order.begin() + std::ptrdiff_t(q + 1));
-    query(batch);
+    query(batch, INFINITY);
     const float first = exact_quantile();
     batch.clear();
     for (std::size_t i = 0; i < n; ++i)
       if (!exact[i] && bound[i] < double(first)) batch.push_back(i);
-    if (!batch.empty()) query(batch);
+    if (!batch.empty()) query(batch, std::max(double(first), 0.0) + 1e-6);
     clearance.push_back(batch.empty() ? first : exact_quantile());
   }
   return clearance;

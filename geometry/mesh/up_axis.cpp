@@ -251,8 +251,8 @@ Facing compose_facing(Facing first, Facing then) {
     }
     return 0;
   };
-  constexpr std::array<Facing, 4> by_turns = {Facing::POS_Z, Facing::NEG_X, Facing::NEG_Z, Facing::POS_X};
-  return by_turns[static_cast<std::size_t>((turns(first) + turns(then)) % 4)];
+  constexpr std::array<Facing, 4> BY_TURNS = {Facing::POS_Z, Facing::NEG_X, Facing::NEG_Z, Facing::POS_X};
+  return BY_TURNS[static_cast<std::size_t>((turns(first) + turns(then)) % 4)];
 }
 
 } // namespace vfit

@@ -136,8 +136,9 @@ TEST(CorpusPenetration, TheLayerOrderOfEachOutfitIsReadFromItsGarments) {
     for (std::size_t k = 0; k < found.order.size(); ++k)
       rank[found.order[k]] = k;
     for (const auto& [under, over] : outfit.relations) {
-      EXPECT_TRUE(std::any_of(found.relations.begin(), found.relations.end(),
-                              [&](const LayerRelation& r) { return r.under == under && r.over == over; }))
+      EXPECT_TRUE(std::any_of(
+          found.relations.begin(), found.relations.end(),
+          [&under = under, &over = over](const LayerRelation& r) { return r.under == under && r.over == over; }))
           << names[under] << " under " << names[over];
       EXPECT_LT(rank[under], rank[over]) << names[under] << " before " << names[over];
     }

@@ -18,21 +18,21 @@ using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::R
 
 // Central differences of `f` (residuals of a parameter vector x) at x, one column per number.
 template <typename F> RowMatrix central_differences(F&& f, std::vector<double> x, int rows) {
-  // h = 1e-6 on numbers of order 0.1–1 (rad, m, σ): truncation ~h² (≪ 1e-9 here), rounding
-  // ~1e-16 · |r| / h ≈ 1e-7 for residuals of a few hundred px.
-  constexpr double h = 1e-6;
+  // STEP = 1e-6 on numbers of order 0.1–1 (rad, m, σ): truncation ~STEP² (≪ 1e-9 here), rounding
+  // ~1e-16 · |r| / STEP ≈ 1e-7 for residuals of a few hundred px.
+  constexpr double STEP = 1e-6;
   RowMatrix J(rows, static_cast<Eigen::Index>(x.size()));
   std::vector<double> plus(static_cast<std::size_t>(rows)), minus(static_cast<std::size_t>(rows));
   for (std::size_t k = 0; k < x.size(); ++k) {
     const double x0 = x[k];
-    x[k] = x0 + h;
+    x[k] = x0 + STEP;
     f(x.data(), plus.data());
-    x[k] = x0 - h;
+    x[k] = x0 - STEP;
     f(x.data(), minus.data());
     x[k] = x0;
     for (int i = 0; i < rows; ++i)
       J(i, static_cast<Eigen::Index>(k)) =
-          (plus[static_cast<std::size_t>(i)] - minus[static_cast<std::size_t>(i)]) / (2 * h);
+          (plus[static_cast<std::size_t>(i)] - minus[static_cast<std::size_t>(i)]) / (2 * STEP);
   }
   return J;
 }

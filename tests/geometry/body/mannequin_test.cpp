@@ -54,7 +54,7 @@ double winding_number(const Mesh& m, const Eigen::Vector3d& p) {
 
 class MannequinGrid : public ::testing::TestWithParam<Case> {};
 
-void IsWatertightManifoldOrientedGenusZero(const Case& param) {
+void is_watertight_manifold_oriented_genus_zero(const Case& param) {
   const Body& b = mannequin(param);
   EXPECT_EQ(b.mesh.vertex_count(), param.vertices);
   const TopologyReport t = analyse_topology(b.mesh.triangle_view(), b.mesh.vertex_count());
@@ -77,7 +77,7 @@ void IsWatertightManifoldOrientedGenusZero(const Case& param) {
   EXPECT_LT(volume, 0.12);
 }
 
-void ReproducesEveryRequestedMeasurement(const Case& param) {
+void reproduces_every_requested_measurement(const Case& param) {
   const Body& b = mannequin(param);
   const BodyMeasurements want = body_preset(param.preset);
   const MeasuredBody got = measure_body(b.mesh, b.joints);
@@ -95,7 +95,7 @@ void ReproducesEveryRequestedMeasurement(const Case& param) {
 // thigh girth itself is not compared: its landmark is the largest section in the 8 cm under
 // the crotch, which lands in the saddle's last half centimetre, where a body and its mirror
 // image measure 5–15 % apart (a known limitation of that landmark rule).
-void BothSidesMeasureTheSame(const Case& param) {
+void both_sides_measure_the_same(const Case& param) {
   const Body& b = mannequin(param);
   Mesh mirrored = b.mesh;
   for (std::size_t v = 0; v < mirrored.vertex_count(); ++v)
@@ -119,13 +119,13 @@ void BothSidesMeasureTheSame(const Case& param) {
   }
 }
 
-void JointsLieInsideTheBody(const Case& param) {
+void joints_lie_inside_the_body(const Case& param) {
   const Body& b = mannequin(param);
   for (int j = 0; j < JOINT_COUNT; ++j)
     EXPECT_NEAR(winding_number(b.mesh, b.joints.row(j).transpose()), 1.0, 1e-3) << joint_name(j);
 }
 
-void SkinWeightsAreNormalisedAndSmooth(const Case& param) {
+void skin_weights_are_normalised_and_smooth(const Case& param) {
   const Body& b = mannequin(param);
   EXPECT_NO_THROW(validate_skin_weights(b.weights, b.mesh.vertex_count(), "mannequin"));
   // Smoothness: no joint's weight changes faster than 1 per 2 cm along the surface: bones
@@ -151,7 +151,7 @@ void SkinWeightsAreNormalisedAndSmooth(const Case& param) {
   EXPECT_LT(worst, 50.0) << "per metre";
 }
 
-void RestPoseSkinningReturnsTheRestMesh(const Case& param) {
+void rest_pose_skinning_returns_the_rest_mesh(const Case& param) {
   const Body& b = mannequin(param);
   const Body posed = pose_body(b, Pose{});
   EXPECT_EQ(posed.mesh.positions, b.mesh.positions);
@@ -167,27 +167,27 @@ void RestPoseSkinningReturnsTheRestMesh(const Case& param) {
 TEST_P(MannequinGrid, MeetsEveryBar) {
   {
     SCOPED_TRACE("IsWatertightManifoldOrientedGenusZero");
-    IsWatertightManifoldOrientedGenusZero(GetParam());
+    is_watertight_manifold_oriented_genus_zero(GetParam());
   }
   {
     SCOPED_TRACE("ReproducesEveryRequestedMeasurement");
-    ReproducesEveryRequestedMeasurement(GetParam());
+    reproduces_every_requested_measurement(GetParam());
   }
   {
     SCOPED_TRACE("BothSidesMeasureTheSame");
-    BothSidesMeasureTheSame(GetParam());
+    both_sides_measure_the_same(GetParam());
   }
   {
     SCOPED_TRACE("JointsLieInsideTheBody");
-    JointsLieInsideTheBody(GetParam());
+    joints_lie_inside_the_body(GetParam());
   }
   {
     SCOPED_TRACE("SkinWeightsAreNormalisedAndSmooth");
-    SkinWeightsAreNormalisedAndSmooth(GetParam());
+    skin_weights_are_normalised_and_smooth(GetParam());
   }
   {
     SCOPED_TRACE("RestPoseSkinningReturnsTheRestMesh");
-    RestPoseSkinningReturnsTheRestMesh(GetParam());
+    rest_pose_skinning_returns_the_rest_mesh(GetParam());
   }
 }
 

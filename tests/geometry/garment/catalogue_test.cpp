@@ -39,7 +39,7 @@ const Garment& garment(const Case& c) {
 
 class Catalogue : public ::testing::TestWithParam<Case> {};
 
-void IsOneOpenManifoldSurfaceWithItsOpenings(const Case& param) {
+void is_one_open_manifold_surface_with_its_openings(const Case& param) {
   const Garment& g = garment(param);
   EXPECT_EQ(g.mesh.vertex_count(), param.vertices); // exact: decimated to the request
   const TopologyReport t = analyse_topology(g.mesh.triangle_view(), g.mesh.vertex_count());
@@ -55,7 +55,7 @@ void IsOneOpenManifoldSurfaceWithItsOpenings(const Case& param) {
   EXPECT_NO_THROW(validate_mesh(copy, src, {}, warnings));
 }
 
-void NormalsPointAwayFromTheBodyAndClothStaysOutside(const Case& param) {
+void normals_point_away_from_the_body_and_cloth_stays_outside(const Case& param) {
   const Garment& g = garment(param);
   const MannequinShape body(BodyMeasurements{}, param.pose);
   std::size_t outward = 0;
@@ -83,7 +83,7 @@ void NormalsPointAwayFromTheBodyAndClothStaysOutside(const Case& param) {
 // mannequin (make_mannequin: meshed, decimated, then its girths calibrated) must not poke
 // through them either. 1 mm: the meshed surface's chords and calibration bands may graze the
 // cloth's clearance, never more.
-void ClothStaysOutsideTheMeshedMannequin(const Case& param) {
+void cloth_stays_outside_the_meshed_mannequin(const Case& param) {
   static std::map<RestPose, Body> bodies;
   if (!bodies.contains(param.pose)) {
     MannequinOptions o;
@@ -105,7 +105,7 @@ void ClothStaysOutsideTheMeshedMannequin(const Case& param) {
   EXPECT_EQ(inside, 0u) << "deepest " << -1000 * deepest << " mm";
 }
 
-void LabelsAndUvsCoverEveryPart(const Case& param) {
+void labels_and_uvs_cover_every_part(const Case& param) {
   const Garment& g = garment(param);
   ASSERT_EQ(g.vertex_parts.size(), g.mesh.vertex_count());
   std::map<GarmentPart, std::size_t> count;
@@ -147,19 +147,19 @@ void LabelsAndUvsCoverEveryPart(const Case& param) {
 TEST_P(Catalogue, MeetsEveryBar) {
   {
     SCOPED_TRACE("IsOneOpenManifoldSurfaceWithItsOpenings");
-    IsOneOpenManifoldSurfaceWithItsOpenings(GetParam());
+    is_one_open_manifold_surface_with_its_openings(GetParam());
   }
   {
     SCOPED_TRACE("NormalsPointAwayFromTheBodyAndClothStaysOutside");
-    NormalsPointAwayFromTheBodyAndClothStaysOutside(GetParam());
+    normals_point_away_from_the_body_and_cloth_stays_outside(GetParam());
   }
   {
     SCOPED_TRACE("LabelsAndUvsCoverEveryPart");
-    LabelsAndUvsCoverEveryPart(GetParam());
+    labels_and_uvs_cover_every_part(GetParam());
   }
   {
     SCOPED_TRACE("ClothStaysOutsideTheMeshedMannequin");
-    ClothStaysOutsideTheMeshedMannequin(GetParam());
+    cloth_stays_outside_the_meshed_mannequin(GetParam());
   }
 }
 

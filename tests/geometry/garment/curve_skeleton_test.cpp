@@ -64,7 +64,7 @@ std::pair<double, double> arc_distance(const Eigen::Vector3d& p, double bend, do
 }
 
 // Every original vertex maps to exactly one node (eq. 12) and every node owns one.
-void ExpectDisjointCover(const CurveSkeleton& s, std::size_t vertices) {
+void expect_disjoint_cover(const CurveSkeleton& s, std::size_t vertices) {
   ASSERT_EQ(s.vertex_node.size(), vertices);
   std::vector<std::size_t> owned(s.nodes.size(), 0);
   for (std::int32_t n : s.vertex_node) {
@@ -211,7 +211,7 @@ TEST(CurveSkeleton, StraightTubeNodesLieOnTheAxisInOrder) {
   o.proxy_vertices = 0; // full resolution: the bent tube below goes through a proxy
   CurveSkeleton s = extract_curve_skeleton(filled.mesh, filled.original_vertices, o);
   orient_chain(s, Eigen::Vector3d::Zero());
-  ExpectDisjointCover(s, tube.vertex_count());
+  expect_disjoint_cover(s, tube.vertex_count());
   EXPECT_EQ(s.proxy_vertices, filled.mesh.vertex_count());
   ASSERT_GE(s.nodes.size(), 10u);
   EXPECT_LT(s.contraction.final_area_ratio, ContractionOptions{}.area_ratio);
@@ -237,7 +237,7 @@ TEST(CurveSkeleton, CotangentContractionGivesTheSameAxis) {
   CurveSkeletonOptions o;
   o.contraction.laplacian = ContractionLaplacian::COTANGENT;
   CurveSkeleton s = extract_curve_skeleton(filled.mesh, filled.original_vertices, o);
-  ExpectDisjointCover(s, tube.vertex_count());
+  expect_disjoint_cover(s, tube.vertex_count());
   ASSERT_GE(s.nodes.size(), 10u);
   // Through the default proxy: the bar, 10 % of the radius (see BentTube).
   for (std::size_t n = 0; n < s.nodes.size(); ++n)
@@ -261,7 +261,7 @@ TEST_P(BentTube, NodesLieOnTheArcInOrder) {
   if (!through_proxy) o.proxy_vertices = 0;
   CurveSkeleton s = extract_curve_skeleton(filled.mesh, filled.original_vertices, o);
   orient_chain(s, Eigen::Vector3d::Zero());
-  ExpectDisjointCover(s, tube.vertex_count());
+  expect_disjoint_cover(s, tube.vertex_count());
   EXPECT_EQ(s.proxy_vertices < filled.mesh.vertex_count(), through_proxy);
   ASSERT_GE(s.nodes.size(), 10u);
   const double tolerance = 0.1;

@@ -357,7 +357,7 @@ std::string mutated(const std::function<void(Json&)>& edit) {
   return doc.dump();
 }
 
-const std::vector<BadInput> bad_inputs = {
+const std::vector<BadInput> BAD_INPUTS = {
     {"empty_file", [] { return std::string(); }, "empty"},
     {"not_gltf", [] { return std::string("solid cube\nendsolid cube\n"); }, "not a glTF"},
     {"bad_magic",
@@ -447,7 +447,7 @@ TEST_P(GltfFormatBadInput, ThrowsNamingTheFileAndTheProblem) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(GltfFiles, GltfFormatBadInput, testing::ValuesIn(bad_inputs),
+INSTANTIATE_TEST_SUITE_P(GltfFiles, GltfFormatBadInput, testing::ValuesIn(BAD_INPUTS),
                          [](const testing::TestParamInfo<BadInput>& param) { return param.param.name; });
 
 // Every prefix and every single-byte corruption of a valid file must throw vfit::Error or read
