@@ -374,8 +374,8 @@ std::vector<double> pocket_clearances(std::span<const float> points, const Proxi
   std::vector<std::size_t> order(n), batch;
   std::vector<double> bound(n);
   // A point queried within a capped radius and not found there is farther than that radius:
-  // far_from[i] (m) at offset far_at[i] (0 at −steps: nothing known beyond its distance).
-  std::vector<double> far_from(n, 0.0);
+  // far_from[i] (m) at offset far_at[i] (−∞: nothing known beyond its distance).
+  std::vector<double> far_from(n, -INFINITY);
   std::vector<int> far_at(n, -steps);
   std::vector<float> queries, radii;
   ClosestHits some;
