@@ -302,13 +302,7 @@ void ProximityIndex::requery_closest_points(std::span<const float> queries, floa
                     " previous answers");
   std::vector<float> radii(count, max_distance);
   for (std::size_t i = 0; i < count; ++i) {
-    if (hits.triangles[i] < 0) continue;
-    double d2 = 0;
-    for (std::size_t c = 0; c < 3; ++c) {
-      const double d = double(queries[3 * i + c]) - double(hits.points[3 * i + c]);
-      d2 += d * d;
-    }
-    radii[i] = std::min(max_distance, float(std::sqrt(d2)) * (1.0f + 1e-5f) + 1e-6f);
+    if (hits.triangles[i] >= 0) radii[i] = std::min(max_distance, requery_radius(&queries[3 * i], &hits.points[3 * i]));
   }
   closest_points(queries, radii, hits);
 }

@@ -8,6 +8,7 @@
 /// "Signed distance computation using the angle weighted pseudonormal"), which is exact where
 /// a plain face normal fails: queries whose closest point is an edge or a vertex.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -205,6 +206,21 @@ private:
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
+
+/// The search radius (m) within which a query at `query` (x, y, z; m) finds its closest point
+/// on a mesh again, given `previous` (x, y, z; m), a point of that mesh (an earlier answer):
+/// |query − previous| in double, widened for float rounding (× (1 + 1e-5), + 1e-6 m). The
+/// closest distance is at most |query − previous|, so a search within this radius answers as an
+/// unlimited one but for ties between equally close triangles, while Embree prunes the rest of
+/// the mesh at once. O(1).
+inline float requery_radius(const float* query, const float* previous) {
+  double d2 = 0;
+  for (int c = 0; c < 3; ++c) {
+    const double d = double(query[c]) - double(previous[c]);
+    d2 += d * d;
+  }
+  return float(std::sqrt(d2)) * (1.0f + 1e-5f) + 1e-6f;
+}
 
 /// The validation every closest-point entry runs first, in one pass over the queries: throws
 /// vfit::Error ("proximity queries: …") when queries.size() is not a multiple of 3, when

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the exact Debian 12 packages that vfit's build, tests and benchmarks need.
+# Installs the exact Debian 12 packages that vfit's build, tests and benchmarks need; with
+# `style` also clang-format and clang-tidy, which CI's tools/check_style.sh runs.
 # Idempotent: does nothing (and prints nothing) when every package is already present.
 # Works as root or through sudo.
 set -euo pipefail
@@ -11,8 +12,10 @@ packages=(
   libopenmesh-dev libceres-dev
   libbenchmark-dev libgtest-dev libgmock-dev
   libpng-dev zlib1g-dev nlohmann-json3-dev
-  clang-format clang-tidy
 )
+if [ "${1:-}" = style ]; then
+  packages+=(clang-format clang-tidy)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -24,21 +24,14 @@ void closest_points_of(const ProximityIndex& index, std::span<const float> posit
     index.closest_points(positions, reach, all);
     return;
   }
-  // The previous closest point lies on the surface, so the new distance is at most the
-  // vertex's distance to it: searching within that radius (plus float slack: the stored point
-  // carries ~1e-7 m of rounding) finds the same closest distance (ties between equally close
-  // triangles may go to another one) while Embree prunes more of its traversal than with the
-  // full reach.
+  // Each vertex searches only as far as its previous closest point (requery_radius()).
   std::vector<float> queries, radii;
   queries.reserve(3 * moved->size());
   radii.reserve(moved->size());
   for (std::size_t v : *moved) {
     queries.insert(queries.end(), {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]});
     float radius = reach;
-    if (all.triangles[v] >= 0) {
-      const float bound = float((row_of(positions, v) - row_of(all.points, v)).norm());
-      radius = std::min(reach, bound * (1.0f + 1e-5f) + 1e-6f);
-    }
+    if (all.triangles[v] >= 0) radius = std::min(reach, requery_radius(&positions[3 * v], &all.points[3 * v]));
     radii.push_back(radius);
   }
   ClosestHits part;

@@ -21,8 +21,6 @@ constexpr double PI = std::numbers::pi;
 constexpr double SHAPE_LIMIT = 3.0; // |β_k| ≤ 3 σ: beyond that, not an adult body
 constexpr double HIP_TRUST = 0.5;
 
-int landmark_point(Landmark l) { return static_cast<int>(l); }
-
 // ---------------------------------------------------------------------------------------------
 // The linear body model.
 
@@ -33,7 +31,7 @@ KeypointBodyModel::Points points_of(const BodyMeasurements& m) {
   KeypointBodyModel::Points P = KeypointBodyModel::Points::Zero();
   P.topRows<JOINT_COUNT>() = shape.joints();
   auto J = [&](Joint j) -> Eigen::Vector3d { return shape.joints().row(idx(j)).transpose(); };
-  auto set = [&](Landmark l, const Eigen::Vector3d& p) { P.row(landmark_point(l)) = p.transpose(); };
+  auto set = [&](Landmark l, const Eigen::Vector3d& p) { P.row(idx(l)) = p.transpose(); };
   const Ellipsoid* head = nullptr;
   const Ellipsoid* foot[2] = {nullptr, nullptr};
   for (const Ellipsoid& e : shape.ellipsoids()) {
@@ -58,8 +56,7 @@ KeypointBodyModel::Points points_of(const BodyMeasurements& m) {
   set(Landmark::LEFT_HIP_SURFACE, J(Joint::LEFT_HIP) + hip_offset);
   set(Landmark::RIGHT_HIP_SURFACE, J(Joint::RIGHT_HIP) + Eigen::Vector3d(-hip_offset.x(), hip_offset.y(), 0));
   set(Landmark::MID_HIP,
-      0.5 * (P.row(landmark_point(Landmark::LEFT_HIP_SURFACE)) + P.row(landmark_point(Landmark::RIGHT_HIP_SURFACE)))
-                .transpose());
+      0.5 * (P.row(idx(Landmark::LEFT_HIP_SURFACE)) + P.row(idx(Landmark::RIGHT_HIP_SURFACE))).transpose());
   // Feet: the foot ellipsoid runs from the heel to the toes; the big toe is on the inner side.
   for (int side = 0; side < 2; ++side) {
     const Eigen::Vector3d fc = foot[side]->centre, fr = foot[side]->radii;
@@ -86,7 +83,7 @@ KeypointBodyModel build_mannequin_model() {
   }
   for (int j = 0; j < JOINT_COUNT; ++j)
     model.joint[static_cast<std::size_t>(j)] = j;
-  auto attach = [&](Landmark l, Joint j) { model.joint[static_cast<std::size_t>(landmark_point(l))] = idx(j); };
+  auto attach = [&](Landmark l, Joint j) { model.joint[static_cast<std::size_t>(idx(l))] = idx(j); };
   for (Landmark l : {Landmark::NOSE, Landmark::LEFT_EYE, Landmark::RIGHT_EYE, Landmark::LEFT_EAR, Landmark::RIGHT_EAR,
                      Landmark::HEAD_TOP})
     attach(l, Joint::HEAD);
@@ -101,7 +98,7 @@ KeypointBodyModel build_mannequin_model() {
   attach(Landmark::RIGHT_HEEL, Joint::RIGHT_ANKLE);
   model.trust.fill(1.0);
   for (Landmark l : {Landmark::MID_HIP, Landmark::LEFT_HIP_SURFACE, Landmark::RIGHT_HIP_SURFACE})
-    model.trust[static_cast<std::size_t>(landmark_point(l))] = HIP_TRUST;
+    model.trust[static_cast<std::size_t>(idx(l))] = HIP_TRUST;
   return model;
 }
 
@@ -413,9 +410,8 @@ Setup set_up(const KeypointBodyModel& model, const Keypoints& keypoints) {
     all.pixels.push_back(k.pixel);
     all.sqrt_weight.push_back(std::sqrt(k.confidence * model.trust[p]));
     const bool shoulder = k.point == idx(Joint::LEFT_SHOULDER) || k.point == idx(Joint::RIGHT_SHOULDER);
-    const bool hip = k.point == landmark_point(Landmark::LEFT_HIP_SURFACE) ||
-                     k.point == landmark_point(Landmark::RIGHT_HIP_SURFACE) || k.point == idx(Joint::LEFT_HIP) ||
-                     k.point == idx(Joint::RIGHT_HIP);
+    const bool hip = k.point == idx(Landmark::LEFT_HIP_SURFACE) || k.point == idx(Landmark::RIGHT_HIP_SURFACE) ||
+                     k.point == idx(Joint::LEFT_HIP) || k.point == idx(Joint::RIGHT_HIP);
     if (shoulder || hip) {
       torso.points.push_back(k.point);
       torso.pixels.push_back(k.pixel);

@@ -12,8 +12,6 @@
 namespace vfit {
 namespace {
 
-constexpr int landmark_point(Landmark l) { return static_cast<int>(l); }
-
 constexpr std::array<std::string_view, BODY_POINT_COUNT - JOINT_COUNT> LANDMARK_NAMES = {
     "nose",      "left_eye",      "right_eye",        "left_ear",          "right_ear",    "head_top",
     "neck_base", "mid_hip",       "left_hip_surface", "right_hip_surface", "left_big_toe", "left_small_toe",
@@ -26,54 +24,43 @@ constexpr std::array<std::string_view, 25> BODY25_NAMES = {
     "Nose", "Neck",    "RShoulder", "RElbow", "RWrist",  "LShoulder", "LElbow", "LWrist", "MidHip",
     "RHip", "RKnee",   "RAnkle",    "LHip",   "LKnee",   "LAnkle",    "REye",   "LEye",   "REar",
     "LEar", "LBigToe", "LSmallToe", "LHeel",  "RBigToe", "RSmallToe", "RHeel"};
-const std::array<int, 25> BODY25_POINTS = {landmark_point(Landmark::NOSE),
-                                           landmark_point(Landmark::NECK_BASE),
+const std::array<int, 25> BODY25_POINTS = {idx(Landmark::NOSE),
+                                           idx(Landmark::NECK_BASE),
                                            idx(Joint::RIGHT_SHOULDER),
                                            idx(Joint::RIGHT_ELBOW),
                                            idx(Joint::RIGHT_WRIST),
                                            idx(Joint::LEFT_SHOULDER),
                                            idx(Joint::LEFT_ELBOW),
                                            idx(Joint::LEFT_WRIST),
-                                           landmark_point(Landmark::MID_HIP),
-                                           landmark_point(Landmark::RIGHT_HIP_SURFACE),
+                                           idx(Landmark::MID_HIP),
+                                           idx(Landmark::RIGHT_HIP_SURFACE),
                                            idx(Joint::RIGHT_KNEE),
                                            idx(Joint::RIGHT_ANKLE),
-                                           landmark_point(Landmark::LEFT_HIP_SURFACE),
+                                           idx(Landmark::LEFT_HIP_SURFACE),
                                            idx(Joint::LEFT_KNEE),
                                            idx(Joint::LEFT_ANKLE),
-                                           landmark_point(Landmark::RIGHT_EYE),
-                                           landmark_point(Landmark::LEFT_EYE),
-                                           landmark_point(Landmark::RIGHT_EAR),
-                                           landmark_point(Landmark::LEFT_EAR),
-                                           landmark_point(Landmark::LEFT_BIG_TOE),
-                                           landmark_point(Landmark::LEFT_SMALL_TOE),
-                                           landmark_point(Landmark::LEFT_HEEL),
-                                           landmark_point(Landmark::RIGHT_BIG_TOE),
-                                           landmark_point(Landmark::RIGHT_SMALL_TOE),
-                                           landmark_point(Landmark::RIGHT_HEEL)};
+                                           idx(Landmark::RIGHT_EYE),
+                                           idx(Landmark::LEFT_EYE),
+                                           idx(Landmark::RIGHT_EAR),
+                                           idx(Landmark::LEFT_EAR),
+                                           idx(Landmark::LEFT_BIG_TOE),
+                                           idx(Landmark::LEFT_SMALL_TOE),
+                                           idx(Landmark::LEFT_HEEL),
+                                           idx(Landmark::RIGHT_BIG_TOE),
+                                           idx(Landmark::RIGHT_SMALL_TOE),
+                                           idx(Landmark::RIGHT_HEEL)};
 // COCO-18 (OpenPose's COCO model): BODY_25 without MidHip and the feet, in its own order.
-const std::array<int, 18> COCO18_POINTS = {landmark_point(Landmark::NOSE),
-                                           landmark_point(Landmark::NECK_BASE),
-                                           idx(Joint::RIGHT_SHOULDER),
-                                           idx(Joint::RIGHT_ELBOW),
-                                           idx(Joint::RIGHT_WRIST),
-                                           idx(Joint::LEFT_SHOULDER),
-                                           idx(Joint::LEFT_ELBOW),
-                                           idx(Joint::LEFT_WRIST),
-                                           landmark_point(Landmark::RIGHT_HIP_SURFACE),
-                                           idx(Joint::RIGHT_KNEE),
-                                           idx(Joint::RIGHT_ANKLE),
-                                           landmark_point(Landmark::LEFT_HIP_SURFACE),
-                                           idx(Joint::LEFT_KNEE),
-                                           idx(Joint::LEFT_ANKLE),
-                                           landmark_point(Landmark::RIGHT_EYE),
-                                           landmark_point(Landmark::LEFT_EYE),
-                                           landmark_point(Landmark::RIGHT_EAR),
-                                           landmark_point(Landmark::LEFT_EAR)};
+const std::array<int, 18> COCO18_POINTS = {
+    idx(Landmark::NOSE),     idx(Landmark::NECK_BASE), idx(Joint::RIGHT_SHOULDER),
+    idx(Joint::RIGHT_ELBOW), idx(Joint::RIGHT_WRIST),  idx(Joint::LEFT_SHOULDER),
+    idx(Joint::LEFT_ELBOW),  idx(Joint::LEFT_WRIST),   idx(Landmark::RIGHT_HIP_SURFACE),
+    idx(Joint::RIGHT_KNEE),  idx(Joint::RIGHT_ANKLE),  idx(Landmark::LEFT_HIP_SURFACE),
+    idx(Joint::LEFT_KNEE),   idx(Joint::LEFT_ANKLE),   idx(Landmark::RIGHT_EYE),
+    idx(Landmark::LEFT_EYE), idx(Landmark::RIGHT_EAR), idx(Landmark::LEFT_EAR)};
 const std::array<int, 14> LSP14_POINTS = {idx(Joint::RIGHT_ANKLE),
                                           idx(Joint::RIGHT_KNEE),
-                                          landmark_point(Landmark::RIGHT_HIP_SURFACE),
-                                          landmark_point(Landmark::LEFT_HIP_SURFACE),
+                                          idx(Landmark::RIGHT_HIP_SURFACE),
+                                          idx(Landmark::LEFT_HIP_SURFACE),
                                           idx(Joint::LEFT_KNEE),
                                           idx(Joint::LEFT_ANKLE),
                                           idx(Joint::RIGHT_WRIST),
@@ -83,12 +70,11 @@ const std::array<int, 14> LSP14_POINTS = {idx(Joint::RIGHT_ANKLE),
                                           idx(Joint::LEFT_ELBOW),
                                           idx(Joint::LEFT_WRIST),
                                           idx(Joint::NECK),
-                                          landmark_point(Landmark::HEAD_TOP)};
+                                          idx(Landmark::HEAD_TOP)};
 
 bool is_torso_point(int p) {
-  return p == idx(Joint::LEFT_SHOULDER) || p == idx(Joint::RIGHT_SHOULDER) ||
-         p == landmark_point(Landmark::LEFT_HIP_SURFACE) || p == landmark_point(Landmark::RIGHT_HIP_SURFACE) ||
-         p == idx(Joint::LEFT_HIP) || p == idx(Joint::RIGHT_HIP);
+  return p == idx(Joint::LEFT_SHOULDER) || p == idx(Joint::RIGHT_SHOULDER) || p == idx(Landmark::LEFT_HIP_SURFACE) ||
+         p == idx(Landmark::RIGHT_HIP_SURFACE) || p == idx(Joint::LEFT_HIP) || p == idx(Joint::RIGHT_HIP);
 }
 
 double finite_number(const nlohmann::json& v, const std::string& source, const std::string& element) {
@@ -189,7 +175,7 @@ int named_body_point(std::string_view name) {
   if (auto j = joint_from_name(name)) return *j;
   for (std::size_t i = 0; i < BODY25_NAMES.size(); ++i)
     if (BODY25_NAMES[i] == name) return BODY25_POINTS[i];
-  if (name == "head_top" || name == "HeadTop") return landmark_point(Landmark::HEAD_TOP);
+  if (name == "head_top" || name == "HeadTop") return idx(Landmark::HEAD_TOP);
   return -1;
 }
 

@@ -58,6 +58,10 @@ enum class Landmark : int {
 /// Number of body points: 24 joints + the landmarks.
 inline constexpr int BODY_POINT_COUNT = static_cast<int>(Landmark::END);
 
+/// The body point (row of a BODY_POINT_COUNT × 3 table) of landmark `l`, as idx(Joint) is a
+/// joint's: in [JOINT_COUNT, BODY_POINT_COUNT) for a landmark other than END.
+constexpr int idx(Landmark l) { return static_cast<int>(l); }
+
 /// Name of body point `point`: a canonical joint name, or "nose", "left_eye", ... "right_heel";
 /// "unknown" for a point outside [0, BODY_POINT_COUNT) (never throws).
 std::string_view body_point_name(int point);

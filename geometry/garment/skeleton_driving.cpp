@@ -393,13 +393,9 @@ std::vector<double> pocket_clearances(std::span<const float> points, const Proxi
       queries.clear();
       radii.clear();
       for (const std::size_t i : which) {
-        double r2 = 0;
-        for (std::size_t c = 0; c < 3; ++c) {
-          const float x = points[3 * i + c] + d[int(c)];
-          queries.push_back(x);
-          r2 += (double(x) - hits.points[3 * i + c]) * (double(x) - hits.points[3 * i + c]);
-        }
-        const float warm = float(std::sqrt(r2)) * (1.0f + 1e-5f) + 1e-6f;
+        for (std::size_t c = 0; c < 3; ++c)
+          queries.push_back(points[3 * i + c] + d[int(c)]);
+        const float warm = requery_radius(&queries[queries.size() - 3], &hits.points[3 * i]);
         radii.push_back(bound[i] > 0 ? std::min(warm, float(cap)) : warm);
       }
       body.closest_points(queries, radii, some);
