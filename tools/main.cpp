@@ -237,7 +237,7 @@ A table of stage times goes to stdout (not with --quiet). Nothing is written on 
 )";
 
 constexpr const char* BENCH_HELP =
-    R"(usage: vfit bench table1 [--runs N] [--rows N] [--json FILE] [--no-simulation] [--min-speedup X] [--quiet]
+    R"(usage: vfit bench table1 [--runs N] [--rows N] [--garment NAME] [--json FILE] [--no-simulation] [--min-speedup X] [--quiet]
        vfit bench sweep [--garment TYPE] [--max-vertices N] [--runs N] [--json FILE] [--quiet]
 
 table1: the nine garment/body pairs of seed 000 Table 1, rebuilt from the catalogue with the
@@ -248,8 +248,9 @@ move), penetration removal and their total; then, in its own column, the cloth s
 rest from one more fit with it on (not part of the total; --no-simulation skips it). --json
 writes one row per pair with garment, vertices, faces and per stage paper_ms, median_ms,
 min_ms and speedup, the simulation's ms, outcome and steps, plus the machine.
---rows N runs only the first N pairs. --min-speedup X exits with status 1, naming the pairs,
-when a pair's total is under X times the paper's (the regression check of `ctest -L bench`).
+--rows N runs only the first N pairs, --garment NAME only the pairs of that garment ("Shorts 1").
+--min-speedup X exits with status 1, naming the pairs, when a pair's total is under X times the
+paper's (the regression check of `ctest -L bench`).
 sweep: one garment (default tee) at 1,000 to --max-vertices (default 100,000; up to 10^6)
 vertices in steps of sqrt(10), the same stages, and each stage's growth exponent k (time ∝ V^k).
 Garment generation is not timed.
