@@ -173,11 +173,12 @@ void drive(GarmentState& g, const Body& body, const ProximityIndex& body_index, 
       const SkeletonDriving d = g.rig.driver->drive(body.joints, options.contact_placement ? &body_index : nullptr);
       g.out.mesh.positions = d.positions;
       g.driven = true;
-      char line[160];
+      char line[200];
       std::snprintf(line, sizeof line,
-                    "driven: %zu limbs (orientation %.1f, driving %.1f, Laplacian %.1f, setup %.1f ms%s)",
-                    d.limbs.size(), d.timings.orientation_ms, d.timings.driving_ms, d.timings.laplacian_ms,
-                    g.rig.driver->setup_ms(), g.rig_is_new ? "" : ", shared");
+                    "driven: %zu limbs (orientation %.1f, factorisation %.1f beside it, driving %.1f, Laplacian %.1f, "
+                    "setup %.1f ms%s)",
+                    d.limbs.size(), d.timings.orientation_ms, d.timings.factorisation_ms, d.timings.driving_ms,
+                    d.timings.laplacian_ms, g.rig.driver->setup_ms(), g.rig_is_new ? "" : ", shared");
       g.report.driving = line;
     } catch (const Error& e) {
       g.report.driving = std::string("skipped: ") + e.what();

@@ -5,11 +5,15 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <numbers>
 #include <numeric>
 #include <optional>
 #include <queue>
 #include <string>
+
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
 
 #include "coarse_move.h"
 #include "kernels/error.h"
@@ -538,6 +542,12 @@ GarmentKeyJoints garment_key_joints(const Mesh& garment, const GarmentSegmentati
               "the garment has neither sleeve boundary planes (a top) nor a crotch and two leg skeletons (trousers)");
 }
 
+struct SkeletonDriver::Band {
+  std::once_flag built;
+  std::unique_ptr<BandLaplacianDeformer> deformer;
+  Eigen::MatrixXd rest_delta; ///< #V × 3: L · rest positions
+};
+
 SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& segmentation,
                                std::span<const PartSkeleton> skeletons, const SkeletonDrivingOptions& options)
     : m_garment(garment), m_parts(segmentation.vertex_parts), m_options(options) {
@@ -608,26 +618,35 @@ SkeletonDriver::SkeletonDriver(const Mesh& garment, const GarmentSegmentation& s
   for (std::size_t v = 0; v < nv; ++v)
     if (m_seam_distance[v] > options.seam_radius) m_handles.push_back(static_cast<std::int32_t>(v));
 
-  m_deformer = std::make_unique<BandLaplacianDeformer>(garment, m_handles, false, options.band_solver);
-  if (!m_deformer->ok())
-    throw Error("skeleton driving", 0,
-                "the Laplacian system is singular: a piece of the garment lies entirely within " +
-                    std::to_string(options.seam_radius) + " m of a seam, so it has no handle");
-  m_rest_delta = m_deformer->laplacian_coordinates(garment.positions);
+  m_band = std::make_unique<Band>();
   m_setup_ms = ms_since(t0);
+}
+
+double SkeletonDriver::build_band() const {
+  double ms = 0;
+  std::call_once(m_band->built, [&] {
+    // Isolated: while its pieces are factored in parallel, this thread must not pick up another
+    // drive() of the same driver, which would wait on this once_flag.
+    tbb::this_task_arena::isolate([&] {
+      const auto t0 = Clock::now();
+      m_band->deformer = std::make_unique<BandLaplacianDeformer>(m_garment, m_handles, false, m_options.band_solver);
+      if (m_band->deformer->ok()) m_band->rest_delta = m_band->deformer->laplacian_coordinates(m_garment.positions);
+      ms = ms_since(t0);
+    });
+  });
+  return ms;
 }
 
 SkeletonDriver::~SkeletonDriver() = default;
 SkeletonDriver::SkeletonDriver(SkeletonDriver&&) noexcept = default;
 SkeletonDriver& SkeletonDriver::operator=(SkeletonDriver&&) noexcept = default;
 
-SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const ProximityIndex* body_surface) const {
-  SkeletonDriving out;
+void SkeletonDriver::orient(const JointPositions& body_joints, const ProximityIndex* body_surface, SkeletonDriving& out,
+                            Eigen::Matrix3d& R, Eigen::Vector3d& t) const {
   const auto t0 = Clock::now();
   const std::size_t nv = m_garment.vertex_count();
   const std::span<const float> x = m_garment.positions;
   auto joint = [&](Joint j) { return Eigen::Vector3d(body_joints.row(idx(j)).transpose()); };
-
   // Orientation (eq. 5–7): R_h turns the garment's horizontal (J2 − J1) onto the body's, then
   // R_v, about the body's horizontal, turns the garment's vertical (+Y, an upright garment)
   // onto the body's trunk (pelvis → neck), both made normal to that horizontal. The collar or
@@ -641,9 +660,9 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
   auto normal_part = [&](const Eigen::Vector3d& v) { return Eigen::Vector3d(v - v.dot(axis) * axis); };
   const Eigen::Vector3d vv_cloth = normal_part(Rh * Eigen::Vector3d::UnitY());
   const Eigen::Vector3d vv_body = normal_part(joint(Joint::NECK) - joint(Joint::PELVIS));
-  const Eigen::Matrix3d R = rotation_between(vv_cloth, vv_body) * Rh;
+  R = rotation_between(vv_cloth, vv_body) * Rh;
   // Eq. 16–17: the key joints' midpoints coincide.
-  Eigen::Vector3d t = 0.5 * (h1 + h2) - R * (0.5 * (g.j1 + g.j2));
+  t = 0.5 * (h1 + h2) - R * (0.5 * (g.j1 + g.j2));
   if (body_surface && g.legs) {
     const Eigen::Vector3d up = (joint(Joint::NECK) - joint(Joint::PELVIS)).normalized();
     const double thigh = 0.5 * ((joint(Joint::LEFT_KNEE) - h2).norm() + (joint(Joint::RIGHT_KNEE) - h1).norm());
@@ -682,6 +701,25 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
   out.torso_rotation = R;
   out.torso_translation = t;
   out.timings.orientation_ms = ms_since(t0);
+}
+
+SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const ProximityIndex* body_surface) const {
+  SkeletonDriving out;
+  const auto start = Clock::now();
+  const std::size_t nv = m_garment.vertex_count();
+  const std::span<const float> x = m_garment.positions;
+  auto joint = [&](Joint j) { return Eigen::Vector3d(body_joints.row(idx(j)).transpose()); };
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  // The band's factorisation (first call only) beside the orientation, which does not need it.
+  tbb::parallel_invoke([&] { out.timings.factorisation_ms = build_band(); },
+                       [&] { orient(body_joints, body_surface, out, R, t); });
+  if (!m_band->deformer->ok())
+    throw Error("skeleton driving", 0,
+                "the Laplacian system is singular: a piece of the garment lies entirely within " +
+                    std::to_string(m_options.seam_radius) + " m of a seam, so it has no handle");
+
+  const GarmentKeyJoints& g = m_key_joints;
 
   // Skeleton driving (eq. 8–11) and node rotations (eq. 13–15). With a body surface, limbs are
   // measured from the body's joints; with joints alone, from the garment's own key joints.
@@ -821,7 +859,9 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
   // coordinates turned by each vertex's rotation; near a seam the rotation fades from the
   // limb's to the torso's over seam_radius on both sides.
   const auto t2 = Clock::now();
-  Eigen::MatrixXd delta(m_rest_delta.rows(), 3);
+  const BandLaplacianDeformer& deformer = *m_band->deformer;
+  const Eigen::MatrixXd& rest_delta = m_band->rest_delta;
+  Eigen::MatrixXd delta(rest_delta.rows(), 3);
   const double r = m_options.seam_radius;
   for (std::size_t v = 0; v < nv; ++v) {
     Eigen::Matrix3d Q = rotation[v];
@@ -833,7 +873,7 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
                   0.5 - 0.5 * m_seam_distance[v] / r);
     }
     delta.row(static_cast<Eigen::Index>(v)) =
-        (Q * m_rest_delta.row(static_cast<Eigen::Index>(v)).transpose()).transpose();
+        (Q * rest_delta.row(static_cast<Eigen::Index>(v)).transpose()).transpose();
   }
   Eigen::MatrixXd targets(static_cast<Eigen::Index>(m_handles.size()), 3);
   for (std::size_t c = 0; c < m_handles.size(); ++c)
@@ -842,10 +882,10 @@ SkeletonDriving SkeletonDriver::drive(const JointPositions& body_joints, const P
   // placements blended smoothly across it (blended_guess()): the rigid positions themselves
   // step at the seam, and a step is slow to smooth out.
   Eigen::MatrixXd guess;
-  if (m_deformer->iterative()) guess = blended_guess(rigid, R, t, out.limbs, node_feet);
-  out.positions = m_deformer->deform(delta, targets, m_deformer->iterative() ? &guess : nullptr, &out.laplacian_solve);
+  if (deformer.iterative()) guess = blended_guess(rigid, R, t, out.limbs, node_feet);
+  out.positions = deformer.deform(delta, targets, deformer.iterative() ? &guess : nullptr, &out.laplacian_solve);
   out.timings.laplacian_ms = ms_since(t2);
-  out.timings.total_ms = out.timings.orientation_ms + out.timings.driving_ms + out.timings.laplacian_ms;
+  out.timings.total_ms = ms_since(start);
   return out;
 }
 

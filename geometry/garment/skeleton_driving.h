@@ -44,10 +44,13 @@ struct SkeletonDrivingOptions {
 /// Wall-clock time per stage (ms).
 struct SkeletonDrivingTimings {
   double orientation_ms = 0; ///< key joints, torso rotation (eq. 5–7) and translation
+  /// The band's Laplacian factorisation, on a driver's first drive() only (0 after): it runs
+  /// beside the orientation, so the two overlap in time.
+  double factorisation_ms = 0;
   double driving_ms = 0;   ///< node targets (eq. 8–11), node rotations and per-vertex rigid transforms (eq. 13–15)
   double laplacian_ms = 0; ///< rotated differential coordinates and the three per-axis solves
-  double setup_ms = 0;     ///< SkeletonDriver construction: seam distances, handles, factorisation
-  double total_ms = 0;     ///< all of the above
+  double setup_ms = 0;     ///< SkeletonDriver construction: key joints, seam distances, handles
+  double total_ms = 0;     ///< wall time of all of the above (the factorisation overlapped)
 };
 
 /// One sleeve or leg after driving. Each node is placed by its distance from the garment's own
@@ -131,14 +134,17 @@ Eigen::Matrix3d rotation_between(const Eigen::Vector3d& from, const Eigen::Vecto
 
 /// Precompute/solve skeleton driving for one garment: the handles (vertices further than
 /// options.seam_radius from every limb seam) and the Laplacian factorisation depend on the
-/// garment alone and are built once; drive() then places the garment on any body.
+/// garment alone and are built once; drive() then places the garment on any body. The
+/// factorisation is made by the first drive(), beside the torso's orientation and placement
+/// (which do not need it), so that its serial work overlaps theirs; later calls reuse it.
 ///
 /// garment: #V × 3 positions (m), #F × 3 triangles; segmentation: segment_garment()'s result
 /// for it (labels and key points); skeletons: extract_limb_skeletons()'s for it (entries that
-/// are not sleeves or legs are ignored). Throws vfit::Error("skeleton driving", …) when the
-/// labels or skeletons do not match the mesh, when the garment has no key joints (skirts,
-/// sleeveless tops and dresses: see garment_key_joints()), or when a connected piece of the
-/// garment has no handle.
+/// are not sleeves or legs are ignored). The constructor throws vfit::Error("skeleton
+/// driving", …) when the labels or skeletons do not match the mesh or when the garment has no
+/// key joints (skirts, sleeveless tops and dresses: see garment_key_joints()); drive() throws
+/// it when a connected piece of the garment has no handle (the band's system is singular).
+/// drive() may be called from several threads at once.
 class SkeletonDriver {
 public:
   SkeletonDriver(const Mesh& garment, const GarmentSegmentation& segmentation, std::span<const PartSkeleton> skeletons,
@@ -204,9 +210,20 @@ private:
   std::vector<std::int32_t> m_handles;
   std::vector<std::int32_t> m_vertex_limb; ///< #V: index into m_skeletons, −1 for the torso
   std::vector<std::int32_t> m_vertex_node; ///< #V: node within its limb, −1 for the torso
-  Eigen::MatrixXd m_rest_delta;            ///< #V × 3: L · rest positions
-  std::unique_ptr<BandLaplacianDeformer> m_deformer;
+  /// The band's factorisation and the rest's differential coordinates, built once by the first
+  /// drive() (build_band()); on the heap, so a move of the driver leaves it in place.
+  struct Band;
+  std::unique_ptr<Band> m_band;
   double m_setup_ms = 0;
+
+  /// Orientation and placement of the torso (eq. 5–7, 16–17, the crotch, contact and pocket
+  /// steps drive() describes): the torso's rotation R and translation t, with out's
+  /// contact_translation, pocket_offset, torso_rotation, torso_translation and orientation_ms.
+  void orient(const JointPositions& body_joints, const ProximityIndex* body_surface, SkeletonDriving& out,
+              Eigen::Matrix3d& R, Eigen::Vector3d& t) const;
+  /// Builds m_band once (thread-safe); returns its factorisation's milliseconds on the call
+  /// that built it, 0 on the others.
+  double build_band() const;
 };
 
 /// One call: SkeletonDriver(garment, segmentation, skeletons, options).drive(body_joints,

@@ -10,6 +10,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
 
 #include "geometry/body/mannequin_shape.h"
 #include "geometry/body/pose_io.h"
@@ -17,6 +18,7 @@
 #include "geometry/mesh/primitives.h"
 #include "kernels/error.h"
 #include "kernels/proximity.h"
+
 #include "test_support.h"
 
 namespace vfit {
@@ -413,6 +415,32 @@ TEST(SkeletonDriving, RejectsLabelsOfAnotherMesh) {
   GarmentSegmentation wrong = f.segmentation;
   wrong.vertex_parts.pop_back();
   EXPECT_THROW(SkeletonDriver(f.garment.mesh, wrong, f.skeletons), Error);
+}
+
+// The band is factored by the first drive() alone (beside the orientation): later drives, from
+// several threads at once and after the driver was moved, reuse it and give the same positions
+// bit for bit (the factorisation is deterministic and each solve reads it only).
+TEST(SkeletonDriving, FactorsOnceOnTheFirstDriveAndReusesIt) {
+  const Fixture& f = fixture(GarmentType::TROUSERS);
+  const JointPositions j = joints_in("legs_apart");
+  SkeletonDriver first(f.garment.mesh, f.segmentation, f.skeletons);
+  const SkeletonDriving a = first.drive(j);
+  EXPECT_GT(a.timings.factorisation_ms, 0.0);
+  const SkeletonDriver driver(std::move(first));
+  std::vector<SkeletonDriving> again(4);
+  tbb::parallel_for(std::size_t{0}, again.size(), [&](std::size_t i) { again[i] = driver.drive(j); });
+  for (const SkeletonDriving& b : again) {
+    EXPECT_EQ(b.timings.factorisation_ms, 0.0);
+    EXPECT_EQ(b.positions, a.positions);
+  }
+  // A fresh driver driven from several threads at once factors once, and agrees.
+  const SkeletonDriver fresh(f.garment.mesh, f.segmentation, f.skeletons);
+  tbb::parallel_for(std::size_t{0}, again.size(), [&](std::size_t i) { again[i] = fresh.drive(j); });
+  EXPECT_EQ(std::count_if(again.begin(), again.end(),
+                          [](const SkeletonDriving& b) { return b.timings.factorisation_ms > 0; }),
+            1);
+  for (const SkeletonDriving& b : again)
+    EXPECT_EQ(b.positions, a.positions);
 }
 
 // A tube 0.4 m long whose bottom 5 and top 5 rings (of 20) are handles; the 10 between are free.
