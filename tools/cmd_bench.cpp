@@ -79,8 +79,8 @@ int run_table1(Args& args) {
   const int row_limit = rows_value ? Args::to_int("--rows", *rows_value, 1, 9) : 9;
   // --garment NAME: only the pairs of that garment (e.g. "Shorts 1"), for profiling one row.
   const std::optional<std::string> only = args.value("garment");
-  if (only && std::none_of(table1_rows().begin(), table1_rows().end(),
-                           [&](const Table1Row& r) { return r.garment == *only; }))
+  if (only &&
+      std::none_of(table1_rows().begin(), table1_rows().end(), [&](const Table1Row& r) { return r.garment == *only; }))
     throw Error("--garment", 0, "no Table-1 pair has the garment '" + *only + "'");
   const std::optional<std::string> json_path = args.value("json");
   const bool quiet = args.flag("quiet");
@@ -156,7 +156,9 @@ int run_table1(Args& args) {
     }
     rows.push_back(j);
   }
-  const std::string which = rows.size() == table1_rows().size() ? "all nine rows" : std::to_string(rows.size()) + (rows.size() == 1 ? " row" : " rows");
+  const std::string which = rows.size() == table1_rows().size()
+                                ? "all nine rows"
+                                : std::to_string(rows.size()) + (rows.size() == 1 ? " row" : " rows");
   std::printf("%s: paper %.0f ms, ours %.1f ms (medians of %d runs), %.0fx\n", which.c_str(), paper_sum, ours_sum, runs,
               paper_sum / ours_sum);
   std::printf("machine: %s, %d TBB threads; paper: Intel 4 x 2.5 GHz\n", report.cpu_model.c_str(),
