@@ -44,8 +44,16 @@ ParsedMesh read_gltf(std::string_view bytes, const std::string& path);
 /// normals computed here; +Z where a vertex has none), TEXCOORD_0 (when it has UVs, v flipped
 /// as read_gltf describes) and UNSIGNED_INT indices. A vertex is split once per distinct (UV,
 /// normal) pair among its corners, so a mesh without seams keeps its vertices and their order.
-/// Throws vfit::Error naming the mesh for a null mesh, a mesh without faces, non-finite
-/// positions or out-of-range indices.
-std::string write_glb(std::span<const NamedMesh> meshes);
+/// A mesh with a skin gets JOINTS_0/WEIGHTS_0 and a skin whose joints are nodes (translation
+/// relative to the parent's bind position, inverse bind matrices undoing the bind position);
+/// meshes whose skins have the same joints (names, parents, bind positions) share one skin and
+/// one set of joint nodes, so one skeleton moves a body and its garments. A mesh with a colour
+/// gets a material of its own (metallic 0, roughness 0.8, double-sided). With `animation`, an
+/// animation drives the first skin's joint nodes: a LINEAR rotation channel per joint and a
+/// translation channel on its root. Throws vfit::Error naming the mesh for a null mesh, a mesh
+/// without faces, non-finite positions or out-of-range indices, a skin that does not match its
+/// mesh, and naming the animation when there is no skin, its sizes do not match the skeleton
+/// and #times, its times do not increase, or a value is not finite.
+std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* animation = nullptr);
 
 } // namespace vfit

@@ -162,9 +162,50 @@ private:
   Json m_accessors = Json::array();
 };
 
+// One animation of the skin whose joints are nodes first_node, first_node + 1, ...
+Json animation_json(const SkinAnimation& a, const MeshSkin* skin, std::size_t first_node, BinaryBuilder& bin) {
+  const std::string name = a.name.empty() ? "animation" : a.name;
+  if (!skin) throw Error(name, 0, "an animation needs a skinned mesh to drive");
+  const std::size_t nj = skin->joint_names.size(), nk = a.times.size();
+  if (nk == 0 || a.rotations.size() != nk * nj * 4 || a.root_positions.size() != nk * 3)
+    throw Error(name, 0,
+                "sizes do not match: " + std::to_string(nk) + " times, " + std::to_string(a.rotations.size()) +
+                    " rotation values (expected times × " + std::to_string(nj) + " joints × 4), " +
+                    std::to_string(a.root_positions.size()) + " root position values (expected times × 3)");
+  for (std::size_t k = 0; k < nk; ++k)
+    if (!std::isfinite(a.times[k]) || (k > 0 && !(a.times[k] > a.times[k - 1])) || a.times[k] < 0)
+      throw Error(name, 0, "time " + std::to_string(k + 1) + " is not finite, negative or not after the one before");
+  for (const float v : a.rotations)
+    if (!std::isfinite(v)) throw Error(name, 0, "a rotation is not finite");
+  for (const float v : a.root_positions)
+    if (!std::isfinite(v)) throw Error(name, 0, "a root position is not finite");
+  std::size_t root = 0;
+  while (root < nj && skin->joint_parents[root] >= 0)
+    ++root;
+  const std::size_t input = bin.add(a.times, 1, FLOAT, -1);
+  bin.accessor(input)["min"] = Json::array({a.times.front()});
+  bin.accessor(input)["max"] = Json::array({a.times.back()});
+  Json samplers = Json::array(), channels = Json::array();
+  std::vector<float> track(nk * 4);
+  for (std::size_t j = 0; j < nj; ++j) {
+    for (std::size_t k = 0; k < nk; ++k)
+      for (std::size_t c = 0; c < 4; ++c)
+        track[4 * k + c] = a.rotations[(k * nj + j) * 4 + c];
+    channels.push_back({{"sampler", samplers.size()}, {"target", {{"node", first_node + j}, {"path", "rotation"}}}});
+    samplers.push_back({{"input", input}, {"output", bin.add(track, 4, FLOAT, -1)}, {"interpolation", "LINEAR"}});
+  }
+  if (root < nj) {
+    channels.push_back(
+        {{"sampler", samplers.size()}, {"target", {{"node", first_node + root}, {"path", "translation"}}}});
+    samplers.push_back(
+        {{"input", input}, {"output", bin.add(a.root_positions, 3, FLOAT, -1)}, {"interpolation", "LINEAR"}});
+  }
+  return {{"name", name}, {"channels", std::move(channels)}, {"samplers", std::move(samplers)}};
+}
+
 } // namespace
 
-std::string write_glb(std::span<const NamedMesh> meshes) {
+std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* animation) {
   Json doc;
   doc["asset"] = {{"version", "2.0"}, {"generator", "vfit"}};
   Json nodes = Json::array();       // one per mesh, in order
@@ -172,6 +213,17 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
   Json gltf_meshes = Json::array();
   Json skins = Json::array();
   std::vector<std::size_t> skin_roots; // root joint nodes, listed in the scene
+  Json materials = Json::array();
+  // Skins written so far: their skeleton, first joint node and skin index (shared when equal).
+  struct WrittenSkin {
+    const MeshSkin* skin;
+    std::size_t first_node, index;
+  };
+  std::vector<WrittenSkin> written;
+  auto same_skeleton = [](const MeshSkin& a, const MeshSkin& b) {
+    return a.joint_names == b.joint_names && a.joint_parents == b.joint_parents &&
+           a.joint_positions == b.joint_positions;
+  };
   BinaryBuilder bin;
   // Joint nodes come after the mesh nodes.
   std::size_t next_node = meshes.size();
@@ -213,11 +265,20 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
           const std::int32_t j = skin->joints[4 * v + k];
           if (j < 0 || static_cast<std::size_t>(j) >= nj)
             throw Error(name, 0, "vertex " + std::to_string(v + 1) + ": joint index out of range");
-          vj.push_back(static_cast<std::uint16_t>(j));
-          vw.push_back(skin->weights[4 * v + k]);
+          // An unused slot names joint 0, as the spec asks of a zero weight.
+          const float w = skin->weights[4 * v + k];
+          vj.push_back(w == 0 ? std::uint16_t{0} : static_cast<std::uint16_t>(j));
+          vw.push_back(w);
         }
       attributes["JOINTS_0"] = bin.add(vj, 4, UNSIGNED_SHORT, ARRAY_BUFFER);
       attributes["WEIGHTS_0"] = bin.add(vw, 4, FLOAT, ARRAY_BUFFER);
+      const auto shared = std::find_if(written.begin(), written.end(),
+                                       [&](const WrittenSkin& w) { return same_skeleton(*w.skin, *skin); });
+      if (shared != written.end()) node["skin"] = shared->index;
+    }
+    if (meshes[i].skin && !node.contains("skin")) {
+      const MeshSkin* skin = meshes[i].skin;
+      const std::size_t nj = skin->joint_names.size();
       // Joint nodes: translation relative to the parent's bind position; inverse bind matrices
       // undo the bind position (column-major 4×4, rotation-free bind pose).
       std::vector<float> ibm;
@@ -245,9 +306,20 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
       Json skin_json = {{"joints", std::move(skin_joints)}, {"inverseBindMatrices", bin.add(ibm, 16, FLOAT, -1)}};
       if (!skin_roots.empty()) skin_json["skeleton"] = skin_roots.back();
       node["skin"] = skins.size();
+      written.push_back({skin, first, skins.size()});
       skins.push_back(std::move(skin_json));
     }
     Json primitive = {{"attributes", std::move(attributes)}, {"indices", indices}, {"mode", 4}};
+    if (meshes[i].color) {
+      const auto& c = *meshes[i].color;
+      primitive["material"] = materials.size();
+      materials.push_back({{"name", name},
+                           {"doubleSided", true},
+                           {"pbrMetallicRoughness",
+                            {{"baseColorFactor", Json::array({c[0], c[1], c[2], 1.0f})},
+                             {"metallicFactor", 0.0f},
+                             {"roughnessFactor", 0.8f}}}});
+    }
     Json mesh = {{"primitives", Json::array({std::move(primitive)})}};
     if (!meshes[i].name.empty()) mesh["name"] = node["name"] = meshes[i].name;
     gltf_meshes.push_back(std::move(mesh));
@@ -265,7 +337,11 @@ std::string write_glb(std::span<const NamedMesh> meshes) {
     doc["nodes"] = std::move(nodes);
     doc["meshes"] = std::move(gltf_meshes);
     if (!skins.empty()) doc["skins"] = std::move(skins);
+    if (!materials.empty()) doc["materials"] = std::move(materials);
   }
+  if (animation)
+    doc["animations"] = Json::array({animation_json(*animation, written.empty() ? nullptr : written.front().skin,
+                                                    written.empty() ? 0 : written.front().first_node, bin)});
   doc["scene"] = 0;
   doc["scenes"] = Json::array({std::move(scene)});
   const std::string binary = bin.finish(doc);

@@ -3,7 +3,9 @@
 /// The mesh type every preprocessing stage reads and writes: flat arrays that kernels/ can take
 /// as spans without a copy, with per-corner UV and normal indices so seams survive a round trip.
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -69,11 +71,23 @@ struct MeshSkin {
 };
 
 /// A mesh with a name, for writers of multi-mesh files (glTF scenes: body and garments), and
-/// optionally its skin.
+/// optionally its skin and colour.
 struct NamedMesh {
   std::string name;
   const Mesh* mesh = nullptr;
   const MeshSkin* skin = nullptr;
+  /// Base colour (linear RGB in [0, 1]) of a material of its own; none: the viewer's default.
+  std::optional<std::array<float, 3>> color = std::nullopt;
+};
+
+/// Keyframes of a skeleton (a MeshSkin's joints, in its order), for writers of animated files:
+/// at each time, every joint's rotation relative to its parent (the rest pose has none: the
+/// bind pose is rotation-free) and the root joint's position.
+struct SkinAnimation {
+  std::string name;
+  std::vector<float> times;          ///< #K seconds, strictly increasing, from 0
+  std::vector<float> rotations;      ///< #K × #J × 4: unit quaternions (x, y, z, w), local to the parent
+  std::vector<float> root_positions; ///< #K × 3: the (first) root joint's position (m)
 };
 
 } // namespace vfit

@@ -509,4 +509,22 @@ BvhMotion poses_to_bvh(const JointPositions& rest, const std::vector<Pose>& fram
   return m;
 }
 
+SkinAnimation poses_to_skin_animation(const JointPositions& rest, const std::vector<Pose>& frames, double fps,
+                                      const std::string& name) {
+  if (frames.empty()) throw Error(name, 0, "no frames to animate");
+  if (!(fps > 0) || !std::isfinite(fps)) throw Error(name, 0, "fps must be positive, got " + std::to_string(fps));
+  SkinAnimation a;
+  a.name = name;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    a.times.push_back(float(double(k) / fps));
+    for (int j = 0; j < JOINT_COUNT; ++j) {
+      const Eigen::Quaterniond q(axis_angle_to_matrix(frames[k].axis_angle.row(j).transpose()));
+      a.rotations.insert(a.rotations.end(), {float(q.x()), float(q.y()), float(q.z()), float(q.w())});
+    }
+    const Eigen::Vector3d root = rest.row(0).transpose() + frames[k].translation;
+    a.root_positions.insert(a.root_positions.end(), {float(root.x()), float(root.y()), float(root.z())});
+  }
+  return a;
+}
+
 } // namespace vfit

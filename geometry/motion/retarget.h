@@ -24,6 +24,7 @@
 
 #include "bvh.h"
 #include "geometry/body/skeleton.h"
+#include "geometry/mesh/mesh.h"
 
 namespace vfit {
 
@@ -92,6 +93,13 @@ RetargetedMotion retarget_bvh(const BvhMotion& motion, const JointPositions& res
 /// mapping, for poses whose ankles are at their rest height in some frame (that frame sets the
 /// floor). `fps` > 0; throws vfit::Error otherwise.
 BvhMotion poses_to_bvh(const JointPositions& rest, const std::vector<Pose>& frames, double fps);
+
+/// glTF keyframes of `frames` at `fps` (> 0) for the canonical skeleton as body_skin() writes
+/// it (rest joints `rest`, m): each joint's rotation as a unit quaternion, the pelvis at its rest
+/// position plus the frame's translation; frame k at k / fps seconds. Throws vfit::Error for no
+/// frames or a rate that is not positive.
+SkinAnimation poses_to_skin_animation(const JointPositions& rest, const std::vector<Pose>& frames, double fps,
+                                      const std::string& name);
 
 /// `frames` at `from_fps` resampled to `to_fps` (> 0) over the same duration: joint rotations
 /// interpolated by spherical linear interpolation of their quaternions, the translation

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
-#include <optional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -73,15 +72,17 @@ double planted_slide(const std::vector<JointPositions>& frames, Joint foot) {
   for (const JointPositions& p : frames)
     floor = std::min(floor, p(idx(foot), 1));
   double worst = 0;
-  std::optional<Eigen::Vector2d> start;
+  bool planted = false;
+  Eigen::Vector2d start = Eigen::Vector2d::Zero();
   for (const JointPositions& p : frames) {
     const Eigen::Vector2d at(p(idx(foot), 0), p(idx(foot), 2));
     if (p(idx(foot), 1) > floor + 0.02) {
-      start.reset();
+      planted = false;
       continue;
     }
-    if (!start) start = at;
-    worst = std::max(worst, (at - *start).norm());
+    if (!planted) start = at;
+    planted = true;
+    worst = std::max(worst, (at - start).norm());
   }
   return worst;
 }

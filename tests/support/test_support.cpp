@@ -89,6 +89,33 @@ CliResult run_cli(const std::vector<std::string>& args) {
   return r;
 }
 
+std::optional<std::string> gltf_validator_report(const std::filesystem::path& file) {
+  const std::filesystem::path modules = std::filesystem::path(VFIT_SOURCE_DIR) / "build" / "npm" / "node_modules";
+  const char* node = "/usr/bin/node";
+  std::error_code ec;
+  if (!std::filesystem::exists(modules / "gltf-validator", ec) || !std::filesystem::exists(node, ec))
+    return std::nullopt;
+  TempDir tmp;
+  const auto out_path = tmp / "stdout";
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::string script = (std::filesystem::path(VFIT_SOURCE_DIR) / "tools" / "validate_gltf.cjs").string();
+  std::string target = file.string();
+  std::string node_arg = node;
+  std::vector<char*> argv{node_arg.data(), script.data(), target.data(), nullptr};
+  std::string node_path = "NODE_PATH=" + modules.string();
+  std::vector<char*> env{node_path.data(), nullptr};
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, node, &actions, nullptr, argv.data(), env.data());
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) return std::nullopt;
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) == 2) return std::nullopt;
+  return read_file(out_path);
+}
+
 std::optional<std::filesystem::path> corpus_dir() {
   std::filesystem::path p = VFIT_CORPUS_DIR;
   if (const char* env = std::getenv("VFIT_CORPUS"); env && *env) p = env;

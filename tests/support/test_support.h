@@ -40,6 +40,12 @@ struct CliResult {
 /// Runs the built `vfit` with `args` (no shell involved), capturing both streams.
 CliResult run_cli(const std::vector<std::string>& args);
 
+/// The Khronos glTF validator's report on `file` (tools/validate_gltf.cjs: one JSON line with
+/// "errors", "warnings" and "messages"), or nullopt when Node.js or the npm package
+/// gltf-validator (build/npm/, installed by tools/install_deps.sh style) is absent: tests then
+/// GTEST_SKIP, saying why.
+std::optional<std::string> gltf_validator_report(const std::filesystem::path& file);
+
 /// The shared corpus folder, or nullopt when it is absent (tests then GTEST_SKIP, saying why).
 /// VFIT_CORPUS overrides the path configured at build time.
 std::optional<std::filesystem::path> corpus_dir();
