@@ -15,6 +15,7 @@ int run_garment(Args& args);
 int run_measure(Args& args);
 int run_render(Args& args);
 int run_fit(Args& args);
+int run_animate(Args& args);
 int run_bench(Args& args);
 
 } // namespace vfit::cli

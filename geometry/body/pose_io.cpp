@@ -90,32 +90,64 @@ Pose named_pose(std::string_view name, RestPose rest) {
   return p;
 }
 
-Pose read_pose_json(const std::filesystem::path& path) {
-  const std::string file = path.string();
-  const nlohmann::json j = json_input::read_file(path);
-  if (!j.is_object()) throw Error(file, 0, "expected a JSON object of joint names");
-  auto vec3 = [&](const std::string& key, const nlohmann::json& v) { return json_input::vec3(v, file, key); };
+namespace {
+
+// One pose object (read_pose_json()'s two forms); `where` prefixes the keys in messages
+// ("frames[3]." for a sequence's fourth frame).
+Pose pose_from_json(const nlohmann::json& j, const std::string& file, const std::string& where) {
+  if (!j.is_object())
+    throw Error(file, 0,
+                (where.empty() ? "" : "'" + where.substr(0, where.size() - 1) + "': ") +
+                    "expected a JSON object of joint names");
+  auto vec3 = [&](const std::string& key, const nlohmann::json& v) { return json_input::vec3(v, file, where + key); };
   Pose p;
   for (const auto& [key, value] : j.items()) {
     if (key == "translation") {
       p.translation = vec3(key, value);
     } else if (key == "pose") {
-      if (!value.is_array() || value.size() != 3 * JOINT_COUNT) throw Error(file, 0, "'pose': expected 72 numbers");
+      if (!value.is_array() || value.size() != 3 * JOINT_COUNT)
+        throw Error(file, 0, "'" + where + "pose': expected 72 numbers");
       for (int k = 0; k < 3 * JOINT_COUNT; ++k) {
         if (!value[k].is_number() || !std::isfinite(value[k].get<double>()))
-          throw Error(file, 0, "'pose': not a finite number at " + std::to_string(k));
+          throw Error(file, 0, "'" + where + "pose': not a finite number at " + std::to_string(k));
         p.axis_angle(k / 3, k % 3) = value[k].get<double>();
       }
     } else {
       const auto joint = key == "global_orient" ? std::optional<int>(0) : joint_from_name(key);
-      if (!joint) throw Error(file, 0, "unknown joint '" + key + "' (expected SMPL joint names such as left_elbow)");
+      if (!joint)
+        throw Error(file, 0, "unknown joint '" + where + key + "' (expected SMPL joint names such as left_elbow)");
       const Eigen::Vector3d r = vec3(key, value);
       if (r.norm() > 2 * std::numbers::pi)
-        throw Error(file, 0, "'" + key + "': rotation angle above 2π (radians expected)");
+        throw Error(file, 0, "'" + where + key + "': rotation angle above 2π (radians expected)");
       p.axis_angle.row(*joint) = r.transpose();
     }
   }
   return p;
+}
+
+} // namespace
+
+Pose read_pose_json(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  return pose_from_json(json_input::read_file(path), file, "");
+}
+
+PoseSequence read_pose_sequence_json(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  const nlohmann::json j = json_input::read_file(path);
+  if (!j.is_object() || !j.contains("frames")) throw Error(file, 0, "expected {\"fps\": N, \"frames\": [pose, ...]}");
+  PoseSequence out;
+  if (!j.contains("fps") || !j["fps"].is_number() || !(j["fps"].get<double>() > 0) ||
+      !std::isfinite(j["fps"].get<double>()) || j["fps"].get<double>() > 1000)
+    throw Error(file, 0, "'fps': expected a number of frames per second in (0, 1000]");
+  out.fps = j["fps"].get<double>();
+  const nlohmann::json& frames = j["frames"];
+  if (!frames.is_array() || frames.empty()) throw Error(file, 0, "'frames': expected a non-empty array of poses");
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    out.frames.push_back(pose_from_json(frames[k], file, "frames[" + std::to_string(k) + "]."));
+  for (const auto& [key, value] : j.items())
+    if (key != "fps" && key != "frames") throw Error(file, 0, "unknown key '" + key + "' (expected fps and frames)");
+  return out;
 }
 
 std::string pose_json(const Pose& pose) {

@@ -25,6 +25,18 @@ std::vector<std::string> named_pose_names();
 /// angle above 2π.
 Pose read_pose_json(const std::filesystem::path& path);
 
+/// A motion as our own poses: frames at `fps` frames per second.
+struct PoseSequence {
+  double fps = 30;
+  std::vector<Pose> frames;
+};
+
+/// Reads a pose-sequence JSON: {"fps": N, "frames": [pose, ...]}, each pose in either form
+/// read_pose_json() reads. Throws vfit::Error naming the file and the key ("frames[3].left_elbow")
+/// for invalid JSON, a missing or non-positive fps (at most 1000), no frames, an unknown key, or
+/// a pose read_pose_json() would refuse.
+PoseSequence read_pose_sequence_json(const std::filesystem::path& path);
+
 /// The JSON text of a pose in the first form above (non-zero joints only).
 std::string pose_json(const Pose& pose);
 

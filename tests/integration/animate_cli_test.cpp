@@ -1,0 +1,123 @@
+// `vfit animate`: a catalogue tee on the mannequin played through a short clip written as BVH
+// from our own poses (in a Mixamo-named, metre rig) → an animated .glb that the Khronos validator
+// accepts, one OBJ per frame, a report per frame; bad input → exit 2 and nothing written.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "geometry/body/mannequin_shape.h"
+#include "geometry/body/pose_io.h"
+#include "geometry/garment/catalogue.h"
+#include "geometry/mesh/mesh_io.h"
+#include "geometry/motion/retarget.h"
+#include "test_support.h"
+
+namespace vfit {
+namespace {
+
+// A 7-frame clip at 12 fps: rest, walking, elbows bent, walking, rest, ... (Mixamo names).
+void write_clip(const std::filesystem::path& path) {
+  const JointPositions rest = MannequinShape(BodyMeasurements{}, RestPose::TPOSE).joints();
+  std::vector<Pose> poses;
+  for (const char* name : {"rest", "walking", "elbows_bent", "walking", "rest", "arms_raised", "rest"})
+    poses.push_back(named_pose(name, RestPose::TPOSE));
+  BvhMotion bvh = poses_to_bvh(rest, poses, 12);
+  const MotionMapping mixamo = builtin_motion_mapping("mixamo");
+  for (BvhJoint& j : bvh.joints)
+    if (const auto c = joint_from_name(j.name)) j.name = "mixamorig:" + mixamo.joint[std::size_t(*c)];
+  test::write_file(path, bvh_text(bvh));
+}
+
+TEST(AnimateCli, PlaysAClipOnADressedBody) {
+  test::TempDir dir;
+  write_clip(dir / "clip.bvh");
+  GarmentOptions o;
+  o.type = GarmentType::TEE;
+  o.pose = RestPose::APOSE;
+  o.target_vertices = 2000;
+  write_mesh(dir / "tee.obj", make_garment(o).mesh);
+  const auto r = test::run_cli({"animate", "--garment", (dir / "tee.obj").string(), "--motion",
+                                (dir / "clip.bvh").string(), "--pose-rest", "apose", "--vertices", "3000", "--fps",
+                                "24", "--out", (dir / "anim.glb").string(), "--frames-dir", (dir / "frames").string(),
+                                "--report", (dir / "anim.json").string(), "--no-simulation", "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(test::read_file(dir / "anim.json"));
+  EXPECT_EQ(report["motion"]["mapping"], "mixamo");
+  EXPECT_EQ(report["motion"]["unit"], "cm");
+  EXPECT_EQ(report["motion"]["frames"], 13); // 0.5 s at 24 fps
+  EXPECT_EQ(report["frames"].size(), 13u);
+  EXPECT_NEAR(report["motion"]["leg_ratio"].get<double>(), 1.0, 0.02); // the same measurements, T against A
+  for (const auto& f : report["frames"])
+    EXPECT_GE(f["lbs_ms"].get<double>(), 0.0);
+  // At rest (frame 0) the tee fits as it was fitted: hardly anything inside the body.
+  EXPECT_LE(report["frames"][0]["inside_1mm"].get<int>(), 5) << report["frames"][0];
+  std::size_t frames = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir / "frames"))
+    ++frames;
+  EXPECT_EQ(frames, 13u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "frame_00012.obj"));
+  const std::optional<std::string> validator = test::gltf_validator_report(dir / "anim.glb");
+  if (!validator) GTEST_SKIP() << "the Khronos glTF validator is not installed (tools/install_deps.sh style)";
+  const nlohmann::json v = nlohmann::json::parse(*validator);
+  EXPECT_EQ(v["errors"], 0) << *validator;
+  EXPECT_EQ(v["warnings"], 0) << *validator;
+}
+
+// Our own poses as a pose-sequence JSON: played without retargeting, at their rate.
+TEST(AnimateCli, PlaysAPoseSequence) {
+  test::TempDir dir;
+  std::string frames;
+  for (const char* name : {"rest", "walking", "rest"})
+    frames += (frames.empty() ? "" : ", ") + pose_json(named_pose(name, RestPose::APOSE));
+  test::write_file(dir / "poses.json", "{\"fps\": 10, \"frames\": [" + frames + "]}");
+  GarmentOptions o;
+  o.type = GarmentType::TROUSERS;
+  o.pose = RestPose::APOSE;
+  o.target_vertices = 2000;
+  write_mesh(dir / "trousers.obj", make_garment(o).mesh);
+  const auto r = test::run_cli({"animate", "--garment", (dir / "trousers.obj").string(), "--motion",
+                                (dir / "poses.json").string(), "--pose-rest", "apose", "--vertices", "3000", "--report",
+                                (dir / "anim.json").string(), "--no-simulation", "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(test::read_file(dir / "anim.json"));
+  EXPECT_EQ(report["motion"]["mapping"], "poses");
+  EXPECT_EQ(report["motion"]["fps"], 10);
+  EXPECT_EQ(report["frames"].size(), 3u);
+  EXPECT_EQ(report["garments"][0]["type"], "trousers");
+}
+
+TEST(AnimateCli, BadInputWritesNothing) {
+  test::TempDir dir;
+  write_clip(dir / "clip.bvh");
+  test::write_file(dir / "bad.bvh", "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n");
+  test::write_file(dir / "tee.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  struct Case {
+    std::vector<std::string> args;
+    const char* message;
+  };
+  const std::string out = (dir / "o.glb").string(), report = (dir / "o.json").string();
+  const std::vector<Case> cases = {
+      {{"--garment", (dir / "tee.obj").string()}, "--motion FILE.bvh is required"},
+      {{"--garment", (dir / "tee.obj").string(), "--motion", (dir / "bad.bvh").string()},
+       "bad.bvh:5: unexpected end of file"},
+      {{"--garment", (dir / "tee.obj").string(), "--motion", (dir / "clip.bvh").string(), "--pose", "walking"},
+       "drop --pose"},
+      {{"--garment", (dir / "tee.obj").string(), "--motion", (dir / "clip.bvh").string(), "--out",
+        (dir / "o.obj").string()},
+       "--out writes an animated .glb"},
+      {{"--motion", (dir / "clip.bvh").string()}, "at least one --garment"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"animate"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    args.insert(args.end(), {"--report", report, "--quiet"});
+    const auto r = test::run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << c.message << ": " << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(report)) << c.message;
+  }
+}
+
+} // namespace
+} // namespace vfit
