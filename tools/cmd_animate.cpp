@@ -18,6 +18,9 @@
 #include "commands.h"
 #include "engine/animate/dressed_character.h"
 #include "engine/engine.h"
+#include "engine/view/bitmap_font.h"
+#include "engine/view/image.h"
+#include "engine/view/render.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/gltf_format.h"
@@ -84,6 +87,10 @@ int run_animate(Args& args) {
   const auto out = args.value("out");
   const auto frames_dir = args.value("frames-dir");
   const auto report_file = args.value("report");
+  const auto render_file = args.value("render");
+  const auto render_every_value = args.value("render-every");
+  const auto render_size_value = args.value("render-size");
+  const int render_size = render_size_value ? Args::to_int("--render-size", *render_size_value, 64, 2048) : 256;
   const auto fps_value = args.value("fps");
   const auto frames_value = args.value("frames");
   FitOptions options;
@@ -99,12 +106,15 @@ int run_animate(Args& args) {
   if (out && lower_extension(*out) != ".glb") throw Error(*out, 0, "--out writes an animated .glb");
   if (report_file && lower_extension(*report_file) != ".json")
     throw Error(*report_file, 0, "--report writes a .json file");
+  if (render_file && lower_extension(*render_file) != ".png")
+    throw Error(*render_file, 0, "--render writes a .png file");
+  if (render_every_value && !render_file) throw Error("--render-every", 0, "needs --render FILE.png");
   const double fps = fps_value ? double(Args::to_int("--fps", *fps_value, 1, 1000)) : 0.0;
   {
     std::vector<std::string> inputs = garment_files;
     inputs.insert(inputs.end(), {sources[0], *motion_file});
     if (mapping_file) inputs.push_back(*mapping_file);
-    for (const auto& [file, option] : {std::pair{out, "--out"}, {report_file, "--report"}})
+    for (const auto& [file, option] : {std::pair{out, "--out"}, {report_file, "--report"}, {render_file, "--render"}})
       if (file) check_output_path(*file, option, inputs);
     if (frames_dir && std::filesystem::exists(*frames_dir) && !std::filesystem::is_directory(*frames_dir))
       throw Error(*frames_dir, 0, "--frames-dir names a file, not a folder");
@@ -173,6 +183,11 @@ int run_animate(Args& args) {
   const double skinning_ms = ms_since(t0);
   nlohmann::ordered_json per_frame = nlohmann::ordered_json::array();
   std::vector<Mesh> frame_meshes;
+  // --render: every Nth frame (default: at most 8 of them) as a tile of the contact sheet.
+  const std::size_t every = render_every_value
+                                ? std::size_t(Args::to_int("--render-every", *render_every_value, 1, 100000))
+                                : std::max<std::size_t>(1, (frames.size() + 7) / 8);
+  std::vector<std::pair<std::size_t, std::vector<Mesh>>> sheet;
   double lbs_total = 0, worst_depth = 0;
   std::size_t worst_inside = 0;
   for (std::size_t f = 0; f < frames.size(); ++f) {
@@ -192,9 +207,39 @@ int run_animate(Args& args) {
                          {"inside_1mm", p.inside_1mm},
                          {"max_depth_mm", p.max_depth_mm}});
     if (frames_dir) frame_meshes.push_back(frame_mesh(character));
+    if (render_file && f % every == 0) {
+      std::vector<Mesh> meshes(1 + character.garment_count());
+      meshes[0].triangles = body.mesh.triangles;
+      meshes[0].positions.assign(character.body_positions().begin(), character.body_positions().end());
+      for (std::size_t g = 0; g < character.garment_count(); ++g) {
+        meshes[g + 1].triangles = character.garment_rest(g).triangles;
+        meshes[g + 1].positions.assign(character.garment_positions(g).begin(), character.garment_positions(g).end());
+      }
+      sheet.emplace_back(first + f, std::move(meshes));
+    }
     if (progress && (f % 30 == 0 || f + 1 == frames.size()))
       std::fprintf(stderr, "vfit: frame %zu/%zu: LBS %.2f ms, %zu garment vertices inside the body (deepest %.1f mm)\n",
                    f + 1, frames.size(), lbs_ms, p.inside, p.max_depth_mm);
+  }
+
+  // The contact sheet: each tile a side view of one frame, labelled with its number.
+  std::optional<Image> contact_sheet;
+  if (render_file) {
+    const int columns = int(std::min<std::size_t>(sheet.size(), 8));
+    const int rows = int((sheet.size() + std::size_t(columns) - 1) / std::size_t(columns));
+    contact_sheet.emplace(columns * render_size, rows * render_size);
+    RenderOptions ro;
+    ro.size = render_size;
+    ro.views = {RenderView::SIDE};
+    for (std::size_t k = 0; k < sheet.size(); ++k) {
+      std::vector<const Mesh*> meshes;
+      for (const Mesh& m : sheet[k].second)
+        meshes.push_back(&m);
+      const Rendering r = render_views(meshes, ro);
+      const int x = int(k % std::size_t(columns)) * render_size, y = int(k / std::size_t(columns)) * render_size;
+      contact_sheet->paste(r.views.front().image, x, y);
+      draw_text(*contact_sheet, x + 6, y + 6, "FRAME " + std::to_string(sheet[k].first), 2, Rgb8{40, 40, 40});
+    }
   }
 
   // Outputs, once everything is computed.
@@ -221,6 +266,7 @@ int run_animate(Args& args) {
       write_mesh(std::filesystem::path(*frames_dir) / name, frame_meshes[f], "frame");
     }
   }
+  if (contact_sheet) write_png(*render_file, *contact_sheet);
   if (report_file) {
     nlohmann::ordered_json r;
     r["motion"] = {{"file", *motion_file},

@@ -180,7 +180,8 @@ Files are written atomically (a temporary file renamed); nothing is written on e
 constexpr const char* ANIMATE_HELP =
     R"(usage: vfit animate --garment FILE [--garment FILE ...] --motion FILE.bvh|.json [--body mannequin|FILE]
                     [body flags] [--mapping FILE.json] [--fps N] [--frames A:B] [--out FILE.glb]
-                    [--frames-dir DIR] [--report FILE.json] [--no-simulation] [--quiet] [--progress]
+                    [--frames-dir DIR] [--report FILE.json] [--render FILE.png [--render-every N]
+                    [--render-size N]] [--no-simulation] [--quiet] [--progress]
 
 Dresses a body and plays a motion-capture clip on it (seed 001 §7). The garments are fitted onto
 the body at rest (its rest pose, where its skin weights are bound; the fit of `vfit fit`, with the
@@ -200,6 +201,8 @@ length ratio. A .json motion is our own poses: {"fps": N, "frames": [pose, ...]}
   --out FILE.glb   the body and garments skinned to one skeleton, each with a material, and the
                    clip as a glTF animation (plays in any glTF viewer)
   --frames-dir DIR one OBJ per frame (frame_00000.obj, ...), the body and garments as one mesh
+  --render FILE.png  a contact sheet: every Nth frame (--render-every, default: 8 frames in all)
+                   seen from the side, --render-size pixels square each (default 256), in rows of 8
   --report FILE    JSON: the clip (mapping, unit, up axis, rates, leg ratio, unmapped joints), the
                    timings, and per frame the LBS time and the garment vertices inside the body
                    (count, count over 1 mm, deepest mm)

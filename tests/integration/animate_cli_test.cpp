@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "engine/view/image.h"
 #include "geometry/body/mannequin_shape.h"
 #include "geometry/body/pose_io.h"
 #include "geometry/garment/catalogue.h"
@@ -37,11 +38,34 @@ TEST(AnimateCli, PlaysAClipOnADressedBody) {
   o.pose = RestPose::APOSE;
   o.target_vertices = 2000;
   write_mesh(dir / "tee.obj", make_garment(o).mesh);
-  const auto r = test::run_cli({"animate", "--garment", (dir / "tee.obj").string(), "--motion",
-                                (dir / "clip.bvh").string(), "--pose-rest", "apose", "--vertices", "3000", "--fps",
-                                "24", "--out", (dir / "anim.glb").string(), "--frames-dir", (dir / "frames").string(),
-                                "--report", (dir / "anim.json").string(), "--no-simulation", "--quiet"});
+  const auto r = test::run_cli({"animate",
+                                "--garment",
+                                (dir / "tee.obj").string(),
+                                "--motion",
+                                (dir / "clip.bvh").string(),
+                                "--pose-rest",
+                                "apose",
+                                "--vertices",
+                                "3000",
+                                "--fps",
+                                "24",
+                                "--out",
+                                (dir / "anim.glb").string(),
+                                "--frames-dir",
+                                (dir / "frames").string(),
+                                "--report",
+                                (dir / "anim.json").string(),
+                                "--render",
+                                (dir / "strip.png").string(),
+                                "--render-size",
+                                "64",
+                                "--no-simulation",
+                                "--quiet"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  // 13 frames, every 2nd on the contact sheet: 7 tiles of 64 pixels in one row.
+  const Image strip = read_png(dir / "strip.png");
+  EXPECT_EQ(strip.width, 7 * 64);
+  EXPECT_EQ(strip.height, 64);
   const nlohmann::json report = nlohmann::json::parse(test::read_file(dir / "anim.json"));
   EXPECT_EQ(report["motion"]["mapping"], "mixamo");
   EXPECT_EQ(report["motion"]["unit"], "cm");
