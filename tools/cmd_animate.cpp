@@ -25,6 +25,7 @@
 #include "geometry/mesh/atomic_write.h"
 #include "geometry/mesh/gltf_format.h"
 #include "geometry/mesh/mesh_io.h"
+#include "geometry/motion/gltf_motion.h"
 #include "geometry/motion/retarget.h"
 #include "kernels/error.h"
 
@@ -99,10 +100,12 @@ int run_animate(Args& args) {
 
   if (garment_files.empty()) throw Error("vfit animate", 0, "at least one --garment FILE is required");
   if (!motion_file) throw Error("vfit animate", 0, "--motion FILE.bvh is required");
-  const bool bvh_motion = lower_extension(*motion_file) == ".bvh";
-  if (!bvh_motion && lower_extension(*motion_file) != ".json")
-    throw Error(*motion_file, 0, "--motion reads a .bvh clip or a pose-sequence .json");
-  if (!bvh_motion && mapping_file) throw Error("--mapping", 0, "maps a BVH's joint names; a pose sequence has ours");
+  const std::string motion_ext = lower_extension(*motion_file);
+  const bool gltf_motion = motion_ext == ".glb" || motion_ext == ".gltf";
+  const bool bvh_motion = motion_ext == ".bvh" || gltf_motion;
+  if (!bvh_motion && motion_ext != ".json")
+    throw Error(*motion_file, 0, "--motion reads a .bvh clip, an animated .glb/.gltf or a pose-sequence .json");
+  if (!bvh_motion && mapping_file) throw Error("--mapping", 0, "maps a clip's joint names; a pose sequence has ours");
   if (out && lower_extension(*out) != ".glb") throw Error(*out, 0, "--out writes an animated .glb");
   if (report_file && lower_extension(*report_file) != ".json")
     throw Error(*report_file, 0, "--report writes a .json file");
@@ -125,7 +128,7 @@ int run_animate(Args& args) {
   std::optional<PoseSequence> sequence;
   MotionMapping mapping;
   if (bvh_motion) {
-    bvh = read_bvh(*motion_file);
+    bvh = gltf_motion ? read_gltf_motion(*motion_file) : read_bvh(*motion_file);
     mapping = mapping_file ? load_motion_mapping(*mapping_file) : detect_motion_mapping(*bvh);
   } else {
     sequence = read_pose_sequence_json(*motion_file);

@@ -81,6 +81,15 @@ TEST(AnimateCli, PlaysAClipOnADressedBody) {
     ++frames;
   EXPECT_EQ(frames, 13u);
   EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "frame_00012.obj"));
+  // The animated .glb is itself a motion: played back onto the same body, 13 frames at 24 fps.
+  const auto again = test::run_cli({"animate", "--garment", (dir / "tee.obj").string(), "--motion",
+                                    (dir / "anim.glb").string(), "--pose-rest", "apose", "--vertices", "3000",
+                                    "--report", (dir / "again.json").string(), "--no-simulation", "--quiet"});
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const nlohmann::json replay = nlohmann::json::parse(test::read_file(dir / "again.json"));
+  EXPECT_EQ(replay["motion"]["mapping"], "smpl");
+  EXPECT_EQ(replay["motion"]["fps"], 24);
+  EXPECT_EQ(replay["frames"].size(), 13u);
   const std::optional<std::string> validator = test::gltf_validator_report(dir / "anim.glb");
   if (!validator) GTEST_SKIP() << "the Khronos glTF validator is not installed (tools/install_deps.sh style)";
   const nlohmann::json v = nlohmann::json::parse(*validator);

@@ -12,6 +12,7 @@
 #include "geometry/garment/catalogue.h"
 #include "geometry/garment/garment_skinning.h"
 #include "geometry/mesh/gltf_format.h"
+#include "geometry/motion/gltf_motion.h"
 #include "geometry/motion/retarget.h"
 #include "kernels/error.h"
 #include "test_support.h"
@@ -74,6 +75,58 @@ TEST(AnimatedGlb, BodyAndGarmentShareOneSkeletonAndPlay) {
   const nlohmann::json r = nlohmann::json::parse(*report);
   EXPECT_EQ(r["errors"], 0) << *report;
   EXPECT_EQ(r["warnings"], 0) << *report;
+}
+
+// The .glb read back as a motion (gltf_motion.h) and retargeted onto the same skeleton gives the
+// poses it was written from: joints within 0.1 mm (float32 storage), and the rate of its keys.
+TEST(AnimatedGlb, ReadBackGivesTheFrames) {
+  const Dressed d;
+  const SkinAnimation animation = poses_to_skin_animation(d.body.joints, d.poses, 24.0, "walk");
+  const std::vector<NamedMesh> meshes = {{"body", &d.body.mesh, &d.body_skin_}, {"tee", &d.tee.mesh, &d.tee_skin}};
+  const BvhMotion motion = parse_gltf_motion(write_glb(meshes, &animation), "dressed.glb");
+  EXPECT_NEAR(motion.fps(), 24.0, 1e-3);
+  EXPECT_EQ(motion.frame_count(), d.poses.size());
+  EXPECT_EQ(motion.up, UpAxis::POS_Y);
+  const MotionMapping mapping = detect_motion_mapping(motion);
+  EXPECT_EQ(mapping.name, "smpl");
+  const RetargetedMotion back = retarget_bvh(motion, d.body.joints, mapping);
+  ASSERT_EQ(back.frames.size(), d.poses.size());
+  EXPECT_NEAR(back.leg_ratio, 1.0, 1e-6);
+  for (std::size_t f = 0; f < d.poses.size(); ++f) {
+    // The root's translation is read relative to the clip's first frame and lowest ankle: the
+    // bones are compared, the translation up to that reference.
+    const JointPositions want = posed_joints(d.body.joints, d.poses[f]);
+    const JointPositions got = posed_joints(d.body.joints, back.frames[f]);
+    const JointPositions want0 = posed_joints(d.body.joints, d.poses[0]);
+    const JointPositions got0 = posed_joints(d.body.joints, back.frames[0]);
+    for (int j = 0; j < JOINT_COUNT; ++j) {
+      const Eigen::Vector3d a = (want.row(j) - want.row(0)).transpose(), b = (got.row(j) - got.row(0)).transpose();
+      EXPECT_LT((a - b).norm(), 1e-4) << "frame " << f << " joint " << joint_name(j);
+    }
+    const Eigen::Vector3d moved_want = (want.row(0) - want0.row(0)).transpose();
+    const Eigen::Vector3d moved_got = (got.row(0) - got0.row(0)).transpose();
+    EXPECT_LT((moved_want - moved_got).head<1>().norm() + std::abs(moved_want.z() - moved_got.z()), 1e-4) << f;
+  }
+}
+
+TEST(AnimatedGlb, AFileWithoutASkinOrAnAnimationIsNoMotion) {
+  const Dressed d;
+  auto error = [](const std::string& glb) {
+    try {
+      (void)parse_gltf_motion(glb, "m.glb");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::vector<NamedMesh> bare = {{"body", &d.body.mesh}};
+  EXPECT_NE(error(write_glb(bare)).find("m.glb: no skin"), std::string::npos);
+  const std::vector<NamedMesh> skinned = {{"body", &d.body.mesh, &d.body_skin_}};
+  EXPECT_NE(error(write_glb(skinned)).find("m.glb: no animation"), std::string::npos);
+  const SkinAnimation a = poses_to_skin_animation(d.body.joints, d.poses, 24.0, "walk");
+  EXPECT_NE(error(write_glb(skinned, &a)).find("accepted"), std::string::npos);
+  EXPECT_THROW(parse_gltf_motion(write_glb(skinned, &a), "m.glb", 0, 1), Error); // no second animation
+  EXPECT_THROW(parse_gltf_motion(write_glb(skinned, &a), "m.glb", 5000), Error); // rate out of range
 }
 
 TEST(AnimatedGlb, RefusesAnimationsThatDoNotFit) {
