@@ -3,6 +3,7 @@
 // validator reports no error; bad animations are refused naming what is wrong.
 #include <cstdio>
 #include <cstring>
+#include <numbers>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -153,6 +154,136 @@ TEST(AnimatedGlb, RefusesAnimationsThatDoNotFit) {
   nan.root_positions[4] = NAN;
   EXPECT_NE(error(skinned, nan).find("root position is not finite"), std::string::npos);
   EXPECT_THROW(poses_to_skin_animation(d.body.joints, {}, 30.0, "none"), Error);
+}
+
+} // namespace
+} // namespace vfit
+
+namespace vfit {
+namespace {
+
+// A rig as other exporters write it: joints with rotations at rest (not the identity), Mixamo
+// names, under an armature node turned a quarter about X (Z up), keyframes as float32 in a .glb
+// built here. Read as a motion and retargeted onto our skeleton, every bone points where the
+// original poses put it.
+TEST(GltfMotion, ARigWithRestRotationsUnderATurnedArmatureGivesTheSameBones) {
+  const JointPositions rest = test::mannequin(RestPose::APOSE, 6000).joints;
+  std::vector<Pose> poses;
+  for (const char* name : {"rest", "walking", "elbows_bent", "arms_raised"})
+    poses.push_back(named_pose(name, RestPose::APOSE));
+  poses[2].translation << 0.05, 0.02, 0.1;
+  const MotionMapping mixamo = builtin_motion_mapping("mixamo");
+  // Rest rotations: arbitrary per joint; world rest rotations B (under the armature).
+  std::array<Eigen::Matrix3d, JOINT_COUNT> Q, B;
+  for (int j = 0; j < JOINT_COUNT; ++j) {
+    Q[std::size_t(j)] =
+        Eigen::AngleAxisd(0.2 * (j % 5) - 0.3, Eigen::Vector3d(1, 1, 0.5 * (j % 3)).normalized()).toRotationMatrix();
+    const int p = joint_parent(j);
+    B[std::size_t(j)] = p < 0 ? Q[std::size_t(j)] : Eigen::Matrix3d(B[std::size_t(p)] * Q[std::size_t(j)]);
+  }
+  const Eigen::Quaterniond armature(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
+  nlohmann::json doc;
+  doc["asset"] = {{"version", "2.0"}};
+  nlohmann::json nodes = nlohmann::json::array();
+  nodes.push_back({{"name", "Armature"},
+                   {"rotation", {armature.x(), armature.y(), armature.z(), armature.w()}},
+                   {"children", {1}}});
+  auto quat = [](const Eigen::Matrix3d& m) {
+    const Eigen::Quaterniond q(m);
+    return nlohmann::json::array({q.x(), q.y(), q.z(), q.w()});
+  };
+  for (int j = 0; j < JOINT_COUNT; ++j) {
+    const int p = joint_parent(j);
+    const Eigen::Vector3d t =
+        p < 0 ? Eigen::Vector3d(rest.row(j).transpose())
+              : Eigen::Vector3d(B[std::size_t(p)].transpose() * (rest.row(j) - rest.row(p)).transpose());
+    nlohmann::json node = {{"name", "mixamorig:" + mixamo.joint[std::size_t(j)]},
+                           {"translation", {t.x(), t.y(), t.z()}},
+                           {"rotation", quat(Q[std::size_t(j)])}};
+    for (int c = 0; c < JOINT_COUNT; ++c)
+      if (joint_parent(c) == j) node["children"].push_back(1 + c);
+    nodes.push_back(std::move(node));
+  }
+  doc["nodes"] = std::move(nodes);
+  doc["scenes"] = {{{"nodes", {0}}}};
+  nlohmann::json joints = nlohmann::json::array();
+  for (int j = 0; j < JOINT_COUNT; ++j)
+    joints.push_back(1 + j);
+  doc["skins"] = {{{"joints", joints}}};
+  // Keyframes: times, then per joint its local rotations B_pᵀ R_j B_j, then the root's translation.
+  std::string bin;
+  auto add = [&](const std::vector<float>& data, const char* type) {
+    const std::size_t offset = bin.size();
+    bin.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(float));
+    doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * sizeof(float)}});
+    const std::size_t width = std::string(type) == "SCALAR" ? 1 : std::string(type) == "VEC3" ? 3 : 4;
+    doc["accessors"].push_back({{"bufferView", doc["bufferViews"].size() - 1},
+                                {"componentType", 5126},
+                                {"count", data.size() / width},
+                                {"type", type}});
+    return doc["accessors"].size() - 1;
+  };
+  std::vector<float> times;
+  for (std::size_t k = 0; k < poses.size(); ++k)
+    times.push_back(float(k) / 10.0f);
+  const std::size_t input = add(times, "SCALAR");
+  doc["accessors"][input]["min"] = {times.front()};
+  doc["accessors"][input]["max"] = {times.back()};
+  nlohmann::json samplers = nlohmann::json::array(), channels = nlohmann::json::array();
+  for (int j = 0; j < JOINT_COUNT; ++j) {
+    const int p = joint_parent(j);
+    std::vector<float> values;
+    for (const Pose& pose : poses) {
+      const Eigen::Matrix3d R = axis_angle_to_matrix(pose.axis_angle.row(j).transpose());
+      const Eigen::Matrix3d local = p < 0 ? Eigen::Matrix3d(R * B[std::size_t(j)])
+                                          : Eigen::Matrix3d(B[std::size_t(p)].transpose() * R * B[std::size_t(j)]);
+      const Eigen::Quaterniond q(local);
+      values.insert(values.end(), {float(q.x()), float(q.y()), float(q.z()), float(q.w())});
+    }
+    channels.push_back({{"sampler", samplers.size()}, {"target", {{"node", 1 + j}, {"path", "rotation"}}}});
+    samplers.push_back({{"input", input}, {"output", add(values, "VEC4")}});
+  }
+  std::vector<float> root;
+  for (const Pose& pose : poses) {
+    const Eigen::Vector3d t = rest.row(0).transpose() + pose.translation;
+    root.insert(root.end(), {float(t.x()), float(t.y()), float(t.z())});
+  }
+  channels.push_back({{"sampler", samplers.size()}, {"target", {{"node", 1}, {"path", "translation"}}}});
+  samplers.push_back({{"input", input}, {"output", add(root, "VEC3")}});
+  doc["animations"] = {{{"channels", channels}, {"samplers", samplers}}};
+  doc["buffers"] = {{{"byteLength", bin.size()}}};
+  std::string json = doc.dump();
+  while (json.size() % 4)
+    json += ' ';
+  while (bin.size() % 4)
+    bin += '\0';
+  std::string glb;
+  auto u32 = [&](std::uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(0x46546C67);
+  u32(2);
+  u32(std::uint32_t(12 + 8 + json.size() + 8 + bin.size()));
+  u32(std::uint32_t(json.size()));
+  u32(0x4E4F534A);
+  glb += json;
+  u32(std::uint32_t(bin.size()));
+  u32(0x004E4942);
+  glb += bin;
+
+  const BvhMotion motion = parse_gltf_motion(glb, "rig.glb");
+  EXPECT_NEAR(motion.fps(), 10.0, 1e-9);
+  EXPECT_EQ(motion.up, UpAxis::POS_Z);
+  const MotionMapping mapping = detect_motion_mapping(motion);
+  EXPECT_EQ(mapping.name, "mixamo");
+  const RetargetedMotion back = retarget_bvh(motion, rest, mapping);
+  ASSERT_EQ(back.frames.size(), poses.size());
+  for (std::size_t f = 0; f < poses.size(); ++f) {
+    const JointPositions want = posed_joints(rest, poses[f]), got = posed_joints(rest, back.frames[f]);
+    for (int j = 1; j < JOINT_COUNT; ++j) {
+      const int p = joint_parent(j);
+      const Eigen::Vector3d a = (want.row(j) - want.row(p)).transpose(), b = (got.row(j) - got.row(p)).transpose();
+      EXPECT_GT(a.normalized().dot(b.normalized()), std::cos(1e-3)) << "frame " << f << " bone to " << joint_name(j);
+    }
+  }
 }
 
 } // namespace
