@@ -132,6 +132,40 @@ Pose read_pose_json(const std::filesystem::path& path) {
   return pose_from_json(json_input::read_file(path), file, "");
 }
 
+PoseSequence walk_cycle(RestPose rest, double fps, std::size_t frames) {
+  if (!(fps > 0) || !std::isfinite(fps) || frames == 0)
+    throw Error("walk cycle", 0, "needs a positive rate and at least one frame");
+  PoseSequence out;
+  out.fps = fps;
+  for (std::size_t k = 0; k < frames; ++k) {
+    const double phase = 2 * std::numbers::pi * double(k) / double(frames);
+    const double swing = std::sin(phase);
+    Pose p;
+    lower_arms(p, 72, rest);
+    // Thighs swing ±25° in opposition; each knee bends up to 45° while its leg swings forward.
+    p.axis_angle.row(idx(Joint::LEFT_HIP)) << -25 * DEG * swing, 0, 0;
+    p.axis_angle.row(idx(Joint::RIGHT_HIP)) << 25 * DEG * swing, 0, 0;
+    p.axis_angle.row(idx(Joint::LEFT_KNEE)) << 45 * DEG * std::max(0.0, std::sin(phase + 0.8)), 0, 0;
+    p.axis_angle.row(idx(Joint::RIGHT_KNEE)) << 45 * DEG * std::max(0.0, -std::sin(phase + 0.8)), 0, 0;
+    // Arms swing ±15° against the legs, elbows a little bent.
+    p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) += Eigen::RowVector3d(15 * DEG * swing, 0, 0);
+    p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) += Eigen::RowVector3d(-15 * DEG * swing, 0, 0);
+    p.axis_angle.row(idx(Joint::LEFT_ELBOW)) << -15 * DEG, 0, 0;
+    p.axis_angle.row(idx(Joint::RIGHT_ELBOW)) << -15 * DEG, 0, 0;
+    // The pelvis dips 1 cm as the legs pass each other, twice a cycle.
+    p.translation.y() = -0.01 * (1 - std::abs(std::cos(phase)));
+    out.frames.push_back(p);
+  }
+  return out;
+}
+
+std::string pose_sequence_json(const PoseSequence& sequence) {
+  std::string out = "{\"fps\": " + std::to_string(sequence.fps) + ", \"frames\": [\n";
+  for (std::size_t k = 0; k < sequence.frames.size(); ++k)
+    out += (k ? ",\n" : "") + pose_json(sequence.frames[k]);
+  return out + "]}\n";
+}
+
 PoseSequence read_pose_sequence_json(const std::filesystem::path& path) {
   const std::string file = path.string();
   const nlohmann::json j = json_input::read_file(path);

@@ -37,6 +37,15 @@ struct PoseSequence {
 /// a pose read_pose_json() would refuse.
 PoseSequence read_pose_sequence_json(const std::filesystem::path& path);
 
+/// A procedural walk cycle of `frames` frames at `fps` (> 0), for a body whose rest pose is
+/// `rest`, walking in place: arms lowered to 72° and swinging ±15° against the thighs, which
+/// swing ±25°; each knee bends up to 45° while its leg swings forward; elbows bent 15°; the pelvis
+/// dips 1 cm as the legs pass. Throws vfit::Error for no frames or a rate that is not positive.
+PoseSequence walk_cycle(RestPose rest, double fps = 30, std::size_t frames = 30);
+
+/// The JSON text of a pose sequence (read_pose_sequence_json() reads it back).
+std::string pose_sequence_json(const PoseSequence& sequence);
+
 /// The JSON text of a pose in the first form above (non-zero joints only).
 std::string pose_json(const Pose& pose);
 

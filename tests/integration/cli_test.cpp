@@ -118,6 +118,12 @@ TEST(Cli, DemoRunsOnBuiltInMeshesAndWritesItsOutputs) {
   // The demo's bar: nothing inside the body by more than 1 mm.
   EXPECT_LE(report["penetration"]["after"]["max_depth_mm"].get<double>(), 1.0);
   EXPECT_TRUE(std::filesystem::exists(tmp / "demo" / "fit_views.png"));
+  // The walk: 30 frames of the outfit, animated, with its contact sheet.
+  const auto walk = nlohmann::json::parse(test::read_file(tmp / "demo" / "walk_report.json"));
+  EXPECT_EQ(walk["frames"].size(), 30u);
+  EXPECT_EQ(walk["motion"]["mapping"], "poses");
+  EXPECT_TRUE(std::filesystem::exists(tmp / "demo" / "walk.glb"));
+  EXPECT_TRUE(std::filesystem::exists(tmp / "demo" / "walk_frames.png"));
 }
 
 } // namespace
