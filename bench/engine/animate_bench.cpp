@@ -1,12 +1,11 @@
 // A dressed character stepped frame by frame (engine/animate/dressed_character.h): the demo
 // outfit (catalogue trousers P2 and tee M, A-pose) on the A-pose mannequin, posed through a
-// procedural walk by linear blend skinning, and the per-frame penetration measure.
+// walk cycle (walk_cycle(), pose_io.h) by linear blend skinning, and the per-frame penetration
+// measure.
 //   build/release/bench/vfit_animate_bench
 // Arguments: garment vertices each (5,000 is the demo outfit's). Counters: frames per second
 // (step alone), garment vertices.
-#include <cmath>
 #include <map>
-#include <numbers>
 
 #include <benchmark/benchmark.h>
 
@@ -38,18 +37,7 @@ struct Outfit {
       g.segmentation.type = type;
       garments.push_back(std::move(g));
     }
-    // One second of a procedural walk at 30 fps: hips, knees and shoulders swinging.
-    for (int k = 0; k < 30; ++k) {
-      const double phase = 2 * std::numbers::pi * k / 30.0, swing = 0.45 * std::sin(phase);
-      Pose p;
-      p.axis_angle.row(idx(Joint::LEFT_HIP)) << -swing, 0, 0;
-      p.axis_angle.row(idx(Joint::RIGHT_HIP)) << swing, 0, 0;
-      p.axis_angle.row(idx(Joint::LEFT_KNEE)) << 0.6 * std::max(0.0, std::sin(phase + 1.0)), 0, 0;
-      p.axis_angle.row(idx(Joint::RIGHT_KNEE)) << 0.6 * std::max(0.0, -std::sin(phase + 1.0)), 0, 0;
-      p.axis_angle.row(idx(Joint::LEFT_SHOULDER)) << swing, 0, 0;
-      p.axis_angle.row(idx(Joint::RIGHT_SHOULDER)) << -swing, 0, 0;
-      walk.push_back(p);
-    }
+    walk = walk_cycle(RestPose::APOSE).frames; // one second at 30 fps
   }
 };
 
