@@ -178,8 +178,8 @@ Files are written atomically (a temporary file renamed); nothing is written on e
 )";
 
 constexpr const char* ANIMATE_HELP =
-    R"(usage: vfit animate --garment FILE [--garment FILE ...] --motion FILE.bvh|.glb|.json [--body mannequin|FILE]
-                    [body flags] [--mapping FILE.json] [--fps N] [--frames A:B] [--out FILE.glb]
+    R"(usage: vfit animate --garment FILE [--garment FILE ...] --motion FILE.bvh|.glb|.json
+                    [--body mannequin|FILE] [body flags] [--mapping FILE.json] [--fps N] [--frames A:B] [--out FILE.glb]
                     [--frames-dir DIR] [--report FILE.json] [--render FILE.png [--render-every N]
                     [--render-size N]] [--no-simulation] [--quiet] [--progress]
 
@@ -195,8 +195,9 @@ the body: its joint names are matched to a built-in convention (SMPL, Mixamo, CM
 DAZ/cgspeed, MakeHuman) or to --mapping's JSON ({"pelvis": "Hips", "left_hip": "LeftUpLeg",
 ...}); its rest pose (T or A) is aligned bone by bone; its root motion is scaled by the legs'
 length ratio. A .glb or .gltf motion is the first animation of a rigged glTF (its first skin's
-joints, sampled at its keyframes' rate), retargeted the same way. A .json motion is our own poses: {"fps": N, "frames": [pose, ...]}, each pose as
---pose FILE.json reads it (SMPL joint names, axis-angle radians, a translation in m).
+joints, sampled at its keyframes' rate), retargeted the same way. A .json motion is our own
+poses, {"fps": N, "frames": [pose, ...]}, each pose as --pose FILE.json reads it (SMPL joint
+names, axis-angle radians, a translation in m).
   --fps N          resample the clip to N frames per second (slerp); default: the clip's own
   --frames A:B     only frames A to B of the (resampled) clip, 0-based, both included
   --out FILE.glb   the body and garments skinned to one skeleton, each with a material, and the

@@ -9,7 +9,7 @@ namespace vfit {
 namespace {
 
 TEST(Cli, HelpForEveryCommandExitsZero) {
-  for (const char* cmd : {"info", "convert", "devices", "demo"}) {
+  for (const char* cmd : {"info", "convert", "devices", "demo", "animate"}) {
     const auto r = test::run_cli({cmd, "--help"});
     EXPECT_EQ(r.exit_code, 0) << cmd;
     EXPECT_NE(r.out.find(std::string("usage: vfit ") + cmd), std::string::npos) << r.out;
