@@ -179,9 +179,10 @@ Files are written atomically (a temporary file renamed); nothing is written on e
 
 constexpr const char* ANIMATE_HELP =
     R"(usage: vfit animate --garment FILE [--garment FILE ...] --motion FILE.bvh|.glb|.json
-                    [--body mannequin|FILE] [body flags] [--mapping FILE.json] [--fps N] [--frames A:B] [--out FILE.glb]
-                    [--frames-dir DIR] [--report FILE.json] [--render FILE.png [--render-every N]
-                    [--render-size N]] [--no-simulation] [--quiet] [--progress]
+                    [--body mannequin|FILE] [body flags] [--mapping FILE.json] [--fps N]
+                    [--frames A:B] [--out FILE.glb] [--frames-dir DIR] [--report FILE.json]
+                    [--render FILE.png [--render-every N] [--render-size N]] [--no-simulation]
+                    [--quiet] [--progress]
 
 Dresses a body and plays a motion-capture clip on it (seed 001 §7). The garments are fitted onto
 the body at rest (its rest pose, where its skin weights are bound; the fit of `vfit fit`, with the
