@@ -42,7 +42,10 @@ struct Track {
     };
     if (t <= times.front() || n == 1) return key(0, value_at);
     if (t >= times.back()) return key(n - 1, value_at);
-    const auto k = std::size_t(std::upper_bound(times.begin(), times.end(), float(t)) - times.begin()) - 1;
+    // The last key at or before t (compared in double: t may round to a key's float), below the last.
+    const auto after =
+        std::upper_bound(times.begin(), times.end(), t, [](double value, float time) { return value < double(time); });
+    const std::size_t k = std::min(std::size_t(after - times.begin()) - 1, n - 2);
     const double dt = double(times[k + 1]) - double(times[k]);
     const double u = std::clamp((t - double(times[k])) / dt, 0.0, 1.0);
     Eigen::VectorXd v;
