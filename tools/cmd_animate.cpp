@@ -192,7 +192,7 @@ int run_animate(Args& args) {
                                 : std::max<std::size_t>(1, (frames.size() + 7) / 8);
   std::vector<std::pair<std::size_t, std::vector<Mesh>>> sheet;
   double lbs_total = 0, worst_depth = 0;
-  std::size_t worst_inside = 0;
+  std::size_t worst_inside = 0, worst_crossing = 0, worst_layer = 0;
   for (std::size_t f = 0; f < frames.size(); ++f) {
     t0 = Clock::now();
     character.step(frames[f]);
@@ -203,11 +203,16 @@ int run_animate(Args& args) {
     const double measure_ms = ms_since(t0);
     worst_depth = std::max(worst_depth, p.max_depth_mm);
     worst_inside = std::max(worst_inside, p.inside);
+    worst_crossing = std::max(worst_crossing, p.crossing_edges);
+    worst_layer = std::max(worst_layer, p.layer_inside + p.layer_crossing_edges);
     per_frame.push_back({{"frame", first + f},
                          {"lbs_ms", lbs_ms},
                          {"measure_ms", measure_ms},
                          {"inside", p.inside},
                          {"inside_1mm", p.inside_1mm},
+                         {"crossing_edges", p.crossing_edges},
+                         {"layer_inside", p.layer_inside},
+                         {"layer_crossing_edges", p.layer_crossing_edges},
                          {"max_depth_mm", p.max_depth_mm}});
     if (frames_dir) frame_meshes.push_back(frame_mesh(character));
     if (render_file && f % every == 0) {
@@ -297,16 +302,20 @@ int run_animate(Args& args) {
                        {"retarget", retarget_ms},
                        {"skinning", skinning_ms},
                        {"lbs_per_frame", frames.empty() ? 0.0 : lbs_total / double(frames.size())}};
-    r["penetration"] = {{"worst_inside", worst_inside}, {"worst_depth_mm", worst_depth}};
+    r["penetration"] = {{"worst_inside", worst_inside},
+                        {"worst_depth_mm", worst_depth},
+                        {"worst_crossing_edges", worst_crossing},
+                        {"worst_layer_offences", worst_layer}};
     r["frames"] = std::move(per_frame);
     write_file_atomically(*report_file, r.dump(2) + "\n");
   }
   if (!quiet)
     std::printf("animated %zu frames at %.0f fps (%s, mapping %s): LBS %.3f ms per frame; garment vertices inside "
-                "the body: up to %zu per frame, %.1f mm deep at most (no per-frame clean-up yet)\n",
+                "the body: up to %zu per frame, %.1f mm deep at most; edges through it up to %zu, layer offences up "
+                "to %zu (no per-frame clean-up yet)\n",
                 frames.size(), motion.fps, std::filesystem::path(*motion_file).filename().c_str(),
                 motion.mapping.c_str(), frames.empty() ? 0.0 : lbs_total / double(frames.size()), worst_inside,
-                worst_depth);
+                worst_depth, worst_crossing, worst_layer);
   return 0;
 }
 

@@ -208,7 +208,7 @@ names, axis-angle radians, a translation in m).
                    seen from the side, --render-size pixels square each (default 256), in rows of 8
   --report FILE    JSON: the clip (mapping, unit, up axis, rates, leg ratio, unmapped joints), the
                    timings, and per frame the LBS time and the garment vertices inside the body
-                   (count, count over 1 mm, deepest mm)
+                   (count, count over 1 mm, deepest mm), edges through it and layer offences
 )";
 
 constexpr const char* FIT_HELP =

@@ -32,25 +32,35 @@ void DressedCharacter::step(const Pose& pose) {
     linear_blend_skinning(g.rest.positions, g.weights, transforms, g.positions);
 }
 
-FramePenetration DressedCharacter::measure() {
-  if (!m_index)
-    m_index.emplace(m_body_positions, m_body.mesh.triangles);
-  else
-    m_index->refit(m_body_positions);
+namespace {
+
+// The fit's layering constants: the gap kept outside an inner garment (seed 001 eq. 7's k) and
+// how far a layer point may be from a garment vertex and still count.
+constexpr double LAYER_CLEARANCE = 0.003, LAYER_REACH = 0.05;
+
+} // namespace
+
+FramePenetration DressedCharacter::measure() const {
+  Mesh posed;
+  posed.positions = m_body_positions;
+  posed.triangles = m_body.mesh.triangles;
+  DressingBody body(posed, LAYER_CLEARANCE, LAYER_REACH);
   FramePenetration out;
-  for (Layer& g : m_garments) {
-    if (g.queried)
-      m_index->requery_closest_points(g.positions, INFINITY, g.hits);
-    else
-      m_index->closest_points(g.positions, INFINITY, g.hits);
-    g.queried = true;
-    for (std::size_t v = 0; v < g.hits.triangles.size(); ++v) {
-      const double d = g.hits.signed_distances[v];
-      if (g.hits.triangles[v] < 0 || d >= 0) continue;
-      ++out.inside;
-      if (d < -0.001) ++out.inside_1mm;
-      out.max_depth_mm = std::max(out.max_depth_mm, -1000 * d);
-    }
+  ClosestHits hits;
+  for (const Layer& g : m_garments) {
+    Mesh garment;
+    garment.positions = g.positions;
+    garment.triangles = g.rest.triangles;
+    const PenetrationStats s = Dresser(body, garment, DressOptions{}).measure(garment);
+    out.inside += s.inside_count;
+    out.max_depth_mm = std::max(out.max_depth_mm, 1000 * s.max_depth);
+    out.crossing_edges += s.crossing_edges;
+    out.layer_inside += s.layer_inside_count;
+    out.layer_crossing_edges += s.layer_crossing_edges;
+    body.index().closest_points(garment.positions, INFINITY, hits);
+    for (std::size_t v = 0; v < hits.size(); ++v)
+      if (hits.triangles[v] >= 0 && hits.signed_distances[v] < -0.001f) ++out.inside_1mm;
+    body.add_layer(garment);
   }
   return out;
 }

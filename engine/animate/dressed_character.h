@@ -5,7 +5,8 @@
 /// per frame by linear blend skinning — eq. 8 with the physical term's weight w_p = 0. The
 /// physical term (the cloth continuing from the previous frame against the moving body), its
 /// blend (eq. 8–9) and the per-frame layering and clean-up are not part of this object yet: a
-/// frame here is what LBS alone gives, measured (measure()) so that what it leaves is known.
+/// frame here is what LBS alone gives, measured (measure()) so that what it leaves is known:
+/// vertices inside the body, edges through it, and layer offences.
 ///
 /// For an app, per frame:
 /// ```
@@ -26,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/dress/dresser.h"
 #include "engine/fit/fit_report.h"
 #include "geometry/body/body.h"
 #include "geometry/garment/garment_skinning.h"
@@ -33,11 +35,14 @@
 
 namespace vfit {
 
-/// What measure() finds on the current frame: garment vertices inside the body.
+/// What measure() finds on the current frame, summed over the garments.
 struct FramePenetration {
-  std::size_t inside = 0;     ///< garment vertices inside the body (signed distance < 0)
-  double max_depth_mm = 0;    ///< the deepest of them (mm)
-  std::size_t inside_1mm = 0; ///< those more than 1 mm inside
+  std::size_t inside = 0;               ///< garment vertices inside the body (signed distance < 0)
+  double max_depth_mm = 0;              ///< the deepest of them (mm)
+  std::size_t inside_1mm = 0;           ///< those more than 1 mm inside
+  std::size_t crossing_edges = 0;       ///< garment edges through the body
+  std::size_t layer_inside = 0;         ///< garment vertices inside a garment under it
+  std::size_t layer_crossing_edges = 0; ///< edges of the garments under it through the garment
 };
 
 class DressedCharacter {
@@ -63,10 +68,12 @@ public:
   const Body& body() const { return m_body; }
   const Mesh& garment_rest(std::size_t g) const { return m_garments[g].rest; }
 
-  /// Garment vertices inside the body as it stands after the last step: closest points on the
-  /// posed body (its index refitted per frame, each garment vertex re-queried from the previous
-  /// frame's answer). O(#garment vertices · log #body faces).
-  FramePenetration measure();
+  /// Where the garments stand after the last step, as the fit measures a garment
+  /// (Dresser::measure()): the posed body indexed, then each garment, inner first, measured
+  /// against the body and the garments under it (seed 001 eq. 7's layers, 3 mm apart) and added
+  /// as a layer for the next. Allocates per call (the indices are built for the pose);
+  /// O((#body faces + #garment vertices) · log #body faces).
+  FramePenetration measure() const;
 
 private:
   struct Layer {
@@ -74,13 +81,10 @@ private:
     Mesh rest;
     SkinWeights weights;
     std::vector<float> positions;
-    ClosestHits hits;
-    bool queried = false;
   };
   Body m_body;
   std::vector<Layer> m_garments;
   std::vector<float> m_body_positions;
-  std::optional<ProximityIndex> m_index; // of the posed body, refitted per measure()
 };
 
 } // namespace vfit
