@@ -1,5 +1,6 @@
 #include "args.h"
 
+#include <cctype>
 #include <charconv>
 #include <filesystem>
 #include <system_error>
@@ -72,6 +73,13 @@ int Args::to_int(const std::string& option, const std::string& value, int min_va
                 "expected an integer in [" + std::to_string(min_value) + ", " + std::to_string(max_value) + "], got '" +
                     value + "'");
   return x;
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
 }
 
 void check_output_path(const std::string& path, std::string_view option, const std::vector<std::string>& inputs) {

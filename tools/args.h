@@ -38,4 +38,7 @@ private:
 /// that are not files, such as "mannequin", never match): throws vfit::Error naming the path.
 void check_output_path(const std::string& path, std::string_view option, const std::vector<std::string>& inputs);
 
+/// `path`'s extension in lower case, with its dot (".glb"); empty when it has none.
+std::string lower_extension(const std::string& path);
+
 } // namespace vfit::cli

@@ -36,13 +36,6 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext)
-    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 // "A:B" (frames A to B of the motion, 0-based, both included; either side may be empty).
 std::pair<std::size_t, std::size_t> parse_frames(const std::string& value, std::size_t count) {
   const std::size_t colon = value.find(':');

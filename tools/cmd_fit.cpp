@@ -46,13 +46,6 @@ double to_double(const std::string& option, const std::string& value, double lo,
   return x;
 }
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext)
-    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 // All garments in one mesh, one face label per garment (groups in OBJ); UVs kept when every
 // garment has them.
 Mesh merge_garments(const std::vector<FittedGarment>& garments) {

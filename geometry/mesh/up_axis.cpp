@@ -22,6 +22,18 @@ std::string up_axis_name(UpAxis up) {
   return "+y";
 }
 
+std::array<double, 3> up_axis_vector(UpAxis up) {
+  switch (up) {
+  case UpAxis::POS_Y: return {0, 1, 0};
+  case UpAxis::POS_Z: return {0, 0, 1};
+  case UpAxis::NEG_Z: return {0, 0, -1};
+  case UpAxis::NEG_Y: return {0, -1, 0};
+  case UpAxis::POS_X: return {1, 0, 0};
+  case UpAxis::NEG_X: return {-1, 0, 0};
+  }
+  return {0, 1, 0};
+}
+
 UpAxis parse_up_axis(std::string_view name) {
   std::string s(name);
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });

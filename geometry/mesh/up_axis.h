@@ -24,6 +24,9 @@ inline constexpr std::array<UpAxis, 6> UP_AXES = {UpAxis::POS_Y, UpAxis::POS_Z, 
 /// "+y" | "+z" | "-z" | "-y" | "+x" | "-x".
 std::string up_axis_name(UpAxis up);
 
+/// The unit vector of `up` in the file's own axes: +Y is (0, 1, 0), −Z is (0, 0, −1), ...
+std::array<double, 3> up_axis_vector(UpAxis up);
+
 /// Parses "+y", "y", "+z", "z", "-z", "-y", "+x", "x", "-x" (case-insensitive); throws
 /// vfit::Error naming `name` otherwise.
 UpAxis parse_up_axis(std::string_view name);

@@ -208,18 +208,6 @@ UpAxis snap_to_axis(const Eigen::Vector3d& d) {
   }
 }
 
-Eigen::Vector3d axis_vector(UpAxis up) {
-  switch (up) {
-  case UpAxis::POS_X: return Eigen::Vector3d::UnitX();
-  case UpAxis::NEG_X: return -Eigen::Vector3d::UnitX();
-  case UpAxis::POS_Y: return Eigen::Vector3d::UnitY();
-  case UpAxis::NEG_Y: return -Eigen::Vector3d::UnitY();
-  case UpAxis::POS_Z: return Eigen::Vector3d::UnitZ();
-  case UpAxis::NEG_Z: return -Eigen::Vector3d::UnitZ();
-  }
-  return Eigen::Vector3d::UnitY();
-}
-
 std::string lower(std::string_view s) {
   std::string out(s);
   for (char& c : out)
@@ -442,7 +430,8 @@ UpAxis bvh_infer_up(const BvhMotion& m, const std::vector<Eigen::Vector3d>& rest
 }
 
 void bvh_infer_unit(BvhMotion& m, const std::vector<Eigen::Vector3d>& rest, UpAxis up) {
-  const Eigen::Vector3d axis = axis_vector(up);
+  const std::array<double, 3> u = up_axis_vector(up);
+  const Eigen::Vector3d axis(u[0], u[1], u[2]);
   double lo = INFINITY, hi = -INFINITY;
   for (const Eigen::Vector3d& p : rest) {
     lo = std::min(lo, p.dot(axis));

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "geometry/body/rig_mapping.h"
 #include "geometry/mesh/atomic_write.h"
 #include "kernels/error.h"
 
@@ -18,7 +19,9 @@ namespace {
 
 using J = Joint;
 
-// One convention: per canonical joint, its BVH name, or alternatives separated by '|', or "".
+// The conventions BVH rigs use beyond the glTF rigs' own (rig_mapping.h: SMPL and Mixamo
+// names, taken from there): per canonical joint, its BVH name, or alternatives separated by
+// '|', or "".
 struct Convention {
   const char* name;
   std::array<const char*, JOINT_COUNT> joint;
@@ -30,10 +33,6 @@ struct Convention {
 // right_hand.
 const std::vector<Convention>& conventions() {
   static const std::vector<Convention> all = {
-      {"mixamo", {"Hips",        "LeftUpLeg",    "RightUpLeg",    "Spine",     "LeftLeg",         "RightLeg",
-                  "Spine1",      "LeftFoot",     "RightFoot",     "Spine2",    "LeftToeBase",     "RightToeBase",
-                  "Neck",        "LeftShoulder", "RightShoulder", "Head",      "LeftArm",         "RightArm",
-                  "LeftForeArm", "RightForeArm", "LeftHand",      "RightHand", "LeftHandMiddle1", "RightHandMiddle1"}},
       {"cmu", {"Hips",        "LeftUpLeg",    "RightUpLeg",    "LowerBack", "LeftLeg",        "RightLeg",
                "Spine",       "LeftFoot",     "RightFoot",     "Spine1",    "LeftToeBase",    "RightToeBase",
                "Neck",        "LeftShoulder", "RightShoulder", "Head",      "LeftArm",        "RightArm",
@@ -136,19 +135,8 @@ Eigen::Matrix3d frame(const Eigen::Vector3d& up, const Eigen::Vector3d& side) {
   return f;
 }
 
-Eigen::Vector3d up_vector(UpAxis up) {
-  switch (up) {
-  case UpAxis::POS_X: return Eigen::Vector3d::UnitX();
-  case UpAxis::NEG_X: return -Eigen::Vector3d::UnitX();
-  case UpAxis::NEG_Y: return -Eigen::Vector3d::UnitY();
-  case UpAxis::POS_Z: return Eigen::Vector3d::UnitZ();
-  case UpAxis::NEG_Z: return -Eigen::Vector3d::UnitZ();
-  default: return Eigen::Vector3d::UnitY();
-  }
-}
-
 // The two-direction frames: the pelvis (up the spine, across the hips) and the chest (up the
-// neck, across the shoulders). `first_of` picks the first mapped joint of a list.
+// neck, across the shoulders).
 struct Framing {
   int up_from, up_to, side_left, side_right;
 };
@@ -175,7 +163,7 @@ bool motion_mapping_complete(const MotionMapping& mapping, std::string* missing)
 }
 
 std::vector<std::string> builtin_motion_mappings() {
-  std::vector<std::string> names = {"smpl"};
+  std::vector<std::string> names = {"smpl", "mixamo"};
   for (const Convention& c : conventions())
     names.emplace_back(c.name);
   return names;
@@ -184,9 +172,8 @@ std::vector<std::string> builtin_motion_mappings() {
 MotionMapping builtin_motion_mapping(std::string_view name) {
   MotionMapping m;
   m.name = std::string(name);
-  if (name == "smpl") {
-    for (int j = 0; j < JOINT_COUNT; ++j)
-      m.joint[std::size_t(j)] = std::string(joint_name(j));
+  if (name == "smpl" || name == "mixamo") {
+    m.joint = builtin_rig_mapping(name).bone_for_joint;
     return m;
   }
   for (const Convention& c : conventions())
@@ -233,10 +220,8 @@ MotionMapping detect_motion_mapping(const BvhMotion& motion) {
     if (!best_any || c.found > best_any->found) best_any = c;
     if (complete && (!best_complete || c.found > best_complete->found)) best_complete = c;
   };
-  std::array<std::string, JOINT_COUNT> smpl;
-  for (int j = 0; j < JOINT_COUNT; ++j)
-    smpl[std::size_t(j)] = std::string(joint_name(j));
-  consider("smpl", smpl);
+  for (const char* rig : {"smpl", "mixamo"})
+    consider(rig, builtin_rig_mapping(rig).bone_for_joint);
   for (const Convention& c : conventions()) {
     std::array<std::string, JOINT_COUNT> names;
     for (int j = 0; j < JOINT_COUNT; ++j)
@@ -298,7 +283,8 @@ RetargetedMotion retarget_bvh(const BvhMotion& motion, const JointPositions& res
   auto mapped = [&](J j) { return b[std::size_t(idx(j))] >= 0; };
   // The rig's axes into ours: its up axis to +Y, its left (left hip − right hip) to +X.
   const std::vector<Eigen::Vector3d> rest_bvh = bvh_rest_positions(motion);
-  const Eigen::Vector3d up = up_vector(motion.up);
+  const std::array<double, 3> u = up_axis_vector(motion.up);
+  const Eigen::Vector3d up(u[0], u[1], u[2]);
   const Eigen::Vector3d rig_left = rest_bvh[std::size_t(b[std::size_t(idx(J::LEFT_HIP))])] -
                                    rest_bvh[std::size_t(b[std::size_t(idx(J::RIGHT_HIP))])];
   if ((rig_left - rig_left.dot(up) * up).norm() <= 0)

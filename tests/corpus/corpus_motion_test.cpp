@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -28,13 +29,18 @@ void PrintTo(const Clip& c, std::ostream* os) { *os << c.file; }
 
 class CorpusMotion : public ::testing::TestWithParam<Clip> {};
 
-TEST_P(CorpusMotion, ReadsWithItsAxesAndUnitsAndRoundTrips) {
+// The corpus's clip `file`, or nullopt when the corpus or the clip is absent (the test skips).
+std::optional<std::filesystem::path> clip_path(const char* file) {
   const auto corpus = test::corpus_dir();
-  if (!corpus) GTEST_SKIP() << "corpus folder absent (VFIT_CORPUS_DIR)";
+  if (!corpus || !std::filesystem::exists(*corpus / "motion" / file)) return std::nullopt;
+  return *corpus / "motion" / file;
+}
+
+TEST_P(CorpusMotion, ReadsWithItsAxesAndUnitsAndRoundTrips) {
   const Clip& c = GetParam();
-  const std::filesystem::path path = *corpus / "motion" / c.file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " absent";
-  const BvhMotion m = read_bvh(path);
+  const auto path = clip_path(c.file);
+  if (!path) GTEST_SKIP() << "the corpus clip " << c.file << " is absent";
+  const BvhMotion m = read_bvh(*path);
   EXPECT_EQ(m.frame_count(), c.frames);
   EXPECT_EQ(m.up, c.up) << up_axis_name(m.up);
   // The skeleton at rest is an adult's height in metres, whatever the file's unit.
@@ -92,18 +98,16 @@ double planted_slide(const std::vector<JointPositions>& frames, Joint foot) {
 // than 60° between frames, unless the clip's own joint does), and a walk's planted feet slide
 // at most 3 cm more than the clip's own.
 TEST_P(CorpusMotion, RetargetsOntoOurBodiesWithoutFlipsOrSliding) {
-  const auto corpus = test::corpus_dir();
-  if (!corpus) GTEST_SKIP() << "corpus folder absent (VFIT_CORPUS_DIR)";
   const Clip& c = GetParam();
-  const std::filesystem::path path = *corpus / "motion" / c.file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " absent";
-  const BvhMotion m = read_bvh(path);
+  const auto path = clip_path(c.file);
+  if (!path) GTEST_SKIP() << "the corpus clip " << c.file << " is absent";
+  const BvhMotion m = read_bvh(*path);
   const MotionMapping mapping = detect_motion_mapping(m);
   EXPECT_EQ(mapping.name, c.mapping);
   std::vector<std::pair<std::string, JointPositions>> bodies = {
       {"mannequin A", MannequinShape(BodyMeasurements{}, RestPose::APOSE).joints()},
       {"mannequin T", MannequinShape(BodyMeasurements{}, RestPose::TPOSE).joints()}};
-  const std::filesystem::path rigged = *corpus / "makehuman" / "derived" / "hm08_body_rigged.glb";
+  const std::filesystem::path rigged = *test::corpus_dir() / "makehuman" / "derived" / "hm08_body_rigged.glb";
   if (std::filesystem::exists(rigged)) bodies.emplace_back("hm08", read_gltf_body(rigged.string()).joints);
   for (const auto& [body, rest] : bodies) {
     const RetargetedMotion r = retarget_bvh(m, rest, mapping);
@@ -186,11 +190,9 @@ TEST_P(CorpusMotion, RetargetsOntoOurBodiesWithoutFlipsOrSliding) {
 // MakeHuman's T-pose clip on the A-pose mannequin: the arms come up level with the shoulders
 // (the rest alignment turns the A-pose's lowered arms into the rig's T).
 TEST(CorpusMotionTPose, LiftsAnAPoseBodysArmsLevel) {
-  const auto corpus = test::corpus_dir();
-  if (!corpus) GTEST_SKIP() << "corpus folder absent (VFIT_CORPUS_DIR)";
-  const std::filesystem::path path = *corpus / "motion" / "mh_tpose.bvh";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " absent";
-  const BvhMotion m = read_bvh(path);
+  const auto path = clip_path("mh_tpose.bvh");
+  if (!path) GTEST_SKIP() << "the corpus clip mh_tpose.bvh is absent";
+  const BvhMotion m = read_bvh(*path);
   const JointPositions rest = MannequinShape(BodyMeasurements{}, RestPose::APOSE).joints();
   const RetargetedMotion r = retarget_bvh(m, rest, detect_motion_mapping(m));
   const JointPositions p = posed_joints(rest, r.frames.front());
