@@ -86,6 +86,8 @@ int run_animate(Args& args) {
   const auto render_size_value = args.value("render-size");
   const int render_size = render_size_value ? Args::to_int("--render-size", *render_size_value, 64, 2048) : 256;
   const auto fps_value = args.value("fps");
+  const auto physics_value = args.value("physics");
+  const auto threads_value = args.value("threads");
   const auto frames_value = args.value("frames");
   FitOptions options;
   options.simulate = !args.flag("no-simulation");
@@ -105,6 +107,11 @@ int run_animate(Args& args) {
   if (render_file && lower_extension(*render_file) != ".png")
     throw Error(*render_file, 0, "--render writes a .png file");
   if (render_every_value && !render_file) throw Error("--render-every", 0, "needs --render FILE.png");
+  if (physics_value && *physics_value != "on" && *physics_value != "off")
+    throw Error("--physics", 0, "expected on or off, got '" + *physics_value + "'");
+  AnimationOptions animation;
+  animation.physics = !physics_value || *physics_value == "on";
+  animation.threads = threads_value ? Args::to_int("--threads", *threads_value, 1, 1024) : 0;
   const double fps = fps_value ? double(Args::to_int("--fps", *fps_value, 1, 1000)) : 0.0;
   {
     std::vector<std::string> inputs = garment_files;
@@ -174,9 +181,21 @@ int run_animate(Args& args) {
                                  motion.frames.begin() + std::ptrdiff_t(last) + 1);
   const double retarget_ms = ms_since(t0);
 
+  // Inner garments first (the fit's dressing order), so each is layered over the ones under it.
+  std::vector<FittedGarment> dressed = fitted.garments;
+  {
+    std::vector<std::size_t> order(dressed.size());
+    for (std::size_t i = 0; i < order.size(); ++i)
+      order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return fitted.report.garments[a].order < fitted.report.garments[b].order;
+    });
+    for (std::size_t i = 0; i < order.size(); ++i)
+      dressed[i] = fitted.garments[order[i]];
+  }
   t0 = Clock::now();
-  DressedCharacter character(body, fitted.garments);
-  const double skinning_ms = ms_since(t0);
+  DressedCharacter character(body, dressed, animation);
+  const double setup_ms = ms_since(t0);
   nlohmann::ordered_json per_frame = nlohmann::ordered_json::array();
   std::vector<Mesh> frame_meshes;
   // --render: every Nth frame (default: at most 8 of them) as a tile of the contact sheet.
@@ -184,23 +203,47 @@ int run_animate(Args& args) {
                                 ? std::size_t(Args::to_int("--render-every", *render_every_value, 1, 100000))
                                 : std::max<std::size_t>(1, (frames.size() + 7) / 8);
   std::vector<std::pair<std::size_t, std::vector<Mesh>>> sheet;
-  double lbs_total = 0, worst_depth = 0;
-  std::size_t worst_inside = 0, worst_crossing = 0, worst_layer = 0;
+  FrameReport sum;
+  double worst_depth = 0, worst_frame_ms = 0;
+  std::size_t worst_inside = 0, worst_inside_1mm = 0, worst_crossing = 0, worst_layer = 0, restarts = 0, diverged = 0,
+              non_finite = 0;
   for (std::size_t f = 0; f < frames.size(); ++f) {
-    t0 = Clock::now();
-    character.step(frames[f]);
-    const double lbs_ms = ms_since(t0);
-    lbs_total += lbs_ms;
+    const FrameReport& s = character.step(frames[f], 1.0 / motion.fps);
+    sum.lbs_ms += s.lbs_ms;
+    sum.physics_ms += s.physics_ms;
+    sum.blend_ms += s.blend_ms;
+    sum.cleanup_ms += s.cleanup_ms;
+    sum.layering_ms += s.layering_ms;
+    sum.total_ms += s.total_ms;
+    worst_frame_ms = std::max(worst_frame_ms, s.total_ms);
+    restarts += s.restarted ? 1 : 0;
+    diverged += s.diverged;
+    non_finite += s.non_finite;
     t0 = Clock::now();
     const FramePenetration p = character.measure();
     const double measure_ms = ms_since(t0);
     worst_depth = std::max(worst_depth, p.max_depth_mm);
     worst_inside = std::max(worst_inside, p.inside);
+    worst_inside_1mm = std::max(worst_inside_1mm, p.inside_1mm);
     worst_crossing = std::max(worst_crossing, p.crossing_edges);
     worst_layer = std::max(worst_layer, p.layer_inside + p.layer_crossing_edges);
     per_frame.push_back({{"frame", first + f},
-                         {"lbs_ms", lbs_ms},
+                         {"lbs_ms", s.lbs_ms},
+                         {"physics_ms", s.physics_ms},
+                         {"blend_ms", s.blend_ms},
+                         {"cleanup_ms", s.cleanup_ms},
+                         {"layering_ms", s.layering_ms},
+                         {"step_ms", s.total_ms},
                          {"measure_ms", measure_ms},
+                         {"restarted", s.restarted},
+                         {"diverged", s.diverged},
+                         {"solver_iterations", s.solver_iterations},
+                         {"pushed_out_of_body", s.body_pushed},
+                         {"crossing_edges_moved", s.crossings_pushed},
+                         {"pushed_out_of_layers", s.layer_pushed},
+                         {"non_finite_replaced", s.non_finite},
+                         {"cleanup_left_inside_1mm", s.left_inside_1mm},
+                         {"cleanup_left_crossing", s.left_crossing},
                          {"inside", p.inside},
                          {"inside_1mm", p.inside_1mm},
                          {"crossing_edges", p.crossing_edges},
@@ -219,8 +262,10 @@ int run_animate(Args& args) {
       sheet.emplace_back(first + f, std::move(meshes));
     }
     if (progress && (f % 30 == 0 || f + 1 == frames.size()))
-      std::fprintf(stderr, "vfit: frame %zu/%zu: LBS %.2f ms, %zu garment vertices inside the body (deepest %.1f mm)\n",
-                   f + 1, frames.size(), lbs_ms, p.inside, p.max_depth_mm);
+      std::fprintf(stderr,
+                   "vfit: frame %zu/%zu: %.1f ms (physics %.1f), %zu garment vertices more than 1 mm inside the "
+                   "body, %zu edges through it\n",
+                   f + 1, frames.size(), s.total_ms, s.physics_ms, p.inside_1mm, p.crossing_edges);
   }
 
   // The contact sheet: each tile a side view of one frame, labelled with its number.
@@ -255,9 +300,9 @@ int run_animate(Args& args) {
       named.push_back({std::filesystem::path(character.garment_name(g)).stem().string(), &character.garment_rest(g),
                        &skins[g + 1], palette[g % palette.size()]});
     }
-    const SkinAnimation animation =
+    const SkinAnimation clip =
         poses_to_skin_animation(body.joints, frames, motion.fps, std::filesystem::path(*motion_file).stem().string());
-    write_file_atomically(*out, write_glb(named, &animation));
+    write_file_atomically(*out, write_glb(named, &clip));
   }
   if (frames_dir) {
     std::filesystem::create_directories(*frames_dir);
@@ -285,30 +330,70 @@ int run_animate(Args& args) {
     r["motion"]["unmapped_joints"] = std::move(unmapped);
     r["body"] = {{"source", sources[0]}, {"vertices", body.mesh.vertex_count()}};
     nlohmann::ordered_json gs = nlohmann::ordered_json::array();
-    for (const GarmentFitReport& g : fitted.report.garments)
-      gs.push_back({{"name", g.name}, {"type", garment_type_name(g.type)}, {"vertices", g.vertices}});
+    for (std::size_t g = 0; g < character.garment_count(); ++g) {
+      const BlendWeights& b = character.garment_blend(g);
+      nlohmann::ordered_json item = {{"name", character.garment_name(g)},
+                                     {"type", garment_type_name(dressed[g].segmentation.type)},
+                                     {"vertices", character.garment_rest(g).vertex_count()},
+                                     {"layer", g},
+                                     {"physical_weight", b.upper}};
+      if (b.split)
+        item["physical_weight_parts"] = {{"split_height_m", b.split_height},
+                                         {"upper", b.upper},
+                                         {"upper_vertices", b.upper_vertices},
+                                         {"lower", b.lower},
+                                         {"lower_vertices", b.lower_vertices}};
+      gs.push_back(std::move(item));
+    }
     r["garments"] = std::move(gs);
-    r["method"] = "linear blend skinning of every layer (seed 001 eq. 8 with w_p = 0): no physics, layering or "
-                  "clean-up per frame";
+    r["method"] = animation.physics
+                      ? "per frame: linear blend skinning of every layer; cloth physics against the moving body; "
+                        "the blend of seed 001 eq. 8 with w_p from eq. 9; clean-up out of the body and layering "
+                        "(eq. 7)"
+                      : "per frame: linear blend skinning of every layer (eq. 8 with w_p = 0); clean-up out of the "
+                        "body and layering (eq. 7)";
+    const double n = frames.empty() ? 1.0 : double(frames.size());
+    r["threads"] = animation.threads;
     r["timings_ms"] = {{"body", body_ms},
                        {"fit", fit_ms},
                        {"retarget", retarget_ms},
-                       {"skinning", skinning_ms},
-                       {"lbs_per_frame", frames.empty() ? 0.0 : lbs_total / double(frames.size())}};
+                       {"setup", setup_ms},
+                       {"per_frame",
+                        {{"lbs", sum.lbs_ms / n},
+                         {"physics", sum.physics_ms / n},
+                         {"blend", sum.blend_ms / n},
+                         {"cleanup", sum.cleanup_ms / n},
+                         {"layering", sum.layering_ms / n},
+                         {"step", sum.total_ms / n},
+                         {"worst_step", worst_frame_ms}}}};
+    r["physics"] = {
+        {"on", animation.physics}, {"restarts", restarts}, {"diverged", diverged}, {"non_finite_replaced", non_finite}};
     r["penetration"] = {{"worst_inside", worst_inside},
+                        {"worst_inside_1mm", worst_inside_1mm},
                         {"worst_depth_mm", worst_depth},
                         {"worst_crossing_edges", worst_crossing},
                         {"worst_layer_offences", worst_layer}};
     r["frames"] = std::move(per_frame);
     write_file_atomically(*report_file, r.dump(2) + "\n");
   }
-  if (!quiet)
-    std::printf("animated %zu frames at %.0f fps (%s, mapping %s): LBS %.3f ms per frame; garment vertices inside "
-                "the body: up to %zu per frame, %.1f mm deep at most; edges through it up to %zu, layer offences up "
-                "to %zu (no per-frame clean-up yet)\n",
+  if (!quiet) {
+    const double n = frames.empty() ? 1.0 : double(frames.size());
+    std::printf("animated %zu frames at %.0f fps (%s, mapping %s), physics %s: %.1f ms per frame (%.0f frames per "
+                "second; LBS %.2f, physics %.1f, blend %.2f, clean-up %.1f, layering %.1f)\n",
                 frames.size(), motion.fps, std::filesystem::path(*motion_file).filename().c_str(),
-                motion.mapping.c_str(), frames.empty() ? 0.0 : lbs_total / double(frames.size()), worst_inside,
-                worst_depth, worst_crossing, worst_layer);
+                motion.mapping.c_str(), animation.physics ? "on" : "off", sum.total_ms / n,
+                sum.total_ms > 0 ? 1000.0 * n / sum.total_ms : 0.0, sum.lbs_ms / n, sum.physics_ms / n,
+                sum.blend_ms / n, sum.cleanup_ms / n, sum.layering_ms / n);
+    std::printf("after clean-up, worst frame: %zu garment vertices more than 1 mm inside the body (deepest %.1f mm), "
+                "%zu edges through it, %zu layer offences\n",
+                worst_inside_1mm, worst_depth, worst_crossing, worst_layer);
+  }
+  if (!quiet && (worst_inside_1mm > 0 || worst_crossing > 0 || worst_layer > 0))
+    std::cerr << "vfit: warning: the per-frame clean-up left garments in the body or in each other on some frames "
+                 "(see the report's frames)\n";
+  if (!quiet && (diverged > 0 || non_finite > 0))
+    std::cerr << "vfit: warning: the cloth diverged on " << diverged << " garment-frames and " << non_finite
+              << " blended vertices were not finite; their skinned positions were used\n";
   return 0;
 }
 

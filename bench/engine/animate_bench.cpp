@@ -52,10 +52,24 @@ void BM_step(benchmark::State& state) {
   const Outfit& o = outfit(std::size_t(state.range(0)));
   DressedCharacter character(o.body, o.garments);
   std::size_t k = 0;
+  FrameReport sum;
   for (auto _ : state) {
-    character.step(o.walk[k++ % o.walk.size()]);
+    const FrameReport& r = character.step(o.walk[k++ % o.walk.size()], 1.0 / 30);
+    sum.lbs_ms += r.lbs_ms;
+    sum.physics_ms += r.physics_ms;
+    sum.blend_ms += r.blend_ms;
+    sum.cleanup_ms += r.cleanup_ms;
+    sum.solver_iterations += r.solver_iterations;
+    sum.contacts += r.contacts;
     benchmark::DoNotOptimize(character.garment_positions(0).data());
   }
+  const double n = double(std::max<benchmark::IterationCount>(1, state.iterations()));
+  state.counters["lbs_ms"] = sum.lbs_ms / n;
+  state.counters["physics_ms"] = sum.physics_ms / n;
+  state.counters["blend_ms"] = sum.blend_ms / n;
+  state.counters["cleanup_ms"] = sum.cleanup_ms / n;
+  state.counters["cg_iterations"] = double(sum.solver_iterations) / n;
+  state.counters["contacts"] = double(sum.contacts) / n;
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["garment_vertices"] = double(2 * state.range(0));
 }
@@ -66,7 +80,7 @@ void BM_step_and_measure(benchmark::State& state) {
   DressedCharacter character(o.body, o.garments);
   std::size_t k = 0;
   for (auto _ : state) {
-    character.step(o.walk[k++ % o.walk.size()]);
+    character.step(o.walk[k++ % o.walk.size()], 1.0 / 30);
     benchmark::DoNotOptimize(character.measure().inside);
   }
 }

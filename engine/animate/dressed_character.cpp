@@ -1,44 +1,218 @@
 #include "dressed_character.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "engine/fit/dressing_order.h"
 #include "kernels/error.h"
 
 namespace vfit {
 
-DressedCharacter::DressedCharacter(const Body& body, const std::vector<FittedGarment>& garments,
-                                   const GarmentSkinningOptions& skinning)
-    : m_body(body), m_body_positions(body.mesh.positions) {
-  validate_skin_weights(m_body.weights, m_body.mesh.vertex_count(), "dressed character: the body's weights");
-  for (const FittedGarment& g : garments) {
-    Layer layer;
-    layer.name = g.name;
-    layer.rest = g.mesh;
-    try {
-      layer.weights = garment_skin_weights(m_body, g.mesh, g.segmentation.type, skinning);
-    } catch (const Error& e) {
-      throw Error(g.name, 0, std::string("skinning: ") + e.what());
-    }
-    layer.positions = g.mesh.positions;
-    m_garments.push_back(std::move(layer));
-  }
-}
-
-void DressedCharacter::step(const Pose& pose) {
-  const auto transforms = skinning_transforms(m_body.joints, pose);
-  linear_blend_skinning(m_body.mesh.positions, m_body.weights, transforms, m_body_positions);
-  for (Layer& g : m_garments)
-    linear_blend_skinning(g.rest.positions, g.weights, transforms, g.positions);
-}
-
 namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 // The fit's layering constants: the gap kept outside an inner garment (seed 001 eq. 7's k) and
 // how far a layer point may be from a garment vertex and still count.
 constexpr double LAYER_CLEARANCE = 0.003, LAYER_REACH = 0.05;
 
 } // namespace
+
+struct DressedCharacter::Arena {
+  tbb::task_arena arena;
+  explicit Arena(int threads) : arena(threads > 0 ? threads : tbb::task_arena::automatic) {}
+};
+
+ClothOptions AnimationOptions::default_cloth() {
+  ClothOptions o;
+  o.implicit_step = 1.0 / 30.0;
+  // The tethers bound how far a particle can go; a contact that moves one across a limb (a
+  // pinched armpit in the skinned garment) stretches its springs far past the fit's runaway
+  // threshold for a step without any runaway.
+  o.max_stretch = 100;
+  return o;
+}
+
+DressedCharacter::DressedCharacter(const Body& body, const std::vector<FittedGarment>& garments,
+                                   const AnimationOptions& options)
+    : m_options(options), m_body(body), m_body_positions(body.mesh.positions),
+      m_arena(std::make_unique<Arena>(options.threads)) {
+  if (options.threads < 0) throw Error("animation: threads must be ≥ 0 (0: every core)");
+  if (!(options.max_physical_weight >= 0 && options.max_physical_weight <= 1))
+    throw Error("animation: max_physical_weight must lie in [0, 1]");
+  if (!(options.cut_speed > 0)) throw Error("animation: cut_speed must be > 0 m/s");
+  if (!(options.inertia >= 0 && options.inertia <= 1)) throw Error("animation: inertia must lie in [0, 1]");
+  validate_skin_weights(m_body.weights, m_body.mesh.vertex_count(), "dressed character: the body's weights");
+  std::vector<const Mesh*> meshes;
+  for (const FittedGarment& g : garments)
+    meshes.push_back(&g.mesh);
+  m_cleanup = std::make_unique<FrameCleanup>(m_body.mesh, meshes, options.cleanup);
+  const double hips = 0.5 * (m_body.joints(idx(Joint::LEFT_HIP), 1) + m_body.joints(idx(Joint::RIGHT_HIP), 1));
+  for (const FittedGarment& g : garments) {
+    Layer layer;
+    layer.name = g.name;
+    layer.type = g.segmentation.type;
+    layer.rest = g.mesh;
+    try {
+      layer.weights = garment_skin_weights(m_body, g.mesh, layer.type, options.skinning);
+      layer.blend =
+          blend_weights(*m_cleanup->body(), g.mesh, layer.type, hips, options.split_band, options.max_physical_weight);
+      if (options.physics) {
+        ClothOptions co = options.cloth;
+        co.waistband_pins = co.waistband_pins || fitting::is_bottom(layer.type);
+        layer.cloth = std::make_unique<ClothSim>(g.mesh.positions, g.mesh.triangles, co);
+        layer.cloth->set_body(m_cleanup->body(), m_body.mesh.positions, m_body.mesh.triangles);
+        // The leash: the tether plus the vertex's distance to the body at rest, so loose parts
+        // (a skirt's hem) swing farther than tight ones.
+        ClosestHits hits;
+        m_cleanup->body()->closest_points(g.mesh.positions, INFINITY, hits);
+        layer.tether_radii.resize(hits.size());
+        for (std::size_t v = 0; v < hits.size(); ++v)
+          layer.tether_radii[v] =
+              float(options.tether + (hits.triangles[v] < 0 ? 0.0 : std::max(0.0f, hits.signed_distances[v])));
+      }
+    } catch (const Error& e) {
+      throw Error(g.name, 0, std::string("animation: ") + e.what());
+    }
+    layer.positions = g.mesh.positions;
+    layer.lbs = g.mesh.positions;
+    layer.lbs_previous = g.mesh.positions;
+    layer.skin_velocity.assign(g.mesh.positions.size(), 0.0f);
+    layer.start_x.resize(g.mesh.positions.size());
+    layer.start_v.resize(g.mesh.positions.size());
+    m_garments.push_back(std::move(layer));
+  }
+}
+
+DressedCharacter::~DressedCharacter() = default;
+DressedCharacter::DressedCharacter(DressedCharacter&&) noexcept = default;
+DressedCharacter& DressedCharacter::operator=(DressedCharacter&&) noexcept = default;
+
+const FrameReport& DressedCharacter::step(const Pose& pose, double dt) {
+  const auto t0 = Clock::now();
+  m_report = FrameReport{};
+  m_arena->arena.execute([&] { step_stages(pose, dt); });
+  m_report.total_ms = ms_since(t0);
+  return m_report;
+}
+
+void DressedCharacter::step_stages(const Pose& pose, double dt) {
+  FrameReport& r = m_report;
+  auto t = Clock::now();
+  const auto transforms = skinning_transforms(m_body.joints, pose);
+  // The body's fastest vertex over the frame tells a cut in the motion (compared before the
+  // body moves; the first frame always restarts).
+  bool cut = m_restart || !(dt > 0) || !std::isfinite(dt);
+  std::vector<float>& body = m_body_positions;
+  if (!cut) {
+    const double limit2 = (m_options.cut_speed * dt) * (m_options.cut_speed * dt);
+    std::vector<float>& before = m_previous_body;
+    before.assign(body.begin(), body.end());
+    linear_blend_skinning(m_body.mesh.positions, m_body.weights, transforms, body);
+    for (std::size_t i = 0; i + 2 < body.size() && !cut; i += 3) {
+      const double dx = double(body[i]) - before[i], dy = double(body[i + 1]) - before[i + 1],
+                   dz = double(body[i + 2]) - before[i + 2];
+      cut = dx * dx + dy * dy + dz * dz > limit2;
+    }
+  } else {
+    linear_blend_skinning(m_body.mesh.positions, m_body.weights, transforms, body);
+  }
+  for (Layer& g : m_garments) {
+    g.lbs_previous.swap(g.lbs); // the same sizes: no allocation
+    linear_blend_skinning(g.rest.positions, g.weights, transforms, g.lbs);
+  }
+  r.lbs_ms = ms_since(t);
+
+  t = Clock::now();
+  m_cleanup->refit_body(body); // the one index of the posed body: the cloths' and the clean-up's
+  if (m_options.physics) {
+    // The garments' cloths are independent (each collides with the body only; the layers are
+    // the clean-up's): stepped side by side, each also parallel inside.
+    const auto inertia = float(m_options.inertia);
+    tbb::parallel_for(std::size_t(0), m_garments.size(), [&](std::size_t i) {
+      Layer& g = m_garments[i];
+      ClothSim& cloth = *g.cloth;
+      cloth.move_body(body, 0.0); // at rest in the carried frame (the shared index is refitted)
+      if (cut) {
+        cloth.set_state(g.lbs);
+        g.skin_velocity_known = false;
+        return;
+      }
+      // Carried by the skinning: each particle moves as its skinned position did, keeps its
+      // velocity relative to the skin, less `inertia` times the skin's change of velocity.
+      const std::span<const float> x = cloth.positions(), v = cloth.velocities();
+      const auto inv_dt = float(1.0 / dt);
+      for (std::size_t c = 0; c < x.size(); ++c) {
+        const float moved = g.lbs[c] - g.lbs_previous[c], skin_v = moved * inv_dt;
+        const float kick = g.skin_velocity_known ? inertia * (skin_v - g.skin_velocity[c]) : 0.0f;
+        g.start_x[c] = x[c] + moved;
+        g.start_v[c] = v[c] - kick;
+        g.skin_velocity[c] = skin_v;
+      }
+      g.skin_velocity_known = true;
+      cloth.set_state(g.start_x, g.start_v);
+      cloth.set_tethers(g.lbs, g.tether_radii);
+      g.last = cloth.step(dt);
+      if (g.last.status != ClothStatus::OK) {
+        cloth.set_state(g.lbs);
+        g.skin_velocity_known = false;
+      }
+    });
+    if (!cut)
+      for (const Layer& g : m_garments) {
+        r.diverged += g.last.status != ClothStatus::OK ? 1 : 0;
+        r.solver_iterations += g.last.solver_iterations;
+        r.contacts += g.last.contacts;
+      }
+  }
+  r.restarted = cut;
+  m_restart = false;
+  r.physics_ms = ms_since(t);
+
+  t = Clock::now();
+  for (Layer& g : m_garments) {
+    const std::size_t nv = g.lbs.size() / 3;
+    if (!m_options.physics) {
+      std::copy(g.lbs.begin(), g.lbs.end(), g.positions.begin());
+      continue;
+    }
+    const std::span<const float> phys = g.cloth->positions();
+    std::size_t bad = 0;
+    for (std::size_t v = 0; v < nv; ++v) {
+      const float w = g.blend.per_vertex[v];
+      float out[3];
+      bool finite = true;
+      for (std::size_t k = 0; k < 3; ++k) {
+        out[k] = g.lbs[3 * v + k] + w * (phys[3 * v + k] - g.lbs[3 * v + k]);
+        finite = finite && std::isfinite(out[k]);
+      }
+      if (!finite) {
+        std::copy_n(&g.lbs[3 * v], 3, out);
+        ++bad;
+      }
+      std::copy_n(out, 3, &g.positions[3 * v]);
+    }
+    r.non_finite += bad;
+  }
+  r.blend_ms = ms_since(t);
+
+  if (m_options.clean_up)
+    for (std::size_t g = 0; g < m_garments.size(); ++g) {
+      const FrameCleanupCounts c = m_cleanup->clean(g, m_garments[g].positions);
+      r.body_pushed += c.body_pushed;
+      r.crossings_pushed += c.crossings_pushed;
+      r.layer_pushed += c.layer_pushed;
+      r.left_inside_1mm += c.left_inside_1mm;
+      r.left_crossing += c.left_crossing;
+      r.cleanup_ms += c.body_ms;
+      r.layering_ms += c.layering_ms;
+    }
+}
 
 FramePenetration DressedCharacter::measure() const {
   Mesh posed;

@@ -20,6 +20,10 @@
 #include "kernels/backend.h"
 
 namespace vfit {
+class ProximityIndex; // kernels/proximity.h
+} // namespace vfit
+
+namespace vfit {
 enum class ImplicitPreconditioner : std::int8_t; // kernels/cloth_implicit.h
 } // namespace vfit
 
@@ -263,6 +267,15 @@ public:
   /// …") for an index out of range; positions are not checked for finiteness here (the broad
   /// phase's constructor checks them: "proximity mesh"/"spatial hash mesh" errors).
   void set_body(std::span<const float> positions, std::span<const std::int32_t> triangles);
+  /// As above, sharing `index` (a ProximityIndex over exactly these positions and triangles,
+  /// built with the default OpenMeshSide) instead of building one, so several cloths, and the
+  /// caller's own queries, use one index of a moving body. The caller refits `index` to the new
+  /// positions before each move_body(), which then leaves it alone (it refits an index of its
+  /// own), and does not refit it while this simulation steps. Throws vfit::Error ("body: …")
+  /// with the SPATIAL_HASH broad phase, for a null index or one whose vertex or face count
+  /// differs from the mesh's, and for an index out of range.
+  void set_body(std::shared_ptr<ProximityIndex> index, std::span<const float> positions,
+                std::span<const std::int32_t> triangles);
   /// Moves the body (same topology) over the last `dt` seconds: refits the BVH (no rebuild) or
   /// refills the spatial hash, takes the body's velocity as (new − old)/dt for friction, and
   /// moves the attached vertices with their body triangles (their velocity becomes (new −
@@ -289,6 +302,25 @@ public:
   /// The vertices attached by attach_to_body() (or the waistband pins), ascending, each once;
   /// empty before any attachment.
   std::vector<std::int32_t> attached_vertices() const;
+
+  /// Restarts the cloth from `positions` (#V × 3, m, caller's numbering) with `velocities`
+  /// (#V × 3, m/s) or, when that span is empty, at rest: for a cut in a motion (a clip looping
+  /// back, the first frame of a clip far from the pose the cloth was built in), where stepping
+  /// through the jump would fling the cloth. Pinned and attached vertices stay pinned; an
+  /// attached vertex is put back on its body triangle (its given position is ignored). The rest
+  /// lengths are unchanged. Clears a divergence (status() is OK again) and the contact caches, so
+  /// no path is tested across the jump. Throws vfit::Error ("cloth: set_state …") naming the
+  /// first non-finite coordinate or a size other than #V × 3; the state is unchanged then.
+  void set_state(std::span<const float> positions, std::span<const float> velocities = {});
+
+  /// Max-distance tethers, a cloth driven by an animation leashed to its animated shape: after
+  /// every implicit step's solve (RK4: every contact window's substeps), before the contact pass,
+  /// a free particle farther than radii[i] (m) from targets[i] is put back on that sphere and
+  /// loses its velocity away from the target. targets: #V × 3 (m), radii: #V (each ≥ 0 or +∞),
+  /// caller's numbering; both empty: no tethers. The tethers stay until set again. Throws
+  /// vfit::Error ("cloth: set_tethers …") for other sizes, a non-finite target or a negative or
+  /// NaN radius; the tethers are unchanged then. O(#V).
+  void set_tethers(std::span<const float> targets, std::span<const float> radii);
 
   /// Advances by dt (s, ≥ 0) in steps of at most stable_substep(): RK4 substeps with body
   /// contacts resolved every contact_interval, or implicit Euler steps each followed by body

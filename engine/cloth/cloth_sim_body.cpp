@@ -30,28 +30,56 @@ void ClothSim::Impl::attached_position(const BodyAttachment& a, double out[3]) c
     out[k] = p[0][k] + a.s * e1[k] + a.t * e2[k] + a.h * n[k];
 }
 
-void ClothSim::set_body(std::span<const float> positions, std::span<const std::int32_t> triangles) {
-  Impl& m = *m_impl;
-  const std::size_t nb = positions.size() / 3;
+namespace {
+
+void check_body_indices(std::span<const std::int32_t> triangles, std::size_t nb) {
   for (std::size_t i = 0; i < triangles.size(); ++i)
     if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= nb)
       throw Error("body", 0,
                   "face " + std::to_string(i / 3) + " has vertex index " + std::to_string(triangles[i]) +
                       " outside [0, " + std::to_string(nb) + ")");
+}
+
+} // namespace
+
+void ClothSim::set_body(std::span<const float> positions, std::span<const std::int32_t> triangles) {
+  Impl& m = *m_impl;
+  check_body_indices(triangles, positions.size() / 3);
   if (m.options.broad_phase == ClothBroadPhase::SPATIAL_HASH) {
     m.hash.emplace(positions, triangles);
     m.body.reset();
   } else {
-    m.body.emplace(positions, triangles);
+    m.body = std::make_shared<ProximityIndex>(positions, triangles);
     m.hash.reset();
   }
+  m.body_shared = false;
+  m.body_set(positions, triangles);
+}
+
+void ClothSim::set_body(std::shared_ptr<ProximityIndex> index, std::span<const float> positions,
+                        std::span<const std::int32_t> triangles) {
+  Impl& m = *m_impl;
+  if (m.options.broad_phase != ClothBroadPhase::BVH)
+    throw Error("body", 0, "a shared body index needs the BVH broad phase");
+  if (!index || index->vertex_count() != positions.size() / 3 || index->face_count() != triangles.size() / 3)
+    throw Error("body", 0, "the shared index does not index this body (vertex or face counts differ)");
+  check_body_indices(triangles, positions.size() / 3);
+  m.body = std::move(index);
+  m.hash.reset();
+  m.body_shared = true;
+  m.body_set(positions, triangles);
+}
+
+void ClothSim::Impl::body_set(std::span<const float> positions, std::span<const std::int32_t> faces) {
+  Impl& m = *this;
+  const std::size_t nb = positions.size() / 3;
   m.body_positions.assign(positions.begin(), positions.end());
-  m.body_triangles.assign(triangles.begin(), triangles.end());
+  m.body_triangles.assign(faces.begin(), faces.end());
   m.body_velocities.clear();
   m.hits_valid = false;
   m.candidates_valid = false;
   m.step_start_valid = false; // a path is tested against the body it was taken beside
-  m.body_closed = build_hole_caps(triangles, nb).loop_count() == 0;
+  m.body_closed = build_hole_caps(faces, nb).loop_count() == 0;
   std::vector<std::int32_t> attach; // internal rows
   for (const BodyAttachment& a : m.attachments)
     attach.push_back(a.vertex);
@@ -158,7 +186,7 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
   m.body_motion_left = dt > 0 ? dt : 0.0;
   if (m.hash)
     m.hash->update(positions);
-  else
+  else if (!m.body_shared)
     m.body->refit(positions);
   m.hits_valid = false;
   m.candidates_valid = false;
@@ -172,6 +200,98 @@ void ClothSim::move_body(std::span<const float> positions, double dt) {
     }
   }
   m.state_changed();
+}
+
+void ClothSim::set_state(std::span<const float> positions, std::span<const float> velocities) {
+  Impl& m = *m_impl;
+  const std::size_t n = m.masses.size();
+  if (positions.size() != 3 * n || (!velocities.empty() && velocities.size() != 3 * n))
+    throw Error("cloth", 0,
+                "set_state: " + std::to_string(positions.size()) + " coordinates and " +
+                    std::to_string(velocities.size()) + " velocities for " + std::to_string(n) + " particles");
+  for (const std::span<const float> s : {positions, velocities})
+    for (std::size_t i = 0; i < s.size(); ++i)
+      if (!std::isfinite(s[i]))
+        throw Error("cloth", 0, "set_state: vertex " + std::to_string(i / 3) + " is not finite");
+  for (std::size_t row = 0; row < n; ++row) {
+    const auto from = 3 * static_cast<std::size_t>(m.order[row]);
+    const bool free = m.particles.inverse_masses[row] > 0.0f;
+    for (std::size_t k = 0; k < 3; ++k) {
+      m.x[3 * row + k] = positions[from + k];
+      m.v[3 * row + k] = free && !velocities.empty() ? velocities[from + k] : 0.0f;
+    }
+  }
+  for (const BodyAttachment& a : m.attachments) {
+    double to[3];
+    m.attached_position(a, to);
+    for (std::size_t k = 0; k < 3; ++k)
+      m.x[3 * static_cast<std::size_t>(a.vertex) + k] = static_cast<float>(to[k]);
+  }
+  m.status = ClothStatus::OK;
+  m.body_velocities.clear();
+  m.body_motion_left = 0;
+  m.hits_valid = false;
+  m.candidates_valid = false;
+  m.step_start_valid = false;
+  m.released.assign(m.released.size(), 0);
+  m.state_changed();
+}
+
+void ClothSim::set_tethers(std::span<const float> targets, std::span<const float> radii) {
+  Impl& m = *m_impl;
+  const std::size_t n = m.masses.size();
+  if (targets.empty() && radii.empty()) {
+    m.tether_targets.clear();
+    m.tether_radii.clear();
+    return;
+  }
+  if (targets.size() != 3 * n || radii.size() != n)
+    throw Error("cloth", 0,
+                "set_tethers: " + std::to_string(targets.size()) + " target coordinates and " +
+                    std::to_string(radii.size()) + " radii for " + std::to_string(n) + " particles");
+  for (std::size_t i = 0; i < targets.size(); ++i)
+    if (!std::isfinite(targets[i]))
+      throw Error("cloth", 0, "set_tethers: target " + std::to_string(i / 3) + " is not finite");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(radii[i] >= 0)) throw Error("cloth", 0, "set_tethers: radius " + std::to_string(i) + " is negative or NaN");
+  m.tether_targets.resize(3 * n);
+  m.tether_radii.resize(n);
+  for (std::size_t row = 0; row < n; ++row) {
+    const auto from = static_cast<std::size_t>(m.order[row]);
+    for (std::size_t k = 0; k < 3; ++k)
+      m.tether_targets[3 * row + k] = targets[3 * from + k];
+    m.tether_radii[row] = radii[from];
+  }
+}
+
+void ClothSim::Impl::apply_tethers() {
+  if (tether_radii.empty()) return;
+  const std::size_t n = masses.size();
+  auto range = [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      if (particles.inverse_masses[i] == 0.0f) continue;
+      float d[3];
+      double len2 = 0;
+      for (std::size_t k = 0; k < 3; ++k) {
+        d[k] = x[3 * i + k] - tether_targets[3 * i + k];
+        len2 += double(d[k]) * d[k];
+      }
+      const double r = tether_radii[i];
+      if (!(len2 > r * r)) continue;
+      const double len = std::sqrt(len2), scale = r / len;
+      double away = 0;
+      for (std::size_t k = 0; k < 3; ++k)
+        away += double(v[3 * i + k]) * d[k] / len;
+      for (std::size_t k = 0; k < 3; ++k) {
+        x[3 * i + k] = static_cast<float>(tether_targets[3 * i + k] + scale * d[k]);
+        if (away > 0) v[3 * i + k] = static_cast<float>(v[3 * i + k] - away * d[k] / len);
+      }
+    }
+  };
+  if (options.backend == Backend::SERIAL)
+    range(0, n);
+  else
+    parallel_for_range(n, 1024, range);
 }
 
 } // namespace vfit

@@ -105,7 +105,7 @@ void ClothSim::Impl::update_hits() {
 // springs past what the explicit substeps absorb (the 4 cm rod drop from 1.8 m, ClothSim.
 // FastClothDoesNotTunnelThroughAThinRod with RK4: runaway stretch at frame 39).
 bool ClothSim::Impl::continuous() const {
-  return options.continuous_contacts && body.has_value() && options.integrator == ClothIntegrator::IMPLICIT_EULER;
+  return options.continuous_contacts && body != nullptr && options.integrator == ClothIntegrator::IMPLICIT_EULER;
 }
 
 void ClothSim::Impl::mark_step_start(double body_time) {

@@ -71,7 +71,10 @@ struct ClothSim::Impl {
   ClothStatus status = ClothStatus::OK;
 
   // The body's broad phase: one of the two is set (ClothOptions::broad_phase) once a body is.
-  std::optional<ProximityIndex> body;
+  // Shared with the caller when set by set_body(index, …): then the caller refits it, not
+  // move_body() (body_shared).
+  std::shared_ptr<ProximityIndex> body;
+  bool body_shared = false;
   std::optional<SpatialHash> hash;
   std::vector<BodyAttachment> attachments; // ascending vertex
   bool waistband_attached = false;
@@ -125,6 +128,11 @@ struct ClothSim::Impl {
   SegmentHits ccd_hits;
   ClosestHits ccd_requery;
 
+  // Tethers (set_tethers()), internal numbering: targets #V × 3, radii #V; empty: none.
+  std::vector<float> tether_targets, tether_radii;
+  // Puts the free particles farther than their radius from their target back on its sphere.
+  void apply_tethers();
+
   // Set-up and state (cloth_sim.cpp).
 
   // The step in use: implicit_step, or RK4's stable substep (substep_safety × its bound,
@@ -143,9 +151,11 @@ struct ClothSim::Impl {
 
   // The body and its attachments (cloth_sim_body.cpp).
 
-  bool has_body() const { return body.has_value() || hash.has_value(); }
+  bool has_body() const { return body != nullptr || hash.has_value(); }
   // Where attachment a puts its vertex on the current body.
   void attached_position(const BodyAttachment& a, double out[3]) const;
+  // set_body()'s work once the broad phase is in place: the body's copy, caches, attachments.
+  void body_set(std::span<const float> positions, std::span<const std::int32_t> faces);
   // Attaches the internal particles `rows` to the body (see ClothSim::attach_to_body).
   void attach_rows(std::span<const std::int32_t> rows);
 

@@ -70,6 +70,7 @@ int ClothSim::Impl::implicit_step(double h, std::size_t& contacts) {
     for (std::size_t i = 0; i < released.size(); ++i)
       released[i] = impulses[i] < 0.0f ? 1 : 0;
   }
+  apply_tethers();
   contacts += resolve_contacts();
   return r.iterations;
 }
@@ -128,6 +129,7 @@ ClothStepReport ClothSim::step(double dt) {
   const int substeps = std::max(1, static_cast<int>(std::ceil(window / m.substep - 1e-9)));
   for (int w = 0; w < windows; ++w) {
     m.integrate(window / substeps, substeps);
+    m.apply_tethers();
     r.contacts += m.resolve_contacts();
   }
   r.substeps = windows * substeps;
