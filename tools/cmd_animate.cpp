@@ -50,6 +50,39 @@ std::pair<std::size_t, std::size_t> parse_frames(const std::string& value, std::
   return {first, last};
 }
 
+// The garments' edge strain: |l/L − 1| over every garment edge, L its length at rest (the
+// fitted garment); mean and maximum, of `positions(g)` for each garment g.
+struct Strain {
+  double mean = 0, max = 0, stretch = 0; // stretch: the mean of max(0, l/L − 1)
+};
+template <class Positions> Strain edge_strain(const DressedCharacter& c, Positions positions) {
+  Strain s;
+  std::size_t edges = 0;
+  for (std::size_t g = 0; g < c.garment_count(); ++g) {
+    const Mesh& rest = c.garment_rest(g);
+    const std::span<const float> x = positions(g);
+    for (std::size_t f = 0; f < rest.face_count(); ++f)
+      for (std::size_t k = 0; k < 3; ++k) {
+        const auto a = std::size_t(rest.triangles[3 * f + k]), b = std::size_t(rest.triangles[3 * f + (k + 1) % 3]);
+        if (a > b) continue; // each interior edge once (boundary edges of one orientation only)
+        double l = 0, l0 = 0;
+        for (std::size_t i = 0; i < 3; ++i) {
+          l += (double(x[3 * a + i]) - x[3 * b + i]) * (double(x[3 * a + i]) - x[3 * b + i]);
+          l0 += (double(rest.positions[3 * a + i]) - rest.positions[3 * b + i]) *
+                (double(rest.positions[3 * a + i]) - rest.positions[3 * b + i]);
+        }
+        if (!(l0 > 0)) continue;
+        const double e = std::fabs(std::sqrt(l / l0) - 1);
+        s.stretch += std::max(0.0, std::sqrt(l / l0) - 1);
+        s.mean += e;
+        s.max = std::max(s.max, e);
+        ++edges;
+      }
+  }
+  if (edges) s.mean /= double(edges), s.stretch /= double(edges);
+  return s;
+}
+
 // One mesh of the body and every garment, for the per-frame OBJ files.
 Mesh frame_mesh(const DressedCharacter& c) {
   Mesh out;
@@ -203,6 +236,8 @@ int run_animate(Args& args) {
                                 ? std::size_t(Args::to_int("--render-every", *render_every_value, 1, 100000))
                                 : std::max<std::size_t>(1, (frames.size() + 7) / 8);
   std::vector<std::pair<std::size_t, std::vector<Mesh>>> sheet;
+  // --out: each garment's frames beyond its skinning (physics, blend, clean-up), as morph targets.
+  std::vector<MorphFrames> morphs(character.garment_count());
   FrameReport sum;
   double worst_depth = 0, worst_frame_ms = 0;
   std::size_t worst_inside = 0, worst_inside_1mm = 0, worst_crossing = 0, worst_layer = 0, restarts = 0, diverged = 0,
@@ -219,6 +254,9 @@ int run_animate(Args& args) {
     restarts += s.restarted ? 1 : 0;
     diverged += s.diverged;
     non_finite += s.non_finite;
+    const Strain strain_lbs = edge_strain(character, [&](std::size_t g) { return character.garment_skinned(g); });
+    const Strain strain_physics = edge_strain(character, [&](std::size_t g) { return character.garment_physical(g); });
+    const Strain strain_out = edge_strain(character, [&](std::size_t g) { return character.garment_positions(g); });
     t0 = Clock::now();
     const FramePenetration p = character.measure();
     const double measure_ms = ms_since(t0);
@@ -227,30 +265,43 @@ int run_animate(Args& args) {
     worst_inside_1mm = std::max(worst_inside_1mm, p.inside_1mm);
     worst_crossing = std::max(worst_crossing, p.crossing_edges);
     worst_layer = std::max(worst_layer, p.layer_inside + p.layer_crossing_edges);
-    per_frame.push_back({{"frame", first + f},
-                         {"lbs_ms", s.lbs_ms},
-                         {"physics_ms", s.physics_ms},
-                         {"blend_ms", s.blend_ms},
-                         {"cleanup_ms", s.cleanup_ms},
-                         {"layering_ms", s.layering_ms},
-                         {"step_ms", s.total_ms},
-                         {"measure_ms", measure_ms},
-                         {"restarted", s.restarted},
-                         {"diverged", s.diverged},
-                         {"solver_iterations", s.solver_iterations},
-                         {"pushed_out_of_body", s.body_pushed},
-                         {"crossing_edges_moved", s.crossings_pushed},
-                         {"pushed_out_of_layers", s.layer_pushed},
-                         {"non_finite_replaced", s.non_finite},
-                         {"cleanup_left_inside_1mm", s.left_inside_1mm},
-                         {"cleanup_left_crossing", s.left_crossing},
-                         {"inside", p.inside},
-                         {"inside_1mm", p.inside_1mm},
-                         {"crossing_edges", p.crossing_edges},
-                         {"layer_inside", p.layer_inside},
-                         {"layer_crossing_edges", p.layer_crossing_edges},
-                         {"max_depth_mm", p.max_depth_mm}});
+    per_frame.push_back(
+        {{"frame", first + f},
+         {"lbs_ms", s.lbs_ms},
+         {"physics_ms", s.physics_ms},
+         {"blend_ms", s.blend_ms},
+         {"cleanup_ms", s.cleanup_ms},
+         {"layering_ms", s.layering_ms},
+         {"step_ms", s.total_ms},
+         {"measure_ms", measure_ms},
+         {"restarted", s.restarted},
+         {"diverged", s.diverged},
+         {"solver_iterations", s.solver_iterations},
+         {"pushed_out_of_body", s.body_pushed},
+         {"crossing_edges_moved", s.crossings_pushed},
+         {"pushed_out_of_layers", s.layer_pushed},
+         {"non_finite_replaced", s.non_finite},
+         {"cleanup_left_inside_1mm", s.left_inside_1mm},
+         {"cleanup_left_crossing", s.left_crossing},
+         {"inside", p.inside},
+         {"inside_1mm", p.inside_1mm},
+         {"crossing_edges", p.crossing_edges},
+         {"layer_inside", p.layer_inside},
+         {"layer_crossing_edges", p.layer_crossing_edges},
+         {"max_depth_mm", p.max_depth_mm},
+         {"strain_lbs", {{"mean", strain_lbs.mean}, {"stretch", strain_lbs.stretch}, {"max", strain_lbs.max}}},
+         {"strain_physics",
+          {{"mean", strain_physics.mean}, {"stretch", strain_physics.stretch}, {"max", strain_physics.max}}},
+         {"strain", {{"mean", strain_out.mean}, {"stretch", strain_out.stretch}, {"max", strain_out.max}}}});
     if (frames_dir) frame_meshes.push_back(frame_mesh(character));
+    if (out)
+      for (std::size_t g = 0; g < character.garment_count(); ++g) {
+        MorphFrames& m = morphs[g];
+        const std::size_t values = 3 * character.garment_rest(g).vertex_count();
+        m.offsets.resize(m.offsets.size() + values);
+        character.bind_space_offsets(g, std::span<float>(m.offsets).last(values));
+        ++m.count;
+      }
     if (render_file && f % every == 0) {
       std::vector<Mesh> meshes(1 + character.garment_count());
       meshes[0].triangles = body.mesh.triangles;
@@ -298,7 +349,7 @@ int run_animate(Args& args) {
       skins[g + 1].joints = character.garment_weights(g).joints;
       skins[g + 1].weights = character.garment_weights(g).weights;
       named.push_back({std::filesystem::path(character.garment_name(g)).stem().string(), &character.garment_rest(g),
-                       &skins[g + 1], palette[g % palette.size()]});
+                       &skins[g + 1], palette[g % palette.size()], morphs[g].count > 0 ? &morphs[g] : nullptr});
     }
     const SkinAnimation clip =
         poses_to_skin_animation(body.joints, frames, motion.fps, std::filesystem::path(*motion_file).stem().string());

@@ -59,6 +59,7 @@ void BM_step(benchmark::State& state) {
     sum.physics_ms += r.physics_ms;
     sum.blend_ms += r.blend_ms;
     sum.cleanup_ms += r.cleanup_ms;
+    sum.layering_ms += r.layering_ms;
     sum.solver_iterations += r.solver_iterations;
     sum.contacts += r.contacts;
     benchmark::DoNotOptimize(character.garment_positions(0).data());
@@ -68,6 +69,7 @@ void BM_step(benchmark::State& state) {
   state.counters["physics_ms"] = sum.physics_ms / n;
   state.counters["blend_ms"] = sum.blend_ms / n;
   state.counters["cleanup_ms"] = sum.cleanup_ms / n;
+  state.counters["layering_ms"] = sum.layering_ms / n;
   state.counters["cg_iterations"] = double(sum.solver_iterations) / n;
   state.counters["contacts"] = double(sum.contacts) / n;
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);

@@ -36,6 +36,7 @@
 /// the skinning, blend and clean-up allocate nothing; the cloth simulator may (its contact sets
 /// grow and shrink with the contacts).
 
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <span>
@@ -131,6 +132,18 @@ public:
   std::span<const float> garment_positions(std::size_t g) const { return m_garments[g].positions; }
   /// Garment g's LBS positions of the last step (the skinned animation alone).
   std::span<const float> garment_skinned(std::size_t g) const { return m_garments[g].lbs; }
+  /// Garment g's cloth after the last step (the physical term of eq. 8), or its LBS positions
+  /// when physics is off.
+  std::span<const float> garment_physical(std::size_t g) const {
+    return m_garments[g].cloth ? m_garments[g].cloth->positions() : std::span<const float>(m_garments[g].lbs);
+  }
+  /// Garment g's positions of the last step as offsets from its rest shape before skinning
+  /// (#V × 3, m): the skin of vertex v, M_v = Σ_j w_vj·R_j (its joints' rotations blended),
+  /// carries offset δ_v to M_v·δ_v, so δ_v = M_v⁻¹·(x_v − LBS_v), and skinning rest + δ with the
+  /// frame's pose gives the frame back (a glTF morph target, MorphFrames). Where M_v is nearly
+  /// singular (|det| < 1e-3: weights split between opposed rotations) the heaviest joint's
+  /// rotation stands for it. `out` must hold #V × 3 floats. O(#V).
+  void bind_space_offsets(std::size_t g, std::span<float> out) const;
   /// Garment g's skin weights, #V × 4.
   const SkinWeights& garment_weights(std::size_t g) const { return m_garments[g].weights; }
   /// Garment g's eq. 9 weights.
@@ -172,6 +185,7 @@ private:
   std::unique_ptr<Arena> m_arena;
   FrameReport m_report;
   bool m_restart = true;
+  std::array<Eigen::Isometry3d, JOINT_COUNT> m_transforms; // of the last step
 };
 
 } // namespace vfit

@@ -50,9 +50,12 @@ ParsedMesh read_gltf(std::string_view bytes, const std::string& path);
 /// one set of joint nodes, so one skeleton moves a body and its garments. A mesh with a colour
 /// gets a material of its own (metallic 0, roughness 0.8, double-sided). With `animation`, an
 /// animation drives the first skin's joint nodes: a LINEAR rotation channel per joint and a
-/// translation channel on its root. Throws vfit::Error naming the mesh for a null mesh, a mesh
+/// translation channel on its root. A mesh with morphs gets one morph target (POSITION offsets,
+/// with min/max) per keyframe and a LINEAR weights channel on its node, one-hot at each
+/// keyframe. Throws vfit::Error naming the mesh for a null mesh, a mesh
 /// without faces, non-finite positions or out-of-range indices, a skin that does not match its
-/// mesh, and naming the animation when there is no skin, its sizes do not match the skeleton
+/// mesh, morphs without an animation or whose sizes do not match the mesh and #times, a non-finite
+/// offset, and naming the animation when there is no skin, its sizes do not match the skeleton
 /// and #times, its times do not increase, or a value is not finite.
 std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* animation = nullptr);
 

@@ -225,6 +225,7 @@ std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* an
            a.joint_positions == b.joint_positions;
   };
   BinaryBuilder bin;
+  std::vector<std::pair<std::size_t, std::size_t>> morphed; // (mesh node, target count)
   // Joint nodes come after the mesh nodes.
   std::size_t next_node = meshes.size();
   for (std::size_t i = 0; i < meshes.size(); ++i) {
@@ -310,6 +311,46 @@ std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* an
       skins.push_back(std::move(skin_json));
     }
     Json primitive = {{"attributes", std::move(attributes)}, {"indices", indices}, {"mode", 4}};
+    if (const MorphFrames* morphs = meshes[i].morphs) {
+      const std::size_t nv = meshes[i].mesh->vertex_count();
+      if (!animation) throw Error(name, 0, "morph frames need an animation to play them");
+      if (morphs->count == 0 || morphs->count != animation->times.size() ||
+          morphs->offsets.size() != morphs->count * nv * 3)
+        throw Error(name, 0,
+                    "morph frames do not match: " + std::to_string(morphs->count) + " frames of " +
+                        std::to_string(morphs->offsets.size()) + " values for " + std::to_string(nv) +
+                        " vertices and " + std::to_string(animation->times.size()) + " keyframes");
+      Json targets = Json::array();
+      std::vector<float> target(split.positions.size());
+      for (std::size_t k = 0; k < morphs->count; ++k) {
+        const float* frame = morphs->offsets.data() + k * nv * 3;
+        for (std::size_t w = 0; w < split.source_vertex.size(); ++w)
+          for (std::size_t c = 0; c < 3; ++c) {
+            const float value = frame[3 * std::size_t(split.source_vertex[w]) + c];
+            if (!std::isfinite(value))
+              throw Error(name, 0,
+                          "morph frame " + std::to_string(k + 1) + ", vertex " +
+                              std::to_string(split.source_vertex[w] + 1) + " is not finite");
+            target[3 * w + c] = value;
+          }
+        const std::size_t accessor = bin.add(target, 3, FLOAT, ARRAY_BUFFER);
+        Json target_lo = Json::array(), target_hi = Json::array();
+        for (std::size_t c = 0; c < 3; ++c) {
+          float low = target[c], high = target[c];
+          for (std::size_t v = c; v < target.size(); v += 3) {
+            low = std::min(low, target[v]);
+            high = std::max(high, target[v]);
+          }
+          target_lo.push_back(low);
+          target_hi.push_back(high);
+        }
+        bin.accessor(accessor)["min"] = std::move(target_lo);
+        bin.accessor(accessor)["max"] = std::move(target_hi);
+        targets.push_back({{"POSITION", accessor}});
+      }
+      primitive["targets"] = std::move(targets);
+      morphed.push_back({i, morphs->count});
+    }
     if (meshes[i].color) {
       const auto& c = *meshes[i].color;
       primitive["material"] = materials.size();
@@ -321,6 +362,7 @@ std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* an
                              {"roughnessFactor", 0.8f}}}});
     }
     Json mesh = {{"primitives", Json::array({std::move(primitive)})}};
+    if (meshes[i].morphs) mesh["weights"] = std::vector<float>(meshes[i].morphs->count, 0.0f);
     if (!meshes[i].name.empty()) mesh["name"] = node["name"] = meshes[i].name;
     gltf_meshes.push_back(std::move(mesh));
     nodes.push_back(std::move(node));
@@ -339,9 +381,23 @@ std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* an
     if (!skins.empty()) doc["skins"] = std::move(skins);
     if (!materials.empty()) doc["materials"] = std::move(materials);
   }
-  if (animation)
-    doc["animations"] = Json::array({animation_json(*animation, written.empty() ? nullptr : written.front().skin,
-                                                    written.empty() ? 0 : written.front().first_node, bin)});
+  if (animation) {
+    Json clip = animation_json(*animation, written.empty() ? nullptr : written.front().skin,
+                               written.empty() ? 0 : written.front().first_node, bin);
+    // Morph weights: one-hot at each keyframe (target k at keyframe k), linear between them.
+    // The keyframe times are the input accessor of the clip's first sampler.
+    for (const auto& [node, count] : morphed) {
+      std::vector<float> weights(count * count, 0.0f);
+      for (std::size_t k = 0; k < count; ++k)
+        weights[k * count + k] = 1.0f;
+      const std::size_t input = clip["samplers"][0]["input"].get<std::size_t>();
+      clip["channels"].push_back(
+          {{"sampler", clip["samplers"].size()}, {"target", {{"node", node}, {"path", "weights"}}}});
+      clip["samplers"].push_back(
+          {{"input", input}, {"output", bin.add(weights, 1, FLOAT, -1)}, {"interpolation", "LINEAR"}});
+    }
+    doc["animations"] = Json::array({std::move(clip)});
+  }
   doc["scene"] = 0;
   doc["scenes"] = Json::array({std::move(scene)});
   const std::string binary = bin.finish(doc);

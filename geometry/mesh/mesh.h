@@ -70,14 +70,24 @@ struct MeshSkin {
   std::vector<float> weights;              ///< #V × 4, rows sum to 1
 };
 
+/// A mesh's shape per keyframe of an animation, beyond what its skin gives: offset k (m, in the
+/// mesh's bind space, added to the rest positions before skinning) is the shape at keyframe k
+/// (e.g. the cloth's physics and clean-up over the skinned garment). Written as one morph target
+/// per keyframe, weight 1 at its keyframe and 0 at the others, ramping linearly between them.
+struct MorphFrames {
+  std::size_t count = 0;      ///< #K targets, one per keyframe of the animation
+  std::vector<float> offsets; ///< #K × #V × 3 (m)
+};
+
 /// A mesh with a name, for writers of multi-mesh files (glTF scenes: body and garments), and
-/// optionally its skin and colour.
+/// optionally its skin, colour and per-keyframe shapes.
 struct NamedMesh {
   std::string name;
   const Mesh* mesh = nullptr;
   const MeshSkin* skin = nullptr;
   /// Base colour (linear RGB in [0, 1]) of a material of its own; none: the viewer's default.
   std::optional<std::array<float, 3>> color = std::nullopt;
+  const MorphFrames* morphs = nullptr; ///< with an animation of as many keyframes; null: none
 };
 
 /// Keyframes of a skeleton (a MeshSkin's joints, in its order), for writers of animated files:
