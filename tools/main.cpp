@@ -180,7 +180,8 @@ Files are written atomically (a temporary file renamed); nothing is written on e
 constexpr const char* ANIMATE_HELP =
     R"(usage: vfit animate --garment FILE [--garment FILE ...] --motion FILE.bvh|.glb|.json
                     [--body mannequin|FILE] [body flags] [--mapping FILE.json] [--fps N]
-                    [--frames A:B] [--out FILE.glb] [--frames-dir DIR] [--report FILE.json]
+                    [--frames A:B] [--physics on|off] [--threads N] [--out FILE.glb]
+                    [--frames-dir DIR] [--report FILE.json]
                     [--render FILE.png [--render-every N] [--render-size N]] [--no-simulation]
                     [--quiet] [--progress]
 
@@ -188,9 +189,11 @@ Dresses a body and plays a motion-capture clip on it (seed 001 §7). The garment
 the body at rest (its rest pose, where its skin weights are bound; the fit of `vfit fit`, with the
 cloth simulated unless --no-simulation), skinned to the body's skeleton (the body's weights at
 each garment vertex's closest point, a skirt's or dress's hem split between both hips, diffused
-over the garment), and posed with the body every frame by linear blend skinning. Not yet: the
-cloth's physics per frame, its blend with LBS (eq. 8-9), per-frame layering and clean-up; the
-report counts the garment vertices LBS leaves inside the body on each frame.
+over the garment), then played frame by frame, inner garment first: linear blend skinning (LBS);
+each garment's cloth carried by the skinning and stepped against the posed body (two implicit
+steps per 30 fps frame, leashed to the skinned garment); the blend of eq. 8 with w_p from eq. 9
+(skirts and dresses in an upper and a lower part); and a clean-up: vertices out of the body,
+edges through it cleared, each garment outside the ones under it (eq. 7).
 The clip (BVH: any channel order, its unit and up axis read from its skeleton) is retargeted onto
 the body: its joint names are matched to a built-in convention (SMPL, Mixamo, CMU, MotionBuilder,
 DAZ/cgspeed, MakeHuman) or to --mapping's JSON ({"pelvis": "Hips", "left_hip": "LeftUpLeg",
@@ -201,14 +204,19 @@ poses, {"fps": N, "frames": [pose, ...]}, each pose as --pose FILE.json reads it
 names, axis-angle radians, a translation in m).
   --fps N          resample the clip to N frames per second (slerp); default: the clip's own
   --frames A:B     only frames A to B of the (resampled) clip, 0-based, both included
-  --out FILE.glb   the body and garments skinned to one skeleton, each with a material, and the
-                   clip as a glTF animation (plays in any glTF viewer)
+  --physics off    LBS and the clean-up only (eq. 8 with w_p = 0); default on
+  --threads N      threads per frame (default: every core)
+  --out FILE.glb   the body and garments skinned to one skeleton, each with a material, the clip
+                   as a glTF animation, and each garment's frames beyond its skinning as morph
+                   targets, one per frame (plays in any glTF viewer)
   --frames-dir DIR one OBJ per frame (frame_00000.obj, ...), the body and garments as one mesh
   --render FILE.png  a contact sheet: every Nth frame (--render-every, default: 8 frames in all)
                    seen from the side, --render-size pixels square each (default 256), in rows of 8
-  --report FILE    JSON: the clip (mapping, unit, up axis, rates, leg ratio, unmapped joints), the
-                   timings, and per frame the LBS time and the garment vertices inside the body
-                   (count, count over 1 mm, deepest mm), edges through it and layer offences
+  --report FILE    JSON: the clip (mapping, unit, up axis, rates, leg ratio, unmapped joints),
+                   the garments' w_p, the timings per stage, and per frame the stage times, what
+                   the clean-up moved, the garments' edge strain (skinned, cloth, final) and where
+                   they stand as the fit measures them: vertices inside the body (count, count
+                   over 1 mm, deepest mm), edges through it and layer offences
 )";
 
 constexpr const char* FIT_HELP =

@@ -845,5 +845,114 @@ TEST(ClothSim, AFastRodCarriesClothInsteadOfPassingThroughIt) {
   }
 }
 
+// set_state() restarts a cloth where it is told, at rest or with the velocities given, and
+// clears a divergence; attached vertices stay on their body triangles; bad input changes nothing.
+TEST(ClothSim, SetStateRestartsTheClothAndClearsADivergence) {
+  const Square sq;
+  ClothSim sim(sq.mesh.position_view(), sq.mesh.triangle_view(), square_options(200.0));
+  sim.pin(sq.corners);
+  ASSERT_EQ(sim.step(0.05).status, ClothStatus::OK);
+  ASSERT_GT(sim.kinetic_energy(), 0.0);
+  // A restart where it started, at rest: stepping again repeats the first step bit for bit.
+  ClothSim fresh(sq.mesh.position_view(), sq.mesh.triangle_view(), square_options(200.0));
+  fresh.pin(sq.corners);
+  ASSERT_EQ(fresh.step(0.05).status, ClothStatus::OK);
+  sim.set_state(sq.mesh.positions);
+  EXPECT_EQ(sim.kinetic_energy(), 0.0);
+  ASSERT_EQ(sim.step(0.05).status, ClothStatus::OK);
+  EXPECT_TRUE(same_bits(sim.positions(), fresh.positions()));
+  // Velocities given are kept, but for the pinned corners.
+  std::vector<float> v(sq.mesh.positions.size(), 0.0f);
+  for (std::size_t i = 1; i < v.size(); i += 3)
+    v[i] = 1.0f;
+  sim.set_state(sq.mesh.positions, v);
+  EXPECT_FLOAT_EQ(sim.velocities()[3 * 5 + 1], 1.0f);
+  EXPECT_EQ(sim.velocities()[3 * std::size_t(sq.corners[0]) + 1], 0.0f);
+  // A divergence is sticky until a restart.
+  ClothOptions stiff = square_options(1e7);
+  stiff.max_substep = 0.02; // far above the stable substep
+  stiff.substep_safety = 100;
+  ClothSim wild(sq.mesh.position_view(), sq.mesh.triangle_view(), stiff);
+  std::vector<float> stretched = sq.mesh.positions;
+  stretched[3 * 60 + 1] += 0.2f;
+  wild.set_state(stretched);
+  ASSERT_NE(wild.step(0.1).status, ClothStatus::OK);
+  wild.set_state(sq.mesh.positions);
+  EXPECT_EQ(wild.status(), ClothStatus::OK);
+  // Bad input: the state is unchanged.
+  const std::vector<float> before(sim.positions().begin(), sim.positions().end());
+  std::vector<float> bad = sq.mesh.positions;
+  bad[7] = NAN;
+  EXPECT_THROW(sim.set_state(bad), Error);
+  EXPECT_THROW(sim.set_state(std::span<const float>(sq.mesh.positions).first(9)), Error);
+  EXPECT_THROW(sim.set_state(sq.mesh.positions, std::span<const float>(v).first(3)), Error);
+  EXPECT_TRUE(same_bits(sim.positions(), before));
+}
+
+// Tethers hold a falling cloth within their radius of its targets, with no velocity away from
+// them at the leash; cleared, the cloth falls on.
+TEST(ClothSim, TethersHoldAFallingClothWithinTheirRadius) {
+  const Square sq;
+  for (const ClothIntegrator integrator : {ClothIntegrator::IMPLICIT_EULER, ClothIntegrator::RK4}) {
+    ClothSim sim(sq.mesh.position_view(), sq.mesh.triangle_view(), square_options(200.0, integrator));
+    const std::vector<float> radii(sq.mesh.vertex_count(), 0.01f);
+    sim.set_tethers(sq.mesh.positions, radii);
+    for (int i = 0; i < 30; ++i)
+      ASSERT_EQ(sim.step(1.0 / 30).status, ClothStatus::OK);
+    double farthest = 0;
+    for (std::size_t v = 0; v < sq.mesh.vertex_count(); ++v) {
+      double d2 = 0;
+      for (std::size_t k = 0; k < 3; ++k)
+        d2 += std::pow(double(sim.positions()[3 * v + k]) - sq.mesh.positions[3 * v + k], 2);
+      farthest = std::max(farthest, std::sqrt(d2));
+      EXPECT_LE(sim.velocities()[3 * v + 1], 1e-6f) << "vertex " << v; // nothing left falling
+    }
+    EXPECT_LE(farthest, 0.01 + 1e-6);
+    EXPECT_GT(farthest, 0.009); // it did fall to the leash
+    sim.set_tethers({}, {});
+    for (int i = 0; i < 10; ++i)
+      ASSERT_EQ(sim.step(1.0 / 30).status, ClothStatus::OK);
+    EXPECT_LT(sim.positions()[3 * 60 + 1], sq.mesh.positions[3 * 60 + 1] - 0.05f);
+    EXPECT_THROW(sim.set_tethers(sq.mesh.positions, std::span<const float>(radii).first(3)), Error);
+    std::vector<float> negative = radii;
+    negative[4] = -1.0f;
+    EXPECT_THROW(sim.set_tethers(sq.mesh.positions, negative), Error);
+  }
+}
+
+// A body index shared by two cloths (and refitted by its owner) gives each the same bits as an
+// index of its own, on a body that moves; a mismatched index is refused.
+TEST(ClothSim, ASharedBodyIndexGivesTheSameBitsAsAnOwnIndex) {
+  const Mesh sphere = make_uv_sphere(12, 24, 0.25f);
+  Mesh cloth = make_grid(9, 9, 0.4f, 0.4f);
+  for (std::size_t i = 0; i < cloth.vertex_count(); ++i)
+    cloth.positions[3 * i + 1] = 0.27f;
+  ClothOptions o = square_options(200.0, ClothIntegrator::IMPLICIT_EULER);
+  ClothSim own(cloth.position_view(), cloth.triangle_view(), o);
+  ClothSim shared(cloth.position_view(), cloth.triangle_view(), o);
+  own.set_body(sphere.position_view(), sphere.triangle_view());
+  auto index = std::make_shared<ProximityIndex>(sphere.position_view(), sphere.triangle_view());
+  shared.set_body(index, sphere.position_view(), sphere.triangle_view());
+  Mesh moved = sphere;
+  for (int f = 1; f <= 5; ++f) {
+    for (std::size_t i = 0; i < sphere.vertex_count(); ++i)
+      moved.positions[3 * i + 1] = sphere.positions[3 * i + 1] + 0.01f * float(f);
+    own.move_body(moved.position_view(), 1.0 / 30);
+    index->refit(moved.position_view());
+    shared.move_body(moved.position_view(), 1.0 / 30);
+    ASSERT_EQ(own.step(1.0 / 30).status, ClothStatus::OK);
+    ASSERT_EQ(shared.step(1.0 / 30).status, ClothStatus::OK);
+    EXPECT_TRUE(same_bits(own.positions(), shared.positions())) << "frame " << f;
+  }
+  const Mesh other = make_uv_sphere(6, 12, 0.25f);
+  auto wrong = std::make_shared<ProximityIndex>(other.position_view(), other.triangle_view());
+  EXPECT_THROW(shared.set_body(wrong, sphere.position_view(), sphere.triangle_view()), Error);
+  EXPECT_THROW(shared.set_body(nullptr, sphere.position_view(), sphere.triangle_view()), Error);
+  ClothOptions hashed = o;
+  hashed.broad_phase = ClothBroadPhase::SPATIAL_HASH;
+  ClothSim h(cloth.position_view(), cloth.triangle_view(), hashed);
+  EXPECT_THROW(h.set_body(index, sphere.position_view(), sphere.triangle_view()), Error);
+}
+
 } // namespace
 } // namespace vfit

@@ -1,6 +1,7 @@
 // `vfit animate`: a catalogue tee on the mannequin played through a short clip written as BVH
 // from our own poses (in a Mixamo-named, metre rig) → an animated .glb that the Khronos validator
-// accepts, one OBJ per frame, a report per frame; bad input → exit 2 and nothing written.
+// accepts, one OBJ per frame, a report per frame with the physics on and every frame clean
+// after the clean-up; LBS only with --physics off; bad input → exit 2 and nothing written.
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -72,8 +73,19 @@ TEST(AnimateCli, PlaysAClipOnADressedBody) {
   EXPECT_EQ(report["motion"]["frames"], 13); // 0.5 s at 24 fps
   EXPECT_EQ(report["frames"].size(), 13u);
   EXPECT_NEAR(report["motion"]["leg_ratio"].get<double>(), 1.0, 0.02); // the same measurements, T against A
-  for (const auto& f : report["frames"])
+  EXPECT_TRUE(report["physics"]["on"].get<bool>());
+  EXPECT_EQ(report["physics"]["diverged"], 0);
+  EXPECT_EQ(report["physics"]["restarts"], 1); // the first frame only
+  for (const auto& f : report["frames"]) {
     EXPECT_GE(f["lbs_ms"].get<double>(), 0.0);
+    EXPECT_GE(f["physics_ms"].get<double>(), 0.0);
+    EXPECT_LE(f["inside_1mm"].get<int>(), 0) << f; // after the clean-up, by the fit's measure
+    EXPECT_EQ(f["crossing_edges"].get<int>(), 0) << f;
+    EXPECT_GT(f["strain"]["mean"].get<double>(), 0.0);
+  }
+  const double w = report["garments"][0]["physical_weight"].get<double>();
+  EXPECT_GE(w, 0.0);
+  EXPECT_LE(w, 0.5);
   // At rest (frame 0) the tee fits as it was fitted: hardly anything inside the body.
   EXPECT_LE(report["frames"][0]["inside_1mm"].get<int>(), 5) << report["frames"][0];
   std::size_t frames = 0;
@@ -118,6 +130,17 @@ TEST(AnimateCli, PlaysAPoseSequence) {
   EXPECT_EQ(report["motion"]["fps"], 10);
   EXPECT_EQ(report["frames"].size(), 3u);
   EXPECT_EQ(report["garments"][0]["type"], "trousers");
+  // LBS only: the physics off, nothing stepped.
+  const auto lbs =
+      test::run_cli({"animate", "--garment", (dir / "trousers.obj").string(), "--motion", (dir / "poses.json").string(),
+                     "--pose-rest", "apose", "--vertices", "3000", "--report", (dir / "lbs.json").string(),
+                     "--no-simulation", "--physics", "off", "--threads", "1", "--quiet"});
+  ASSERT_EQ(lbs.exit_code, 0) << lbs.err;
+  const nlohmann::json off = nlohmann::json::parse(test::read_file(dir / "lbs.json"));
+  EXPECT_FALSE(off["physics"]["on"].get<bool>());
+  EXPECT_EQ(off["threads"], 1);
+  for (const auto& f : off["frames"])
+    EXPECT_EQ(f["solver_iterations"], 0);
 }
 
 TEST(AnimateCli, BadInputWritesNothing) {
@@ -140,6 +163,10 @@ TEST(AnimateCli, BadInputWritesNothing) {
         (dir / "o.obj").string()},
        "--out writes an animated .glb"},
       {{"--motion", (dir / "clip.bvh").string()}, "at least one --garment"},
+      {{"--garment", (dir / "tee.obj").string(), "--motion", (dir / "clip.bvh").string(), "--physics", "maybe"},
+       "--physics: expected on or off"},
+      {{"--garment", (dir / "tee.obj").string(), "--motion", (dir / "clip.bvh").string(), "--threads", "0"},
+       "--threads"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> args = {"animate"};
