@@ -116,6 +116,7 @@ int run_animate(Args& args) {
   const auto report_file = args.value("report");
   const auto render_file = args.value("render");
   const auto render_every_value = args.value("render-every");
+  const bool render_stages = args.flag("render-stages");
   const auto render_size_value = args.value("render-size");
   const int render_size = render_size_value ? Args::to_int("--render-size", *render_size_value, 64, 2048) : 256;
   const auto fps_value = args.value("fps");
@@ -140,6 +141,7 @@ int run_animate(Args& args) {
   if (render_file && lower_extension(*render_file) != ".png")
     throw Error(*render_file, 0, "--render writes a .png file");
   if (render_every_value && !render_file) throw Error("--render-every", 0, "needs --render FILE.png");
+  if (render_stages && !render_file) throw Error("--render-stages", 0, "needs --render FILE.png");
   if (physics_value && *physics_value != "on" && *physics_value != "off")
     throw Error("--physics", 0, "expected on or off, got '" + *physics_value + "'");
   AnimationOptions animation;
@@ -235,7 +237,11 @@ int run_animate(Args& args) {
   const std::size_t every = render_every_value
                                 ? std::size_t(Args::to_int("--render-every", *render_every_value, 1, 100000))
                                 : std::max<std::size_t>(1, (frames.size() + 7) / 8);
-  std::vector<std::pair<std::size_t, std::vector<Mesh>>> sheet;
+  struct SheetFrame {
+    std::size_t frame;
+    std::vector<std::vector<Mesh>> stages; // (skinned, cloth,) final: body first, then the garments
+  };
+  std::vector<SheetFrame> sheet;
   // --out: each garment's frames beyond its skinning (physics, blend, clean-up), as morph targets.
   std::vector<MorphFrames> morphs(character.garment_count());
   FrameReport sum;
@@ -303,14 +309,25 @@ int run_animate(Args& args) {
         ++m.count;
       }
     if (render_file && f % every == 0) {
-      std::vector<Mesh> meshes(1 + character.garment_count());
-      meshes[0].triangles = body.mesh.triangles;
-      meshes[0].positions.assign(character.body_positions().begin(), character.body_positions().end());
-      for (std::size_t g = 0; g < character.garment_count(); ++g) {
-        meshes[g + 1].triangles = character.garment_rest(g).triangles;
-        meshes[g + 1].positions.assign(character.garment_positions(g).begin(), character.garment_positions(g).end());
+      // The final frame, and with --render-stages the skinned garments and the cloth before it.
+      auto tile = [&](auto positions) {
+        std::vector<Mesh> meshes(1 + character.garment_count());
+        meshes[0].triangles = body.mesh.triangles;
+        meshes[0].positions.assign(character.body_positions().begin(), character.body_positions().end());
+        for (std::size_t g = 0; g < character.garment_count(); ++g) {
+          meshes[g + 1].triangles = character.garment_rest(g).triangles;
+          const std::span<const float> x = positions(g);
+          meshes[g + 1].positions.assign(x.begin(), x.end());
+        }
+        return meshes;
+      };
+      SheetFrame frame{first + f, {}};
+      if (render_stages) {
+        frame.stages.push_back(tile([&](std::size_t g) { return character.garment_skinned(g); }));
+        frame.stages.push_back(tile([&](std::size_t g) { return character.garment_physical(g); }));
       }
-      sheet.emplace_back(first + f, std::move(meshes));
+      frame.stages.push_back(tile([&](std::size_t g) { return character.garment_positions(g); }));
+      sheet.push_back(std::move(frame));
     }
     if (progress && (f % 30 == 0 || f + 1 == frames.size()))
       std::fprintf(stderr,
@@ -319,24 +336,31 @@ int run_animate(Args& args) {
                    f + 1, frames.size(), s.total_ms, s.physics_ms, p.inside_1mm, p.crossing_edges);
   }
 
-  // The contact sheet: each tile a side view of one frame, labelled with its number.
+  // The contact sheet: each tile a side view of one frame, labelled with its number; with
+  // --render-stages each frame is a column of three tiles: skinned, cloth, final.
   std::optional<Image> contact_sheet;
   if (render_file) {
+    const std::size_t stages = render_stages ? 3 : 1;
     const int columns = int(std::min<std::size_t>(sheet.size(), 8));
-    const int rows = int((sheet.size() + std::size_t(columns) - 1) / std::size_t(columns));
+    const int rows = int((sheet.size() + std::size_t(columns) - 1) / std::size_t(columns) * stages);
     contact_sheet.emplace(columns * render_size, rows * render_size);
     RenderOptions ro;
     ro.size = render_size;
     ro.views = {RenderView::SIDE};
-    for (std::size_t k = 0; k < sheet.size(); ++k) {
-      std::vector<const Mesh*> meshes;
-      for (const Mesh& m : sheet[k].second)
-        meshes.push_back(&m);
-      const Rendering r = render_views(meshes, ro);
-      const int x = int(k % std::size_t(columns)) * render_size, y = int(k / std::size_t(columns)) * render_size;
-      contact_sheet->paste(r.views.front().image, x, y);
-      draw_text(*contact_sheet, x + 6, y + 6, "FRAME " + std::to_string(sheet[k].first), 2, Rgb8{40, 40, 40});
-    }
+    const char* const names[3] = {"SKINNED", "CLOTH", "FINAL"};
+    for (std::size_t k = 0; k < sheet.size(); ++k)
+      for (std::size_t st = 0; st < stages; ++st) {
+        std::vector<const Mesh*> meshes;
+        for (const Mesh& m : sheet[k].stages[st])
+          meshes.push_back(&m);
+        const Rendering r = render_views(meshes, ro);
+        const int x = int(k % std::size_t(columns)) * render_size;
+        const int y = int((k / std::size_t(columns)) * stages + st) * render_size;
+        contact_sheet->paste(r.views.front().image, x, y);
+        std::string label = "FRAME " + std::to_string(sheet[k].frame);
+        if (render_stages) label += std::string(" ") + names[st];
+        draw_text(*contact_sheet, x + 6, y + 6, label, render_size >= 192 ? 2 : 1, Rgb8{40, 40, 40});
+      }
   }
 
   // Outputs, once everything is computed.

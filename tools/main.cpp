@@ -182,8 +182,8 @@ constexpr const char* ANIMATE_HELP =
                     [--body mannequin|FILE] [body flags] [--mapping FILE.json] [--fps N]
                     [--frames A:B] [--physics on|off] [--threads N] [--out FILE.glb]
                     [--frames-dir DIR] [--report FILE.json]
-                    [--render FILE.png [--render-every N] [--render-size N]] [--no-simulation]
-                    [--quiet] [--progress]
+                    [--render FILE.png [--render-every N] [--render-size N] [--render-stages]]
+                    [--no-simulation] [--quiet] [--progress]
 
 Dresses a body and plays a motion-capture clip on it (seed 001 §7). The garments are fitted onto
 the body at rest (its rest pose, where its skin weights are bound; the fit of `vfit fit`, with the
@@ -211,7 +211,8 @@ names, axis-angle radians, a translation in m).
                    targets, one per frame (plays in any glTF viewer)
   --frames-dir DIR one OBJ per frame (frame_00000.obj, ...), the body and garments as one mesh
   --render FILE.png  a contact sheet: every Nth frame (--render-every, default: 8 frames in all)
-                   seen from the side, --render-size pixels square each (default 256), in rows of 8
+                   seen from the side, --render-size pixels square each (default 256), in rows of 8;
+                   --render-stages: each frame as a column of three, skinned, cloth and final
   --report FILE    JSON: the clip (mapping, unit, up axis, rates, leg ratio, unmapped joints),
                    the garments' w_p, the timings per stage, and per frame the stage times, what
                    the clean-up moved, the garments' edge strain (skinned, cloth, final) and where

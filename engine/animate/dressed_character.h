@@ -32,9 +32,11 @@
 /// ```
 /// Shapes: positions are #V × 3 floats in metres, Y up, in the garments' and the body's vertex
 /// order as given. Thread-safety: one thread steps a character; step() runs its stages in
-/// parallel (TBB) inside the character's own arena of `threads` threads. After the first step
-/// the skinning, blend and clean-up allocate nothing; the cloth simulator may (its contact sets
-/// grow and shrink with the contacts).
+/// parallel (TBB) inside the character's own arena of `threads` threads; the frames do not
+/// depend on the thread count. After the first step the skinning, blend and the clean-up's
+/// body and layer pushes reuse their buffers; the cloth simulator (its contact sets grow and
+/// shrink with the contacts) and the layer-piercing test (a small index over the candidate
+/// triangles, per garment over another) still allocate per frame.
 
 #include <array>
 #include <cstddef>

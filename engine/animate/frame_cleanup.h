@@ -19,9 +19,9 @@
 ///    them) move those triangles' corners clear, up to `crossing_rounds` times.
 /// What is left is counted, never hidden: vertices still more than 1 mm inside, edges still
 /// through the body. The clean-up moves vertices only (no solve, no smoothing), so it costs
-/// O((#V + #E_candidates) · log #F) per garment per frame, with no allocation after the first
-/// frame. A vertex deeper than `reach` inside the body is not found (the fit's measure, which
-/// casts rays for far vertices, does find it).
+/// O((#V + #E_candidates) · log #F) per garment per frame; its buffers are reused from frame to
+/// frame (the layer-piercing test, find_layer_piercings(), allocates its own). A vertex deeper than `reach` inside the
+/// body is not found (the fit's measure, which casts rays for far vertices, does find it).
 
 #include <cstddef>
 #include <cstdint>
