@@ -1,10 +1,10 @@
 // A dressed character stepped frame by frame (engine/animate/dressed_character.h): the demo
-// outfit (catalogue trousers P2 and tee M, A-pose) on the A-pose mannequin, posed through a
-// walk cycle (walk_cycle(), pose_io.h) by linear blend skinning, and the per-frame penetration
-// measure.
+// outfit (catalogue trousers P2 and tee M, A-pose) on the A-pose mannequin through a walk cycle
+// (walk_cycle(), pose_io.h): a whole frame (skinning, cloth, blend, clean-up, layering) at
+// 30 and 60 frames per second, skinning alone, and a frame with the per-frame measure.
 //   build/release/bench/vfit_animate_bench
-// Arguments: garment vertices each (5,000 is the demo outfit's). Counters: frames per second
-// (step alone), garment vertices.
+// Arguments: garment vertices each (5,000 is the demo outfit's), frames per second. Counters:
+// frames per second, each stage's mean time (ms), CG iterations and contacts per frame.
 #include <map>
 
 #include <benchmark/benchmark.h>
@@ -48,13 +48,15 @@ const Outfit& outfit(std::size_t vertices) {
   return it->second;
 }
 
-void BM_step(benchmark::State& state) {
+void run_frames(benchmark::State& state, const AnimationOptions& options, double fps) {
   const Outfit& o = outfit(std::size_t(state.range(0)));
-  DressedCharacter character(o.body, o.garments);
+  DressedCharacter character(o.body, o.garments, options);
+  // The same one-second walk, sampled at the frame rate.
+  const std::vector<Pose> walk = walk_cycle(RestPose::APOSE, fps, std::size_t(fps)).frames;
   std::size_t k = 0;
   FrameReport sum;
   for (auto _ : state) {
-    const FrameReport& r = character.step(o.walk[k++ % o.walk.size()], 1.0 / 30);
+    const FrameReport& r = character.step(walk[k++ % walk.size()], 1.0 / fps);
     sum.lbs_ms += r.lbs_ms;
     sum.physics_ms += r.physics_ms;
     sum.blend_ms += r.blend_ms;
@@ -75,7 +77,18 @@ void BM_step(benchmark::State& state) {
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["garment_vertices"] = double(2 * state.range(0));
 }
-BENCHMARK(BM_step)->Arg(5000)->Arg(50000)->Unit(benchmark::kMillisecond);
+
+void BM_step(benchmark::State& state) { run_frames(state, AnimationOptions{}, double(state.range(1))); }
+BENCHMARK(BM_step)->Args({5000, 30})->Args({5000, 60})->Args({50000, 30})->Unit(benchmark::kMillisecond);
+
+// Linear blend skinning alone (the physics and the clean-up off).
+void BM_step_lbs(benchmark::State& state) {
+  AnimationOptions o;
+  o.physics = false;
+  o.clean_up = false;
+  run_frames(state, o, 30);
+}
+BENCHMARK(BM_step_lbs)->Arg(5000)->Arg(50000)->Unit(benchmark::kMillisecond);
 
 void BM_step_and_measure(benchmark::State& state) {
   const Outfit& o = outfit(std::size_t(state.range(0)));

@@ -72,10 +72,10 @@ void FrameCleanup::refit_body(std::span<const float> positions) {
 }
 
 void FrameCleanup::query(const ProximityIndex& index, std::span<const float> surface,
-                         std::span<const std::int32_t> triangles, std::span<const float> x, Previous& previous,
-                         ClosestHits& hits) {
+                         std::span<const std::int32_t> triangles, std::span<const float> x, float cap,
+                         Previous& previous, ClosestHits& hits) {
   const std::size_t nv = x.size() / 3;
-  m_radii.assign(nv, m_options.reach);
+  m_radii.assign(nv, cap);
   if (previous.triangles.size() == nv)
     for (std::size_t v = 0; v < nv; ++v) {
       const std::int32_t t = previous.triangles[v];
@@ -87,7 +87,7 @@ void FrameCleanup::query(const ProximityIndex& index, std::span<const float> sur
       float p[3];
       for (int k = 0; k < 3; ++k)
         p[k] = (1 - u - w) * a[k] + u * b[k] + w * c[k];
-      m_radii[v] = std::min(m_options.reach, requery_radius(&x[3 * v], p));
+      m_radii[v] = std::min(cap, requery_radius(&x[3 * v], p));
     }
   index.closest_points(x, m_radii, hits);
   previous.triangles.assign(hits.triangles.begin(), hits.triangles.end());
@@ -162,7 +162,7 @@ FrameCleanupCounts FrameCleanup::clean(std::size_t g, std::span<float> x) {
   const float reach = m_options.reach;
 
   // 1. Out of the body.
-  query(*m_body, m_body_positions, m_body_triangles, x, m_previous_body[g], m_hits);
+  query(*m_body, m_body_positions, m_body_triangles, x, INFINITY, m_previous_body[g], m_hits);
   m_distance.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
     const bool hit = m_hits.triangles[v] >= 0;
@@ -235,7 +235,7 @@ FrameCleanupCounts FrameCleanup::clean(std::size_t g, std::span<float> x) {
     o.edges = layer.edges;
     o.edge_offsets = layer.edge_offsets;
     o.vertex_edges = layer.vertex_edges;
-    query(layer.index, m_layer_positions[l], layer.triangles, x, m_previous_layer[g][l], m_hits);
+    query(layer.index, m_layer_positions[l], layer.triangles, x, reach, m_previous_layer[g][l], m_hits);
     const std::span<const float> faces = layer.index.side_mesh().face_normals;
     for (std::size_t v = 0; v < nv; ++v) {
       const std::int32_t t = m_hits.triangles[v];

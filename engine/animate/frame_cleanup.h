@@ -2,15 +2,17 @@
 /// \file
 /// The per-frame clean-up of a dressed character (seed 001 §6.3 eq. 7 and §7): after the blend
 /// of a frame, each garment, inner first, is
-/// 1. pushed out of the posed body: a vertex inside it (signed distance < 0, found within
-///    `reach`) moves onto its closest body point plus `body_gap` along the outward direction;
+/// 1. pushed out of the posed body: a vertex inside it (signed distance < 0, at any depth: the
+///    query searches as far as last frame's closest point, carried onto this frame's body,
+///    bounds the distance, without limit on the first frame) moves onto its closest body point
+///    plus `body_gap` along the outward direction;
 /// 2. cleared of edges through the body: an edge whose two ends are outside but whose middle
-///    crosses a limb (an armpit pinched by the skinning) is found by a segment test (only edges
-///    no longer than their ends' distances to the body summed can cross, the distance being
-///    1-Lipschitz), and both ends are moved along the outward direction at the middle of the
-///    chord inside by that point's depth plus `body_gap` (for a convex cross-section this
-///    carries the whole chord out); repeated for the edges around moved vertices, up to
-///    `crossing_rounds` times;
+///    crosses a limb (an armpit pinched by the skinning, a thigh through a skirt's panel) is
+///    found by a segment test (only edges no longer than their ends' distances to the body
+///    summed can cross, the distance being 1-Lipschitz), and both ends are moved along the
+///    outward direction at the middle of the chord inside by that point's depth plus
+///    `body_gap` (for a convex cross-section this carries the whole chord out); repeated for the
+///    edges around moved vertices, up to `crossing_rounds` times;
 /// 3. layered (eq. 7): a vertex inside a garment under it (its signed distance to that garment,
 ///    oriented away from the body, below 0; a closest point on the inner garment's hem, cuff or
 ///    waistband does not count, as in the fit) moves to that garment's surface plus the
@@ -20,8 +22,7 @@
 /// What is left is counted, never hidden: vertices still more than 1 mm inside, edges still
 /// through the body. The clean-up moves vertices only (no solve, no smoothing), so it costs
 /// O((#V + #E_candidates) · log #F) per garment per frame; its buffers are reused from frame to
-/// frame (the layer-piercing test, find_layer_piercings(), allocates its own). A vertex deeper than `reach` inside the
-/// body is not found (the fit's measure, which casts rays for far vertices, does find it).
+/// frame (the layer-piercing test, find_layer_piercings(), allocates its own).
 
 #include <cstddef>
 #include <cstdint>
@@ -38,8 +39,8 @@ namespace vfit {
 struct FrameCleanupOptions {
   double body_gap = 0.001;        ///< m: where a vertex pushed out of the body ends, outside it
   double layer_clearance = 0.003; ///< k of eq. 7 (m): where a vertex pushed out of a layer ends
-  float reach = 0.05f;            ///< m: the body and layer queries' radius
-  int crossing_rounds = 3;        ///< rounds of the edge test and push
+  float reach = 0.05f;            ///< m: the layer queries' radius, and the moved vertices' body queries
+  int crossing_rounds = 8;        ///< rounds of the edge test and push
 };
 
 /// What one garment's clean-up did and left.
@@ -91,15 +92,15 @@ private:
 
   // Per garment, last frame's closest body and layer triangles and barycentrics: carried onto
   // this frame's surface they bound each vertex's closest distance, so a query searches only
-  // that far (an exact bound: the carried point lies on the surface) instead of `reach`.
+  // that far (an exact bound: the carried point lies on the surface) instead of without limit.
   struct Previous {
     std::vector<std::int32_t> triangles;
     std::vector<float> barycentrics;
   };
-  // Closest points of x on `index` (positions `surface`, triangles `triangles`) within reach,
-  // searched within the bound `previous` gives; `previous` updated to the answers.
+  // Closest points of x on `index` (positions `surface`, triangles `triangles`) within `cap`
+  // (m, or +∞), searched within the bound `previous` gives; `previous` updated to the answers.
   void query(const ProximityIndex& index, std::span<const float> surface, std::span<const std::int32_t> triangles,
-             std::span<const float> x, Previous& previous, ClosestHits& hits);
+             std::span<const float> x, float cap, Previous& previous, ClosestHits& hits);
 
   FrameCleanupOptions m_options;
   std::vector<std::int32_t> m_body_triangles;
