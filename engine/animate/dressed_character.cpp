@@ -141,7 +141,8 @@ void DressedCharacter::step_stages(const Pose& pose, double dt) {
   r.lbs_ms = ms_since(t);
 
   t = Clock::now();
-  m_cleanup->refit_body(body); // the one index of the posed body: the cloths' and the clean-up's
+  // The one index of the posed body: the cloths' and the clean-up's.
+  if (m_options.physics || m_options.clean_up) m_cleanup->refit_body(body);
   if (m_options.physics) {
     // The garments' cloths are independent (each collides with the body only; the layers are
     // the clean-up's): stepped side by side, each also parallel inside.
