@@ -5,10 +5,15 @@
 /// 1. linear blend skinning (LBS) of the body and of every garment layer, each skinned to the
 ///    body's skeleton (garment_skin_weights(), §7.1);
 /// 2. physics: each garment's cloth (ClothSim, implicit Euler, continuous contacts) continues
-///    from the previous frame against the moving body (move_body(), then step(dt)); bottoms
-///    (trousers, shorts, skirts) have their waistband attached to the body. The first frame, a
-///    cut in the motion (a body vertex faster than cut_speed) and a diverged cloth restart the
-///    cloth from the frame's LBS, at rest;
+///    from the previous frame, carried by the skinning: each particle moves as its skinned
+///    position did and keeps its velocity relative to the skin, less `inertia` times the skin's
+///    change of velocity (what a world-space simulation would feel); then it is stepped by dt
+///    against the posed body, at rest in that carried frame, leashed by tethers to the skinned
+///    garment (`tether` plus the vertex's rest distance to the body). Stepped in world space
+///    instead, the body moved a frame's motion into the cloth at once and the contacts flung
+///    it (docs/benchmarks.md). Bottoms (trousers, shorts, skirts) have their waistband attached
+///    to the body. The first frame, a cut in the motion (a body vertex faster than cut_speed)
+///    and a diverged cloth restart the cloth from the frame's LBS, at rest;
 /// 3. the blend of eq. 8, x = w_p·physical + (1 − w_p)·LBS, with w_p per vertex from eq. 9
 ///    (blend_weights.h: per garment, and per upper and lower part for skirts and dresses),
 ///    computed once from the fitted garment on the body at rest;
