@@ -246,23 +246,12 @@ int run_animate(Args& args) {
   std::vector<MorphFrames> morphs(character.garment_count());
   FrameReport sum;
   double worst_depth = 0, worst_frame_ms = 0;
-  std::size_t worst_inside = 0, worst_inside_1mm = 0, worst_crossing = 0, worst_layer = 0, restarts = 0, diverged = 0,
-              non_finite = 0;
+  std::size_t worst_inside = 0, worst_inside_1mm = 0, worst_crossing = 0, worst_layer = 0, restarts = 0;
   for (std::size_t f = 0; f < frames.size(); ++f) {
     const FrameReport& s = character.step(frames[f], 1.0 / motion.fps);
-    sum.lbs_ms += s.lbs_ms;
-    sum.physics_ms += s.physics_ms;
-    sum.blend_ms += s.blend_ms;
-    sum.cleanup_ms += s.cleanup_ms;
-    sum.layering_ms += s.layering_ms;
-    sum.total_ms += s.total_ms;
+    sum.add(s);
     worst_frame_ms = std::max(worst_frame_ms, s.total_ms);
     restarts += s.restarted ? 1 : 0;
-    diverged += s.diverged;
-    non_finite += s.non_finite;
-    const Strain strain_lbs = edge_strain(character, [&](std::size_t g) { return character.garment_skinned(g); });
-    const Strain strain_physics = edge_strain(character, [&](std::size_t g) { return character.garment_physical(g); });
-    const Strain strain_out = edge_strain(character, [&](std::size_t g) { return character.garment_positions(g); });
     t0 = Clock::now();
     const FramePenetration p = character.measure();
     const double measure_ms = ms_since(t0);
@@ -271,34 +260,40 @@ int run_animate(Args& args) {
     worst_inside_1mm = std::max(worst_inside_1mm, p.inside_1mm);
     worst_crossing = std::max(worst_crossing, p.crossing_edges);
     worst_layer = std::max(worst_layer, p.layer_inside + p.layer_crossing_edges);
-    per_frame.push_back(
-        {{"frame", first + f},
-         {"lbs_ms", s.lbs_ms},
-         {"physics_ms", s.physics_ms},
-         {"blend_ms", s.blend_ms},
-         {"cleanup_ms", s.cleanup_ms},
-         {"layering_ms", s.layering_ms},
-         {"step_ms", s.total_ms},
-         {"measure_ms", measure_ms},
-         {"restarted", s.restarted},
-         {"diverged", s.diverged},
-         {"solver_iterations", s.solver_iterations},
-         {"pushed_out_of_body", s.body_pushed},
-         {"crossing_edges_moved", s.crossings_pushed},
-         {"pushed_out_of_layers", s.layer_pushed},
-         {"non_finite_replaced", s.non_finite},
-         {"cleanup_left_inside_1mm", s.left_inside_1mm},
-         {"cleanup_left_crossing", s.left_crossing},
-         {"inside", p.inside},
-         {"inside_1mm", p.inside_1mm},
-         {"crossing_edges", p.crossing_edges},
-         {"layer_inside", p.layer_inside},
-         {"layer_crossing_edges", p.layer_crossing_edges},
-         {"max_depth_mm", p.max_depth_mm},
-         {"strain_lbs", {{"mean", strain_lbs.mean}, {"stretch", strain_lbs.stretch}, {"max", strain_lbs.max}}},
-         {"strain_physics",
-          {{"mean", strain_physics.mean}, {"stretch", strain_physics.stretch}, {"max", strain_physics.max}}},
-         {"strain", {{"mean", strain_out.mean}, {"stretch", strain_out.stretch}, {"max", strain_out.max}}}});
+    if (report_file) { // the edge strain of the skinned, physical and final garments: for the report only
+      const Strain strain_lbs = edge_strain(character, [&](std::size_t g) { return character.garment_skinned(g); });
+      const Strain strain_physics =
+          edge_strain(character, [&](std::size_t g) { return character.garment_physical(g); });
+      const Strain strain_out = edge_strain(character, [&](std::size_t g) { return character.garment_positions(g); });
+      per_frame.push_back(
+          {{"frame", first + f},
+           {"lbs_ms", s.lbs_ms},
+           {"physics_ms", s.physics_ms},
+           {"blend_ms", s.blend_ms},
+           {"cleanup_ms", s.cleanup_ms},
+           {"layering_ms", s.layering_ms},
+           {"step_ms", s.total_ms},
+           {"measure_ms", measure_ms},
+           {"restarted", s.restarted},
+           {"diverged", s.diverged},
+           {"solver_iterations", s.solver_iterations},
+           {"pushed_out_of_body", s.body_pushed},
+           {"crossing_edges_moved", s.crossings_pushed},
+           {"pushed_out_of_layers", s.layer_pushed},
+           {"non_finite_replaced", s.non_finite},
+           {"cleanup_left_inside_1mm", s.left_inside_1mm},
+           {"cleanup_left_crossing", s.left_crossing},
+           {"inside", p.inside},
+           {"inside_1mm", p.inside_1mm},
+           {"crossing_edges", p.crossing_edges},
+           {"layer_inside", p.layer_inside},
+           {"layer_crossing_edges", p.layer_crossing_edges},
+           {"max_depth_mm", p.max_depth_mm},
+           {"strain_lbs", {{"mean", strain_lbs.mean}, {"stretch", strain_lbs.stretch}, {"max", strain_lbs.max}}},
+           {"strain_physics",
+            {{"mean", strain_physics.mean}, {"stretch", strain_physics.stretch}, {"max", strain_physics.max}}},
+           {"strain", {{"mean", strain_out.mean}, {"stretch", strain_out.stretch}, {"max", strain_out.max}}}});
+    }
     if (frames_dir) frame_meshes.push_back(frame_mesh(character));
     if (out)
       for (std::size_t g = 0; g < character.garment_count(); ++g) {
@@ -441,8 +436,10 @@ int run_animate(Args& args) {
                          {"layering", sum.layering_ms / n},
                          {"step", sum.total_ms / n},
                          {"worst_step", worst_frame_ms}}}};
-    r["physics"] = {
-        {"on", animation.physics}, {"restarts", restarts}, {"diverged", diverged}, {"non_finite_replaced", non_finite}};
+    r["physics"] = {{"on", animation.physics},
+                    {"restarts", restarts},
+                    {"diverged", sum.diverged},
+                    {"non_finite_replaced", sum.non_finite}};
     r["penetration"] = {{"worst_inside", worst_inside},
                         {"worst_inside_1mm", worst_inside_1mm},
                         {"worst_depth_mm", worst_depth},
@@ -466,8 +463,8 @@ int run_animate(Args& args) {
   if (!quiet && (worst_inside_1mm > 0 || worst_crossing > 0 || worst_layer > 0))
     std::cerr << "vfit: warning: the per-frame clean-up left garments in the body or in each other on some frames "
                  "(see the report's frames)\n";
-  if (!quiet && (diverged > 0 || non_finite > 0))
-    std::cerr << "vfit: warning: the cloth diverged on " << diverged << " garment-frames and " << non_finite
+  if (!quiet && (sum.diverged > 0 || sum.non_finite > 0))
+    std::cerr << "vfit: warning: the cloth diverged on " << sum.diverged << " garment-frames and " << sum.non_finite
               << " blended vertices were not finite; their skinned positions were used\n";
   return 0;
 }

@@ -37,8 +37,10 @@ BlendWeights blend_weights(const ProximityIndex& body, const Mesh& garment, Garm
   out.split_height = out.split ? hip_height : 0;
   std::vector<double> upper, lower;
   upper.reserve(nv);
+  out.distances.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
     const double d = hits.triangles[v] < 0 ? 0.0 : std::max(0.0, double(hits.signed_distances[v]));
+    out.distances[v] = float(d);
     (out.split && garment.positions[3 * v + 1] < hip_height ? lower : upper).push_back(d);
   }
   out.upper_vertices = upper.size();

@@ -30,6 +30,7 @@ double physical_weight(std::span<const double> distances, double cap = 0.5);
 /// A garment's blend weights.
 struct BlendWeights {
   std::vector<float> per_vertex; ///< #V: w_p of each vertex (eq. 8), in [0, cap]
+  std::vector<float> distances;  ///< #V: each vertex's distance to the body that eq. 9 took (m, ≥ 0)
   double upper = 0;              ///< w_p of the whole garment, or of its upper part when split
   double lower = 0;              ///< w_p of the lower part when split (= upper otherwise)
   bool split = false;            ///< a skirt or dress, split at split_height

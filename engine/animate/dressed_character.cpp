@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "engine/dress/dresser.h"
 #include "engine/fit/dressing_order.h"
 #include "kernels/error.h"
 
@@ -22,6 +23,35 @@ double ms_since(Clock::time_point t) { return std::chrono::duration<double, std:
 constexpr double LAYER_CLEARANCE = 0.003, LAYER_REACH = 0.05;
 
 } // namespace
+
+void FrameReport::add(const FrameReport& frame) {
+  lbs_ms += frame.lbs_ms;
+  physics_ms += frame.physics_ms;
+  blend_ms += frame.blend_ms;
+  cleanup_ms += frame.cleanup_ms;
+  layering_ms += frame.layering_ms;
+  total_ms += frame.total_ms;
+  restarted = restarted || frame.restarted;
+  diverged += frame.diverged;
+  solver_iterations += frame.solver_iterations;
+  contacts += frame.contacts;
+  non_finite += frame.non_finite;
+  body_pushed += frame.body_pushed;
+  crossings_pushed += frame.crossings_pushed;
+  layer_pushed += frame.layer_pushed;
+  left_inside_1mm += frame.left_inside_1mm;
+  left_crossing += frame.left_crossing;
+}
+
+void FrameReport::add(const FrameCleanupCounts& garment) {
+  body_pushed += garment.body_pushed;
+  crossings_pushed += garment.crossings_pushed;
+  layer_pushed += garment.layer_pushed;
+  left_inside_1mm += garment.left_inside_1mm;
+  left_crossing += garment.left_crossing;
+  cleanup_ms += garment.body_ms;
+  layering_ms += garment.layering_ms;
+}
 
 struct DressedCharacter::Arena {
   tbb::task_arena arena;
@@ -78,14 +108,11 @@ DressedCharacter::DressedCharacter(const Body& body, const std::vector<FittedGar
         co.waistband_pins = co.waistband_pins || fitting::is_bottom(layer.type);
         layer.cloth = std::make_unique<ClothSim>(g.mesh.positions, g.mesh.triangles, co);
         layer.cloth->set_body(m_cleanup->body(), m_body.mesh.positions, m_body.mesh.triangles);
-        // The leash: the tether plus the vertex's distance to the body at rest, so loose parts
-        // (a skirt's hem) swing farther than tight ones.
-        ClosestHits hits;
-        m_cleanup->body()->closest_points(g.mesh.positions, INFINITY, hits);
-        layer.tether_radii.resize(hits.size());
-        for (std::size_t v = 0; v < hits.size(); ++v)
-          layer.tether_radii[v] =
-              float(options.tether + (hits.triangles[v] < 0 ? 0.0 : std::max(0.0f, hits.signed_distances[v])));
+        // The leash: the tether plus the vertex's distance to the body at rest (eq. 9's), so
+        // loose parts (a skirt's hem) swing farther than tight ones.
+        layer.tether_radii.resize(layer.blend.distances.size());
+        for (std::size_t v = 0; v < layer.blend.distances.size(); ++v)
+          layer.tether_radii[v] = float(options.tether + double(layer.blend.distances[v]));
       }
     } catch (const Error& e) {
       throw Error(g.name, 0, std::string("animation: ") + e.what());
@@ -215,16 +242,8 @@ void DressedCharacter::step_stages(const Pose& pose, double dt) {
   r.blend_ms = ms_since(t);
 
   if (m_options.clean_up)
-    for (std::size_t g = 0; g < m_garments.size(); ++g) {
-      const FrameCleanupCounts c = m_cleanup->clean(g, m_garments[g].positions);
-      r.body_pushed += c.body_pushed;
-      r.crossings_pushed += c.crossings_pushed;
-      r.layer_pushed += c.layer_pushed;
-      r.left_inside_1mm += c.left_inside_1mm;
-      r.left_crossing += c.left_crossing;
-      r.cleanup_ms += c.body_ms;
-      r.layering_ms += c.layering_ms;
-    }
+    for (std::size_t g = 0; g < m_garments.size(); ++g)
+      r.add(m_cleanup->clean(g, m_garments[g].positions));
 }
 
 void DressedCharacter::bind_space_offsets(std::size_t g, std::span<float> out) const {

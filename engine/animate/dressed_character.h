@@ -53,7 +53,6 @@
 #include "engine/animate/blend_weights.h"
 #include "engine/animate/frame_cleanup.h"
 #include "engine/cloth/cloth_sim.h"
-#include "engine/dress/dresser.h"
 #include "engine/fit/fit_report.h"
 #include "geometry/body/body.h"
 #include "geometry/garment/garment_skinning.h"
@@ -101,6 +100,13 @@ struct FrameReport {
   std::size_t layer_pushed = 0;     ///< clean-up: vertices pushed out of an inner garment (eq. 7)
   std::size_t left_inside_1mm = 0;  ///< vertices the clean-up left more than 1 mm inside
   std::size_t left_crossing = 0;    ///< edges the clean-up left through the body
+
+  /// Adds `frame`'s times and counts to these, for totals over frames (divide by the frame
+  /// count for means); `restarted` becomes whether any frame restarted.
+  void add(const FrameReport& frame);
+  /// Adds one garment's clean-up (its counts, and its body_ms and layering_ms to cleanup_ms
+  /// and layering_ms).
+  void add(const FrameCleanupCounts& garment);
 };
 
 /// What measure() finds on the current frame, summed over the garments.

@@ -162,6 +162,23 @@ private:
   Json m_accessors = Json::array();
 };
 
+// The per-component "min" and "max" of a VEC3 accessor over `values` (#N × 3, N ≥ 1), as the
+// spec requires of POSITION and of morph targets' POSITION.
+void set_bounds(Json& accessor, const std::vector<float>& values) {
+  Json lo = Json::array(), hi = Json::array();
+  for (std::size_t k = 0; k < 3; ++k) {
+    float low = values[k], high = values[k];
+    for (std::size_t v = k; v < values.size(); v += 3) {
+      low = std::min(low, values[v]);
+      high = std::max(high, values[v]);
+    }
+    lo.push_back(low);
+    hi.push_back(high);
+  }
+  accessor["min"] = std::move(lo);
+  accessor["max"] = std::move(hi);
+}
+
 // One animation of the skin whose joints are nodes first_node, first_node + 1, ...
 Json animation_json(const SkinAnimation& a, const MeshSkin* skin, std::size_t first_node, BinaryBuilder& bin) {
   const std::string name = a.name.empty() ? "animation" : a.name;
@@ -236,18 +253,7 @@ std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* an
     Json attributes;
     const std::size_t position = bin.add(split.positions, 3, FLOAT, ARRAY_BUFFER);
     // The spec requires POSITION bounds; they are of the float values actually stored.
-    Json lo = Json::array(), hi = Json::array();
-    for (std::size_t k = 0; k < 3; ++k) {
-      float low = split.positions[k], high = split.positions[k];
-      for (std::size_t v = k; v < split.positions.size(); v += 3) {
-        low = std::min(low, split.positions[v]);
-        high = std::max(high, split.positions[v]);
-      }
-      lo.push_back(low);
-      hi.push_back(high);
-    }
-    bin.accessor(position)["min"] = std::move(lo);
-    bin.accessor(position)["max"] = std::move(hi);
+    set_bounds(bin.accessor(position), split.positions);
     attributes["POSITION"] = position;
     attributes["NORMAL"] = bin.add(split.normals, 3, FLOAT, ARRAY_BUFFER);
     if (!split.uvs.empty()) attributes["TEXCOORD_0"] = bin.add(split.uvs, 2, FLOAT, ARRAY_BUFFER);
@@ -334,18 +340,7 @@ std::string write_glb(std::span<const NamedMesh> meshes, const SkinAnimation* an
             target[3 * w + c] = value;
           }
         const std::size_t accessor = bin.add(target, 3, FLOAT, ARRAY_BUFFER);
-        Json target_lo = Json::array(), target_hi = Json::array();
-        for (std::size_t c = 0; c < 3; ++c) {
-          float low = target[c], high = target[c];
-          for (std::size_t v = c; v < target.size(); v += 3) {
-            low = std::min(low, target[v]);
-            high = std::max(high, target[v]);
-          }
-          target_lo.push_back(low);
-          target_hi.push_back(high);
-        }
-        bin.accessor(accessor)["min"] = std::move(target_lo);
-        bin.accessor(accessor)["max"] = std::move(target_hi);
+        set_bounds(bin.accessor(accessor), target);
         targets.push_back({{"POSITION", accessor}});
       }
       primitive["targets"] = std::move(targets);

@@ -10,10 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include "demo_outfit.h"
 #include "engine/animate/dressed_character.h"
 #include "geometry/body/gltf_body.h"
 #include "geometry/body/mannequin_shape.h"
-#include "geometry/garment/catalogue.h"
 #include "geometry/motion/bvh.h"
 #include "geometry/motion/retarget.h"
 #include "test_support.h"
@@ -219,19 +219,7 @@ TEST_P(CorpusMotion, PlaysOnTheDemoOutfitWithTheCloth) {
   const auto path = clip_path(c.file);
   if (!path) GTEST_SKIP() << "the corpus clip " << c.file << " is absent";
   const Body& body = test::mannequin(RestPose::APOSE, 7000);
-  std::vector<FittedGarment> garments;
-  for (const auto& [type, size] : {std::pair{GarmentType::TROUSERS, "P2"}, std::pair{GarmentType::TEE, "M"}}) {
-    GarmentOptions o;
-    o.type = type;
-    o.size = size;
-    o.pose = RestPose::APOSE;
-    o.target_vertices = 2000;
-    FittedGarment g;
-    g.name = garment_type_name(type);
-    g.mesh = make_garment(o).mesh;
-    g.segmentation.type = type;
-    garments.push_back(std::move(g));
-  }
+  const std::vector<FittedGarment> garments = test::demo_outfit(2000);
   const BvhMotion m = read_bvh(*path);
   RetargetedMotion r = retarget_bvh(m, body.joints, detect_motion_mapping(m));
   const std::vector<Pose> frames = resample_poses(r.frames, r.fps, 30);

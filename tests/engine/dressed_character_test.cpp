@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "demo_outfit.h"
 #include "engine/animate/blend_weights.h"
 #include "engine/animate/frame_cleanup.h"
 #include "geometry/body/pose_io.h"
@@ -144,22 +145,8 @@ TEST(FrameCleanup, PushesOutOfTheBodyAndOutOfTheLayerUnderIt) {
 // The demo outfit (trousers under a tee, 2,000 vertices each) on the A-pose mannequin.
 struct Outfit {
   const Body& body = test::mannequin(RestPose::APOSE, 6000);
-  std::vector<FittedGarment> garments;
+  std::vector<FittedGarment> garments = test::demo_outfit(2000);
   std::vector<Pose> walk = walk_cycle(RestPose::APOSE, 30, 12).frames;
-  Outfit() {
-    for (const auto& [type, size] : {std::pair{GarmentType::TROUSERS, "P2"}, std::pair{GarmentType::TEE, "M"}}) {
-      GarmentOptions o;
-      o.type = type;
-      o.size = size;
-      o.pose = RestPose::APOSE;
-      o.target_vertices = 2000;
-      FittedGarment g;
-      g.name = garment_type_name(type);
-      g.mesh = make_garment(o).mesh;
-      g.segmentation.type = type;
-      garments.push_back(std::move(g));
-    }
-  }
 };
 
 bool all_finite(std::span<const float> a) {
