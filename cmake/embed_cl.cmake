@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # vfit_embed_cl(TARGET <target> SOURCES a.cl b.cl ... [DEPENDS shared_header.h ...])
 # Turns OpenCL C sources into C++ string constants compiled into TARGET. Local includes
 # (`#include "x.h"`, resolved beside the .cl file) are inlined, so the header written in the

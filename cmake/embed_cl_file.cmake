@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Script mode: -DIN=<file.cl> -DOUT=<file.cpp> -DNAME=<name>. Inlines local includes, then
 # writes the text as a C++ raw string literal. (file(READ), not file(STRINGS): the latter
 # splits lines at ';'.)

@@ -1,15 +1,16 @@
-#include "engine/engine.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/engine.h"
 
 #include <optional>
 
 #include <tbb/global_control.h>
 
-#include "engine/fit/pipeline.h"
-#include "kernels/error.h"
-#include "kernels/opencl_context.h"
-#include "kernels/opencl_vertex_normals.h"
-#include "kernels/parallel.h"
-#include "kernels/vertex_normals.h"
+#include "vfit/engine/fit/pipeline.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/opencl_vertex_normals.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The one object an app creates: it picks the compute backend, the device and the thread
@@ -11,12 +12,12 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/body_source.h"
-#include "engine/fit/fit_options.h"
-#include "engine/fit/fit_report.h"
-#include "geometry/body/body.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/backend.h"
+#include "vfit/engine/fit/body_source.h"
+#include "vfit/engine/fit/fit_options.h"
+#include "vfit/engine/fit/fit_report.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/backend.h"
 
 namespace vfit {
 

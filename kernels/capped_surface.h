@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The triangle mesh a closest-point search runs over, shared by ProximityIndex
 // (kernels/proximity.cpp) and SpatialHash (kernels/spatial_hash.cpp): the mesh with its hole
 // caps, its edges and the angle-weighted pseudo-normals the side test reads. Not a public

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to kernels/: a team of threads held for the length of one iterative solve, which
 // runs its passes over fixed chunks without a TBB fork and join per pass. Not a public header.

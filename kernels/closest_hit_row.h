@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One row of ClosestHits from a finished closest-point search, shared by ProximityIndex
 // (kernels/proximity.cpp) and SpatialHash (kernels/spatial_hash.cpp) so that both decide the
 // side the same way. Not a public header: it is included textually, like closest_point_math.h,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* Closest point on a triangle, written once in the C subset that both C++ and OpenCL C accept:
  * included by proximity.cpp (the Embree callback and the brute-force reference, which must
  * agree to the bit) and by any OpenCL kernel that needs the same answer.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mass-spring cloth on an OpenCL device (see cloth_springs.h and cloth_rk4.h). The per-spring
 // force and the per-particle RK4 stage update are shared with the C++ reference through
 // cloth_math.h; the gather order (each particle's row in ascending spring index, read from the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Body contact response of cloth particles (seed 004 §2: collision against the body, response

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to kernels/cloth_*.cpp: the shared C-subset math (cloth_math.h) brought into C++, the
 // per-particle spring gather of the force and RK4 kernels (over sliced rows) and the row loop

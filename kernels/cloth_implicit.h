@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Implicit (backward) Euler integration of a mass-spring cloth (Baraff & Witkin 1998, §3 and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The assembly of the implicit Euler system (cloth_implicit.h's assemble_implicit_system):
 // per spring entry its force, K·dv and system block S_e (cloth_math.h), per row the diagonal
 // block, its inverse (the preconditioner) and the right-hand side, and the off-diagonal blocks

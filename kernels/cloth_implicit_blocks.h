@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to kernels/cloth_implicit*.cpp: how ImplicitSystem stores its 3×3 blocks, and the
 // fixed-chunk driver every pass of the implicit step runs through (the assembly in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The coarse level of the implicit solve's two-level preconditioner (cloth_implicit_coarse.h).
 #include "cloth_implicit_coarse.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to kernels/cloth_implicit*.cpp: the coarse level of the implicit solve's two-level
 // preconditioner (ImplicitPreconditioner::TWO_LEVEL, cloth_implicit.h). Not a public header.

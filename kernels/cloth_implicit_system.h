@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The implicit-Euler step's linear system and solve options (seed 000 §6.3 integrated

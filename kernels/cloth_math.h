@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* Mass-spring cloth math (seed 000 §6.3, eq. 22–24), written once in the C subset that both
  * C++ and OpenCL C accept: included by cloth_springs.cpp / cloth_rk4.cpp (the serial and TBB
  * reference) and by cloth.cl (the OpenCL kernels), so every backend evaluates the same

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A locality numbering of a cloth's particles for the force gathers (kernels/cloth_rk4.h,

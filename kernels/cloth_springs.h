@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The springs of a mass-spring cloth (seed 000 §6.3, eq. 22; seed 004 §2) and their forces:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Edge–triangle crossings: which edges of a garment pass through the surface of a body. A

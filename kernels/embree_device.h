@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Private to kernels/ (includes Embree; never included by a public header): the Embree device,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The error type every vfit layer throws for bad input (seen by the CLI as exit code 2).

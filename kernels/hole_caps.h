@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Internal caps over the holes of an open triangle mesh, for deciding inside/outside only.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Mesh Laplacians as sparse matrices (#V × #V): the operators of Laplacian surface deformation

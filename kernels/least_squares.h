@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Sparse linear least squares with a reused factorisation: the solver behind Laplacian surface

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The mass-spring cloth's RK4 integration on an OpenCL device (see cloth_rk4.h for the math,

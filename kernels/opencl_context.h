@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The OpenCL context/queue/program owner. OpenCL types stay in the implementation; callers see

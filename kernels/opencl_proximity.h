@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Closest points on a triangle mesh on an OpenCL device: the GPU path of ProximityIndex

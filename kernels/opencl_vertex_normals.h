@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Area-weighted vertex normals on an OpenCL device (see vertex_normals.h for the math).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The TBB parallel helper: every data-parallel primitive is written as a serial range kernel

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Closest points on a triangle mesh on an OpenCL device (see opencl_proximity.h): one work-item
 // per query walks a binary BVH built by Embree's rtcBuildBVH and flattened in depth-first
 // order, with a stack, nearer child first. The point-triangle math and the tie rule are those

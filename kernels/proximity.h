@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Proximity queries against a triangle mesh: for each query point, the closest point on the

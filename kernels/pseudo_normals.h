@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Angle-weighted pseudo-normals of a triangle mesh (Bærentzen & Aanæs 2005, "Signed distance

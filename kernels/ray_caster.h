@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Ray casting against several triangle meshes at once: an Embree BVH over all of them, and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Least squares over a region of a mesh, factored once and solved many times: the per-round

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Spatial hash of a body's triangles (seed 004 §2: collision against the body through a

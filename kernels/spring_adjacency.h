@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Particle → spring adjacency of a mass-spring cloth (seed 000 §6.3), the layout the

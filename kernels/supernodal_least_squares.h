@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Sparse linear least squares factored by CHOLMOD's supernodal Cholesky (SuiteSparse, already

@@ -1,4 +1,5 @@
-#include "kernels/surface_embedding.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/surface_embedding.h"
 
 #include <cassert>
 #include <cmath>
@@ -9,9 +10,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "kernels/error.h"
-#include "kernels/proximity.h"
-#include "kernels/vertex_normals.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace vfit {
 namespace {

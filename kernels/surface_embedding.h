@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Points embedded in a triangle mesh (a coarse "carrier" surface) so that they follow it when

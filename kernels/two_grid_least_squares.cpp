@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "two_grid_least_squares.h"
 
 #include <algorithm>

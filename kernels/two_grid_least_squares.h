@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Sparse linear least squares min ‖A x − b‖² by conjugate gradients on the normal equations

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Area-weighted vertex normals on an OpenCL device (see vertex_normals.h). The per-triangle
 // math is shared with the C++ reference through vertex_normals_math.h.
 #pragma OPENCL FP_CONTRACT OFF

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Area-weighted vertex normals of a triangle mesh: n_v = normalise(Σ_{f ∋ v} (b−a)×(c−a)),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 /* Per-triangle math of the area-weighted vertex normals, written once in the C subset that
  * both C++ and OpenCL C accept: included by vertex_normals.cpp (the serial and TBB
  * reference) and by vertex_normals.cl (the OpenCL kernels), so every backend evaluates the

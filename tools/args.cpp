@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "args.h"
 
 #include <cctype>
@@ -5,7 +6,7 @@
 #include <filesystem>
 #include <system_error>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 

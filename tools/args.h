@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // A small command-line parser: options are asked for by name, then finish() rejects whatever
 // was not asked for, so every subcommand states exactly what it accepts.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "body_args.h"
 
 #include <algorithm>
@@ -8,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "geometry/body/pose_io.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 

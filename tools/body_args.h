@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Options that pick a body, shared by `vfit body`, `vfit measure` and `vfit fit`.
 
 #include "args.h"
-#include "engine/fit/body_source.h"
-#include "geometry/body/body_loader.h"
-#include "geometry/body/keypoint_fit.h"
-#include "geometry/body/keypoints.h"
-#include "geometry/body/skeleton.h"
+#include "vfit/engine/fit/body_source.h"
+#include "vfit/geometry/body/body_loader.h"
+#include "vfit/geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/keypoints.h"
+#include "vfit/geometry/body/skeleton.h"
 
 namespace vfit::cli {
 

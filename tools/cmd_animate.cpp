@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit animate`: fits garments onto a body at rest (the fit pipeline), reads a motion-capture
 // clip, retargets it onto the body, and steps the dressed character frame by frame
 // (engine/animate/dressed_character.h: the garments skinned to the body's skeleton, posed by
@@ -16,18 +17,18 @@
 
 #include "body_args.h"
 #include "commands.h"
-#include "engine/animate/dressed_character.h"
-#include "engine/engine.h"
-#include "engine/view/bitmap_font.h"
-#include "engine/view/image.h"
-#include "engine/view/render.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/gltf_format.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/motion/gltf_motion.h"
-#include "geometry/motion/retarget.h"
-#include "kernels/error.h"
+#include "vfit/engine/animate/dressed_character.h"
+#include "vfit/engine/engine.h"
+#include "vfit/engine/view/bitmap_font.h"
+#include "vfit/engine/view/image.h"
+#include "vfit/engine/view/render.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/gltf_format.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/motion/gltf_motion.h"
+#include "vfit/geometry/motion/retarget.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 namespace {

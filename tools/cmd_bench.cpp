@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit bench table1`: the timing study against seed 000's Table 1 (the nine garment/body
 // pairs rebuilt from the catalogue), and a resolution sweep of one garment with the fitted
 // growth exponent of each stage.
@@ -13,12 +14,12 @@
 #include <tbb/info.h>
 
 #include "commands.h"
-#include "engine/fit/pipeline.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/table1.h"
-#include "geometry/mesh/atomic_write.h"
-#include "kernels/error.h"
+#include "vfit/engine/fit/pipeline.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/table1.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 namespace {

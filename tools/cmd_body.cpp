@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit body`: builds a body and writes its mesh, joints and rigged glTF.
 #include <algorithm>
 #include <chrono>
@@ -11,17 +12,17 @@
 
 #include "body_args.h"
 #include "commands.h"
-#include "geometry/body/keypoint_fit.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/body/scan_fit.h"
-#include "geometry/body/scan_input.h"
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/mesh_stats.h"
-#include "geometry/mesh/units.h"
-#include "geometry/mesh/up_axis.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/body/scan_fit.h"
+#include "vfit/geometry/body/scan_input.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/mesh_stats.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/geometry/mesh/up_axis.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <iostream>
 
 #include "commands.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/mesh_stats.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/mesh_stats.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit demo`: README's main job. The built-in mannequin in a non-rest pose (arms down, left knee
 // bent) is dressed in a catalogue tee and trousers modelled in T-pose, by the same code path as
 // `vfit fit`: the garments are written as OBJ files and fitted, with the report and the PNG
@@ -13,15 +14,15 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "engine/engine.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/opencl_context.h"
 #include "mesh_summary.h"
+#include "vfit/engine/engine.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/opencl_context.h"
 
 namespace vfit::cli {
 namespace {

@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <iostream>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "kernels/backend.h"
-#include "kernels/opencl_context.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/backend.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit::cli {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit garment`: generates a catalogue garment and its ground-truth part labels.
 #include <chrono>
 #include <cstdio>
@@ -7,11 +8,11 @@
 
 #include "body_args.h"
 #include "commands.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 

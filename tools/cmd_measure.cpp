@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit measure`: the 11 measurements of any body, rigged or bare.
 #include <cstdio>
 #include <iostream>
@@ -6,7 +7,7 @@
 
 #include "body_args.h"
 #include "commands.h"
-#include "geometry/body/measurements.h"
+#include "vfit/geometry/body/measurements.h"
 
 namespace vfit::cli {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit render`: PNG pictures (front, side, back) of a body and the garments on it.
 #include <chrono>
 #include <cmath>
@@ -7,10 +8,10 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "engine/view/render.h"
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "kernels/error.h"
+#include "vfit/engine/view/render.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The `vfit` subcommands. Each takes its arguments (after the subcommand name), writes its
 // result, and returns the exit code; bad input throws vfit::Error (exit 2).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "fit_debug.h"
 
 #include <cctype>
@@ -7,9 +8,9 @@
 #include <system_error>
 #include <vector>
 
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Debug output of the fitting pipeline (`vfit fit --debug DIR`): after each stage of each
@@ -14,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/fit_options.h"
-#include "geometry/garment/garment.h"
-#include "geometry/garment/skeleton_parts.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/engine/fit/fit_options.h"
+#include "vfit/geometry/garment/garment.h"
+#include "vfit/geometry/garment/skeleton_parts.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the exact Debian 12 packages that vfit's build, tests and benchmarks need; with
 # `style` also clang-format and clang-tidy, which CI's tools/check_style.sh runs, and, where
 # npm is on the PATH, the Khronos glTF validator (the npm package gltf-validator, into
@@ -14,6 +15,7 @@ packages=(
   libopenmesh-dev libceres-dev
   libbenchmark-dev libgtest-dev libgmock-dev
   libpng-dev zlib1g-dev nlohmann-json3-dev
+  pybind11-dev python3-dev python3-numpy python3-pytest
 )
 if [ "${1:-}" = style ]; then
   packages+=(clang-format clang-tidy)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vfit: automatic 3D garment fitting and cloth simulation — the command-line tool.
 // Exit codes: 0 success, 2 bad input or usage (vfit::Error), 1 internal failure.
 #include <cstring>
@@ -10,7 +11,8 @@
 #endif
 
 #include "commands.h"
-#include "kernels/error.h"
+#include "vfit/engine/version.h"
+#include "vfit/kernels/error.h"
 
 namespace {
 
@@ -354,7 +356,7 @@ int main(int argc, char** argv) {
     return args.empty() ? 2 : 0;
   }
   if (args[0] == "--version") {
-    std::cout << "vfit " << VFIT_VERSION << "\n";
+    std::cout << "vfit " << vfit::version() << " (" << vfit::git_commit() << ")\n";
     return 0;
   }
   try {

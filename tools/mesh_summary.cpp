@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "mesh_summary.h"
 
 #include <chrono>
 #include <cstdio>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::cli {
 namespace {

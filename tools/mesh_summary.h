@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // What `vfit info` and `vfit demo` say about a mesh file.
 
@@ -7,9 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/mesh_stats.h"
-#include "geometry/mesh/topology.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/mesh_stats.h"
+#include "vfit/geometry/mesh/topology.h"
 
 namespace vfit::cli {
 

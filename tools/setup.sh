@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # README's two set-up commands:
 #   tools/setup.sh demo   installs the Debian packages, builds (release) and runs `vfit demo`
 #   tools/setup.sh test   installs the Debian packages, builds (release) and runs every test

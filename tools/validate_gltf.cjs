@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Validates glTF 2.0 files with the Khronos glTF validator (npm package gltf-validator, found
 // through NODE_PATH or node_modules). Prints one JSON line per file: {"file", "errors",
 // "warnings", "infos", "messages": the first ten errors and warnings}. Exit status 1 when a

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Blender baseline of the drape bar: times Blender's own cloth simulation on the drape of
 # vfit_cloth_bench's BM_drape_tee_to_rest (the 6,000-vertex catalogue tee on the posed
 # 7,000-vertex mannequin), so that `blender_x` compares with Blender on the same host and load.

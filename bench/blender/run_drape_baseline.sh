@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The drape bar against Blender on this host, in one run: for each round, Blender 3.4's
 # cloth on the drape's meshes (bench/blender/drape_baseline.py), then vfit's
 # BM_drape_tee_to_rest/2 with blender_x and wall_s_at_reference_speed (the wall time scaled to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A dressed character stepped frame by frame (engine/animate/dressed_character.h): the demo
 // outfit (catalogue trousers P2 and tee M, A-pose) on the A-pose mannequin through a walk cycle
 // (walk_cycle(), pose_io.h): a whole frame (skinning, cloth, blend, clean-up, layering) at
@@ -9,10 +10,10 @@
 
 #include <benchmark/benchmark.h>
 
-#include "engine/animate/dressed_character.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
+#include "vfit/engine/animate/dressed_character.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
 
 namespace vfit {
 namespace {

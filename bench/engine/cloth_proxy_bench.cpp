@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The coarse simulation proxy of a high-resolution garment (engine/cloth/cloth_proxy.h).
 //  - BM_BuildClothProxy/S/P: build_cloth_proxy() (decimation and embedding) of the catalogue
 //    T-pose tee M of 5,000 vertices midpoint-subdivided S times (S = 2, 3, 4: about 8·10^4,
@@ -13,9 +14,9 @@
 #include <cmath>
 #include <vector>
 
-#include "engine/cloth/cloth_proxy.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/decimate.h"
+#include "vfit/engine/cloth/cloth_proxy.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/decimate.h"
 
 namespace {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // ClothSim's body broad phases and backends:
 // - BM_body_queries: closest-point queries/s of the Embree BVH (ProximityIndex) and of seed 004's
 //   spatial hash (SpatialHash, Teschner et al. 2003) against the default mannequin (7,000
@@ -33,18 +34,18 @@
 #include <tuple>
 #include <vector>
 
-#include "engine/cloth/cloth_sim.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/cloth_implicit.h"
-#include "kernels/cloth_springs.h"
+#include "vfit/engine/cloth/cloth_sim.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_implicit.h"
+#include "vfit/kernels/cloth_springs.h"
 #ifdef VFIT_WITH_OPENCL
-#include "kernels/opencl_cloth.h"
+#include "vfit/kernels/opencl_cloth.h"
 #endif
-#include "kernels/opencl_context.h"
-#include "kernels/proximity.h"
-#include "kernels/spatial_hash.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/proximity.h"
+#include "vfit/kernels/spatial_hash.h"
 
 namespace {
 

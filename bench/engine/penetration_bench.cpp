@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Penetration removal against its speed bars: remove_penetration() on the state the pipeline
 // hands it, i.e. each garment after segmentation, skeleton driving and the coarse move onto the
 // posed body (fit_garments() with no removal rounds and no simulation), with the pipeline's
@@ -24,15 +25,15 @@
 #include <utility>
 #include <vector>
 
-#include "engine/dress/layer_order.h"
-#include "engine/dress/penetration.h"
-#include "engine/fit/pipeline.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/table1.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
+#include "vfit/engine/dress/layer_order.h"
+#include "vfit/engine/dress/penetration.h"
+#include "vfit/engine/fit/pipeline.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/table1.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace {
 

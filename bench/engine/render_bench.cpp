@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Ray-casting renderer throughput: primary rays per second for the three standard views of the
 // mannequin wearing a tee, at 512² per view, with and without 2×2 supersampling; and the raw
 // ray caster on the same rays, serial and TBB.
@@ -6,10 +7,10 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
-#include "engine/view/render.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/garment/catalogue.h"
-#include "kernels/ray_caster.h"
+#include "vfit/engine/view/render.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/kernels/ray_caster.h"
 
 namespace vfit {
 namespace {

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Generation time of the built-in mannequin and catalogue garments per size (vertices/s).
 #include <benchmark/benchmark.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/garment/catalogue.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/garment/catalogue.h"
 
 namespace {
 

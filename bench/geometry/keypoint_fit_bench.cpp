@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Keypoint fit (geometry/body/keypoint_fit.h): time per image and Ceres iterations per stage,
 // on synthetic BODY_25 keypoints of the mannequin (3 px noise, fixed seed). The body model is
 // built before timing (once per process). Bar: ≤ 200 ms per image on 2 cores.
@@ -6,7 +7,7 @@
 #include <benchmark/benchmark.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/keypoint_fit.h"
 
 namespace {
 

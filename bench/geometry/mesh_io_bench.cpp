@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mesh I/O throughput: OBJ parsing in MB/s against the speed of reading the same file's bytes
 // (the "disk speed" bound: from the page cache), plus OBJ writing and full read_mesh
 // (parse + validation), for 10^4–10^6-vertex meshes.
@@ -8,12 +9,12 @@
 #include <filesystem>
 #include <map>
 
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/obj_format.h"
-#include "geometry/mesh/orient.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/weld.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/obj_format.h"
+#include "vfit/geometry/mesh/orient.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/weld.h"
 
 namespace {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Scan fit (geometry/body/scan_fit.h): time per scan and Ceres iterations per stage, on a
 // 15,000-vertex synthetic scan (the tall mannequin in its A-pose rest, posed: an elbow and a
 // knee bent, the head turned). The scan and the fit's template are built before timing (once per
@@ -6,8 +7,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/body/scan_fit.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/scan_fit.h"
 
 namespace {
 

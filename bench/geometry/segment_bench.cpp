@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Garment segmentation (seed 000 §4) speed: per catalogue type over vertex counts, and the
 // Table-1 twins (the paper: 159–987 ms per garment on an Intel 4 × 2.5 GHz). Serial by
 // design: one garment is a few ms. Reports vertices/s; garments are generated once, untimed.
@@ -5,11 +6,11 @@
 
 #include <benchmark/benchmark.h>
 
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/segment.h"
-#include "geometry/garment/table1.h"
-#include "geometry/garment/thick_shell.h"
-#include "geometry/mesh/primitives.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/garment/table1.h"
+#include "vfit/geometry/garment/thick_shell.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace {
 

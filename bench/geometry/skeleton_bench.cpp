@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Part skeletons (seed 000 §5.1) speed and centredness: a 6k-vertex tube (proxy or full
 // resolution, uniform or cotangent contraction) and the sleeves and legs of catalogue
 // garments at 5k / 20k / 100k vertices. With CGAL found at configure time, the same tube
@@ -12,15 +13,15 @@
 
 #include <benchmark/benchmark.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/hole_fill.h"
-#include "geometry/garment/segment.h"
-#include "geometry/garment/skeleton_driving.h"
-#include "geometry/garment/skeleton_parts.h"
-#include "geometry/garment/table1.h"
-#include "geometry/mesh/primitives.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/hole_fill.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/garment/skeleton_driving.h"
+#include "vfit/geometry/garment/skeleton_parts.h"
+#include "vfit/geometry/garment/table1.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 #ifdef VFIT_BENCH_CGAL
 #include <CGAL/Simple_cartesian.h>

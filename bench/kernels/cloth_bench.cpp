@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mass-spring cloth RK4 step throughput (seed 000 §6.3): serial, TBB (1 and 2 threads) and
 // OpenCL (PoCL on the CPU, or a GPU's ICD) on square grids of 10^4–10^6 particles, with a
 // STREAM-like triad measured right after each benchmark to express each step as a fraction of
@@ -56,21 +57,21 @@
 #include <memory>
 #include <random>
 
-#include "engine/cloth/cloth_sim.h"
-#include "engine/dress/penetration.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/cloth_implicit.h"
-#include "kernels/cloth_ordering.h"
-#include "kernels/cloth_rk4.h"
-#include "kernels/cloth_springs.h"
-#include "kernels/opencl_cloth.h"
-#include "kernels/opencl_context.h"
-#include "kernels/parallel.h"
-#include "kernels/proximity.h"
+#include "vfit/engine/cloth/cloth_sim.h"
+#include "vfit/engine/dress/penetration.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_implicit.h"
+#include "vfit/kernels/cloth_ordering.h"
+#include "vfit/kernels/cloth_rk4.h"
+#include "vfit/kernels/cloth_springs.h"
+#include "vfit/kernels/opencl_cloth.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/proximity.h"
 
 namespace {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Closest-point queries: queries/s for ProximityIndex (serial entry, TBB at 1 and 2 threads),
 // for raw Embree rtcPointQuery with a minimal callback over the same scene set-up and queries
 // (the floor our wrapper adds to), for brute force (10^3 queries only), for CGAL's AABB_tree
@@ -28,12 +29,12 @@
 
 #include <chrono>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/opencl_context.h"
-#include "kernels/opencl_proximity.h"
-#include "kernels/parallel.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/opencl_proximity.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/proximity.h"
 
 #ifdef VFIT_BENCH_CGAL
 #include <CGAL/AABB_traits.h>
@@ -44,7 +45,7 @@
 
 namespace {
 using std::sqrt;
-#include "kernels/closest_point_math.h"
+#include "vfit/kernels/closest_point_math.h"
 
 constexpr float NO_LIMIT = std::numeric_limits<float>::infinity();
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Area-weighted vertex normals: vertices/s for the serial reference, TBB (1 and all threads)
 // Throughput is per wall-clock second (UseRealTime): the parallel backends work off the main thread.
 // and OpenCL (PoCL on the CPU, or a GPU where the ICD has one), 10^3–10^6 vertices.
@@ -9,10 +10,10 @@
 #include <map>
 #include <memory>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/opencl_context.h"
-#include "kernels/opencl_vertex_normals.h"
-#include "kernels/vertex_normals.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/opencl_vertex_normals.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace {
 

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "blend_weights.h"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

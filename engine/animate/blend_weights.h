@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The blend of a garment's physical and skinned motion (seed 001 §7.1): per frame,
@@ -15,9 +16,9 @@
 #include <span>
 #include <vector>
 
-#include "geometry/garment/garment.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/garment/garment.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "dressed_character.h"
 
 #include <algorithm>
@@ -7,9 +8,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "engine/dress/dresser.h"
-#include "engine/fit/dressing_order.h"
-#include "kernels/error.h"
+#include "vfit/engine/dress/dresser.h"
+#include "vfit/engine/fit/dressing_order.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

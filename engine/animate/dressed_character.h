@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A dressed character stepped frame by frame (seed 001 §7): a body and the garments fitted on
@@ -50,12 +51,12 @@
 #include <string>
 #include <vector>
 
-#include "engine/animate/blend_weights.h"
-#include "engine/animate/frame_cleanup.h"
-#include "engine/cloth/cloth_sim.h"
-#include "engine/fit/fit_report.h"
-#include "geometry/body/body.h"
-#include "geometry/garment/garment_skinning.h"
+#include "vfit/engine/animate/blend_weights.h"
+#include "vfit/engine/animate/frame_cleanup.h"
+#include "vfit/engine/cloth/cloth_sim.h"
+#include "vfit/engine/fit/fit_report.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/garment/garment_skinning.h"
 
 namespace vfit {
 

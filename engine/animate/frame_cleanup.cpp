@@ -1,13 +1,14 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "frame_cleanup.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include "engine/dress/detection.h"
-#include "engine/dress/layer_piercing.h"
-#include "engine/dress/layering.h"
-#include "kernels/error.h"
+#include "vfit/engine/dress/detection.h"
+#include "vfit/engine/dress/layer_piercing.h"
+#include "vfit/engine/dress/layering.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The per-frame clean-up of a dressed character (seed 001 §6.3 eq. 7 and §7): after the blend
@@ -30,9 +31,9 @@
 #include <span>
 #include <vector>
 
-#include "engine/dress/layer_piercing.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/proximity.h"
+#include "vfit/engine/dress/layer_piercing.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 

@@ -1,11 +1,12 @@
-#include "engine/cloth/cloth_proxy.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/cloth/cloth_proxy.h"
 
 #include <algorithm>
 #include <string>
 
-#include "geometry/mesh/even_decimate.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/even_decimate.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

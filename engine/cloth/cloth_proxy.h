@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A coarse simulation proxy of a high-resolution garment (seed 004 §3: simulate the coarse
@@ -19,7 +20,7 @@
 #include <span>
 #include <vector>
 
-#include "kernels/surface_embedding.h"
+#include "vfit/kernels/surface_embedding.h"
 
 namespace vfit {
 

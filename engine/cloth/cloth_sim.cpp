@@ -1,15 +1,16 @@
+// SPDX-License-Identifier: Apache-2.0
 // ClothSim's set-up (options and mesh validation, masses, springs, the internal numbering),
 // pins, the published state and the accessors.
-#include "engine/cloth/cloth_sim.h"
+#include "vfit/engine/cloth/cloth_sim.h"
 
 #include <algorithm>
 #include <cmath>
 #include <iterator>
 #include <string>
 
-#include "engine/cloth/cloth_sim_internal.h"
-#include "kernels/cloth_ordering.h"
-#include "kernels/error.h"
+#include "vfit/engine/cloth/cloth_sim_internal.h"
+#include "vfit/kernels/cloth_ordering.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// ClothSim: the mass-spring cloth of seed 000 §6.3 (eq. 22–24) and seed 004 §2 — particles
@@ -16,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "engine/cloth/fabric.h"
-#include "kernels/backend.h"
+#include "vfit/engine/cloth/fabric.h"
+#include "vfit/kernels/backend.h"
 
 namespace vfit {
 class ProximityIndex; // kernels/proximity.h

@@ -1,15 +1,16 @@
+// SPDX-License-Identifier: Apache-2.0
 // ClothSim's body: setting and moving it, attaching cloth vertices to it, and the waistband
 // auto-pins (ClothOptions::waistband_pins).
-#include "engine/cloth/cloth_sim_internal.h"
+#include "vfit/engine/cloth/cloth_sim_internal.h"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
 
-#include "geometry/garment/waistband.h"
-#include "kernels/error.h"
-#include "kernels/hole_caps.h"
+#include "vfit/geometry/garment/waistband.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/hole_caps.h"
 
 namespace vfit {
 

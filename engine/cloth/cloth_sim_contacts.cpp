@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // ClothSim's body contacts: the closest-point queries through the broad phase, the contact
 // candidate cache (ClothOptions::contact_candidates), continuous contacts
 // (ClothOptions::continuous_contacts) and the contact pass.
-#include "engine/cloth/cloth_sim_internal.h"
+#include "vfit/engine/cloth/cloth_sim_internal.h"
 
 #include <algorithm>
 #include <array>

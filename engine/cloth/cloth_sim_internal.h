@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// ClothSim's internals, shared by the files that implement it (engine/cloth/cloth_sim.cpp: set-up
@@ -13,17 +14,17 @@
 #include <span>
 #include <vector>
 
-#include "engine/cloth/cloth_sim.h"
-#include "kernels/cloth_collision.h"
-#include "kernels/cloth_implicit.h"
-#include "kernels/cloth_rk4.h"
-#include "kernels/cloth_springs.h"
-#include "kernels/opencl_context.h"
-#include "kernels/parallel.h"
-#include "kernels/proximity.h"
-#include "kernels/spatial_hash.h"
+#include "vfit/engine/cloth/cloth_sim.h"
+#include "vfit/kernels/cloth_collision.h"
+#include "vfit/kernels/cloth_implicit.h"
+#include "vfit/kernels/cloth_rk4.h"
+#include "vfit/kernels/cloth_springs.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/proximity.h"
+#include "vfit/kernels/spatial_hash.h"
 #ifdef VFIT_WITH_OPENCL
-#include "kernels/opencl_cloth.h"
+#include "vfit/kernels/opencl_cloth.h"
 #endif
 
 namespace vfit {

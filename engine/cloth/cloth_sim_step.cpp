@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // ClothSim's stepping: RK4 substeps per backend (serial, TBB, OpenCL) between contact passes,
 // implicit Euler steps with the contacts in the solve, the divergence check and run_to_rest().
-#include "engine/cloth/cloth_sim_internal.h"
+#include "vfit/engine/cloth/cloth_sim_internal.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,6 +1,7 @@
-#include "engine/cloth/fabric.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/cloth/fabric.h"
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

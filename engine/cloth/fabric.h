@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Fabric constants of the mass-spring cloth (seed 000 §6.3; seed 004 §2) and the presets.

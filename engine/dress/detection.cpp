@@ -1,10 +1,11 @@
-#include "engine/dress/detection.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/detection.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "engine/dress/dress_rows.h"
-#include "kernels/edge_crossings.h"
+#include "vfit/engine/dress/dress_rows.h"
+#include "vfit/kernels/edge_crossings.h"
 
 namespace vfit::dress {
 

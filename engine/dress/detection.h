@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Detection for penetration removal (seed 000 §6.2, eq. 18; seed 001 §6.3): where a garment
@@ -9,10 +10,10 @@
 #include <span>
 #include <vector>
 
-#include "engine/dress/layer_piercing.h"
-#include "engine/dress/penetration_types.h"
-#include "kernels/laplacian.h"
-#include "kernels/proximity.h"
+#include "vfit/engine/dress/layer_piercing.h"
+#include "vfit/engine/dress/penetration_types.h"
+#include "vfit/kernels/laplacian.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 

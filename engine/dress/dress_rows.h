@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// One vertex of a packed #V × 3 float array as an Eigen row in double, the unit of the

@@ -1,10 +1,11 @@
-#include "engine/dress/dresser.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/dresser.h"
 
 #include <algorithm>
 #include <cstdio>
 
-#include "engine/dress/removal.h"
-#include "kernels/hole_caps.h"
+#include "vfit/engine/dress/removal.h"
+#include "vfit/kernels/hole_caps.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The dressing room's solver objects: penetration removal and layering (seed 000 §6.2,
@@ -18,11 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "engine/dress/layering.h"
-#include "engine/dress/penetration_types.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
+#include "vfit/engine/dress/layering.h"
+#include "vfit/engine/dress/penetration_types.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "engine/dress/layer_order.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/layer_order.h"
 
 #include <algorithm>
 #include <array>
@@ -9,10 +10,10 @@
 #include <optional>
 #include <string>
 
-#include "geometry/mesh/orient.h"
-#include "kernels/error.h"
-#include "kernels/hole_caps.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/mesh/orient.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/hole_caps.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Which garment of an outfit is worn under which, read from the garments as they are given
@@ -24,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

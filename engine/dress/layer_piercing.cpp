@@ -1,13 +1,14 @@
-#include "engine/dress/layer_piercing.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/layer_piercing.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include <Eigen/Geometry>
 
-#include "engine/dress/dress_rows.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
+#include "vfit/engine/dress/dress_rows.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

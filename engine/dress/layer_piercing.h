@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// An inner garment layer poking out through an outer garment (seed 001 §6.3): the outer
@@ -13,7 +14,7 @@
 
 #include <Eigen/Core>
 
-#include "engine/dress/penetration_types.h"
+#include "vfit/engine/dress/penetration_types.h"
 
 namespace vfit {
 

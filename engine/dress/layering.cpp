@@ -1,4 +1,5 @@
-#include "engine/dress/layering.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/layering.h"
 
 #include <cmath>
 #include <string>
@@ -7,9 +8,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "kernels/edge_crossings.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

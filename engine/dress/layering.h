@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Layering several garments on one body (seed 001 §6.3, eq. 7): garments are
@@ -12,8 +13,8 @@
 #include <span>
 #include <vector>
 
-#include "engine/dress/penetration.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/engine/dress/penetration.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "engine/dress/penetration.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/penetration.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,13 +9,13 @@
 
 #include <tbb/parallel_invoke.h>
 
-#include "engine/dress/detection.h"
-#include "engine/dress/pushes.h"
-#include "engine/dress/removal.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/laplacian.h"
-#include "kernels/proximity.h"
-#include "kernels/region_least_squares.h"
+#include "vfit/engine/dress/detection.h"
+#include "vfit/engine/dress/pushes.h"
+#include "vfit/engine/dress/removal.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/laplacian.h"
+#include "vfit/kernels/proximity.h"
+#include "vfit/kernels/region_least_squares.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Penetration detection and removal between a garment and a body (seed 000 §6.2, eq. 18–21;
@@ -13,8 +14,8 @@
 #include <span>
 #include <vector>
 
-#include "engine/dress/penetration_types.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/engine/dress/penetration_types.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

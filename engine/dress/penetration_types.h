@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The shared types of the dressing room (engine/dress/): where a garment stands against a

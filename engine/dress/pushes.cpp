@@ -1,8 +1,9 @@
-#include "engine/dress/pushes.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/pushes.h"
 
 #include <cmath>
 
-#include "kernels/edge_crossings.h"
+#include "vfit/kernels/edge_crossings.h"
 
 namespace vfit::dress {
 

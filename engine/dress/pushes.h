@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The pushes of penetration removal (seed 000 eq. 18–19; seed 001 eq. 7): per vertex, the
@@ -11,8 +12,8 @@
 
 #include <Eigen/Core>
 
-#include "engine/dress/detection.h"
-#include "engine/dress/dress_rows.h"
+#include "vfit/engine/dress/detection.h"
+#include "vfit/engine/dress/dress_rows.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Penetration removal and measurement with the garment's topology built beforehand: the entry
@@ -6,10 +7,10 @@
 
 #include <span>
 
-#include "engine/dress/detection.h"
-#include "engine/dress/penetration_types.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/laplacian.h"
+#include "vfit/engine/dress/detection.h"
+#include "vfit/engine/dress/penetration_types.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/laplacian.h"
 
 namespace vfit {
 

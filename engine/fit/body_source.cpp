@@ -1,9 +1,10 @@
-#include "engine/fit/body_source.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/fit/body_source.h"
 
 #include <filesystem>
 #include <system_error>
 
-#include "geometry/body/pose_io.h"
+#include "vfit/geometry/body/pose_io.h"
 
 namespace vfit {
 

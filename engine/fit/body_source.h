@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The body half of a fit: the body to fit onto, made from what an app has — the parametric
@@ -9,10 +10,10 @@
 #include <optional>
 #include <string>
 
-#include "geometry/body/body.h"
-#include "geometry/body/body_loader.h"
-#include "geometry/body/keypoint_fit.h"
-#include "geometry/body/skeleton.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/body/body_loader.h"
+#include "vfit/geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/skeleton.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "engine/fit/dressing_order.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/fit/dressing_order.h"
 
 #include <algorithm>
 #include <array>
@@ -6,8 +7,8 @@
 #include <cstdio>
 #include <numeric>
 
-#include "engine/dress/layer_order.h"
-#include "geometry/mesh/up_axis.h"
+#include "vfit/engine/dress/layer_order.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit::fitting {
 namespace {

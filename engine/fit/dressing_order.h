@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The order in which a fit dresses its garments, inner first (seed 001 §6.3; seed 000 §6:
@@ -6,11 +7,11 @@
 #include <cstddef>
 #include <vector>
 
-#include "engine/fit/fit_options.h"
-#include "engine/fit/fit_report.h"
-#include "engine/fit/prepare.h"
-#include "geometry/garment/garment.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/engine/fit/fit_options.h"
+#include "vfit/engine/fit/fit_report.h"
+#include "vfit/engine/fit/prepare.h"
+#include "vfit/geometry/garment/garment.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit::fitting {
 

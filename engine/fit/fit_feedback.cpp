@@ -1,5 +1,6 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fit feedback: strain and ease per vertex, region summaries, size verdict.
-#include "engine/fit/fit_feedback.h"
+#include "vfit/engine/fit/fit_feedback.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,12 +9,12 @@
 #include <numbers>
 #include <sstream>
 
-#include "geometry/body/cross_section.h"
-#include "geometry/body/measurements.h"
-#include "geometry/garment/surface_graph.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
-#include "kernels/pseudo_normals.h"
+#include "vfit/geometry/body/cross_section.h"
+#include "vfit/geometry/body/measurements.h"
+#include "vfit/geometry/garment/surface_graph.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
+#include "vfit/kernels/pseudo_normals.h"
 
 namespace vfit {
 namespace {

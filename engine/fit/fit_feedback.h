@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Fit feedback from a fitted (or settled) garment: per-vertex strain and ease, summaries per
@@ -9,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "geometry/body/body.h"
-#include "geometry/garment/garment.h"
-#include "geometry/mesh/mesh.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/garment/garment.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// What a fit is asked to do (engine/fit/pipeline.h): the options of every stage, the garments
@@ -11,13 +12,13 @@
 #include <span>
 #include <string>
 
-#include "geometry/garment/segment.h"
-#include "geometry/garment/skeleton_driving.h"
-#include "geometry/garment/skeleton_parts.h"
-#include "geometry/mesh/mesh.h"
-#include "geometry/mesh/units.h"
-#include "geometry/mesh/up_axis.h"
-#include "kernels/backend.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/garment/skeleton_driving.h"
+#include "vfit/geometry/garment/skeleton_parts.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/geometry/mesh/up_axis.h"
+#include "vfit/kernels/backend.h"
 
 namespace vfit {
 

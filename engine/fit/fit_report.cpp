@@ -1,4 +1,5 @@
-#include "engine/fit/fit_report.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/fit/fit_report.h"
 
 #include <fstream>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// What a fit reports (engine/fit/pipeline.h): per garment, the stages' times and outcomes,
@@ -9,14 +10,14 @@
 #include <utility>
 #include <vector>
 
-#include "engine/dress/penetration_types.h"
-#include "engine/fit/fit_feedback.h"
-#include "geometry/garment/coarse_move.h"
-#include "geometry/garment/garment.h"
-#include "geometry/garment/segment.h"
-#include "geometry/mesh/mesh.h"
-#include "geometry/mesh/units.h"
-#include "geometry/mesh/up_axis.h"
+#include "vfit/engine/dress/penetration_types.h"
+#include "vfit/engine/fit/fit_feedback.h"
+#include "vfit/geometry/garment/coarse_move.h"
+#include "vfit/geometry/garment/garment.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "engine/fit/pipeline.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/fit/pipeline.h"
 
 #include <algorithm>
 #include <chrono>
@@ -7,19 +8,19 @@
 #include <string>
 #include <utility>
 
-#include "engine/cloth/cloth_proxy.h"
-#include "engine/cloth/cloth_sim.h"
-#include "engine/cloth/fabric.h"
-#include "engine/dress/dresser.h"
-#include "engine/fit/dressing_order.h"
-#include "engine/fit/fit_feedback.h"
-#include "engine/fit/prepare.h"
-#include "engine/fit/trim.h"
-#include "geometry/body/measurements.h"
-#include "geometry/garment/coarse_move.h"
-#include "geometry/garment/skeleton_driving.h"
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/engine/cloth/cloth_proxy.h"
+#include "vfit/engine/cloth/cloth_sim.h"
+#include "vfit/engine/cloth/fabric.h"
+#include "vfit/engine/dress/dresser.h"
+#include "vfit/engine/fit/dressing_order.h"
+#include "vfit/engine/fit/fit_feedback.h"
+#include "vfit/engine/fit/prepare.h"
+#include "vfit/engine/fit/trim.h"
+#include "vfit/geometry/body/measurements.h"
+#include "vfit/geometry/garment/coarse_move.h"
+#include "vfit/geometry/garment/skeleton_driving.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

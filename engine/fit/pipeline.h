@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The fitting pipeline (seed 000 §4–6; seed 001 §6.3; seed 004 §3): body + garments → fitted
@@ -26,9 +27,9 @@
 #include <span>
 #include <vector>
 
-#include "engine/fit/fit_options.h"
-#include "engine/fit/fit_report.h"
-#include "geometry/body/body.h"
+#include "vfit/engine/fit/fit_options.h"
+#include "vfit/engine/fit/fit_report.h"
+#include "vfit/geometry/body/body.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "engine/fit/prepare.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/fit/prepare.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,12 +7,12 @@
 #include <map>
 #include <type_traits>
 
-#include "geometry/mesh/mesh_stats.h"
-#include "geometry/mesh/orient.h"
-#include "geometry/mesh/topology.h"
-#include "geometry/mesh/weld.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/mesh/mesh_stats.h"
+#include "vfit/geometry/mesh/orient.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/geometry/mesh/weld.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit::fitting {
 namespace {

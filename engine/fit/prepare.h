@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Garment preparation, the stage of a fit between reading and segmentation (seed 000 §4's
@@ -11,12 +12,12 @@
 #include <string>
 #include <vector>
 
-#include "engine/dress/dresser.h"
-#include "engine/fit/fit_options.h"
-#include "engine/fit/fit_report.h"
-#include "geometry/garment/thick_shell.h"
-#include "geometry/mesh/mesh.h"
-#include "geometry/mesh/units.h"
+#include "vfit/engine/dress/dresser.h"
+#include "vfit/engine/fit/fit_options.h"
+#include "vfit/engine/fit/fit_report.h"
+#include "vfit/geometry/garment/thick_shell.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/units.h"
 
 namespace vfit::fitting {
 

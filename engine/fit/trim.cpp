@@ -1,10 +1,11 @@
-#include "engine/fit/trim.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/fit/trim.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "geometry/mesh/topology.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit::fitting {
 

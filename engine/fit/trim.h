@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Trim pieces of a garment: its connected pieces other than the largest (buttons, labels, a
@@ -9,7 +10,7 @@
 #include <span>
 #include <vector>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit::fitting {
 

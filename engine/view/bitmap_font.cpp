@@ -1,4 +1,5 @@
-#include "engine/view/bitmap_font.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/view/bitmap_font.h"
 
 #include <array>
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A tiny built-in 5 × 7 bitmap font (our own glyphs) for the labels of rendered pictures:
@@ -6,7 +7,7 @@
 
 #include <string_view>
 
-#include "engine/view/image.h"
+#include "vfit/engine/view/image.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "engine/view/colour_map.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/view/colour_map.h"
 
 #include <algorithm>
 #include <cmath>

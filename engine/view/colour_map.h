@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Colour maps for false-colour pictures of a per-vertex scalar (strain, ease): a sequential

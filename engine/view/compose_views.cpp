@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 // compose_views() and compose_view() (declared in render.h): rendered views laid side by side
 // with their titles and the false-colour legend.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "engine/view/bitmap_font.h"
-#include "engine/view/render.h"
-#include "kernels/error.h"
+#include "vfit/engine/view/bitmap_font.h"
+#include "vfit/engine/view/render.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,12 +1,13 @@
-#include "engine/view/image.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/view/image.h"
 
 #include <algorithm>
 #include <cassert>
 
 #include <png.h>
 
-#include "geometry/mesh/atomic_write.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

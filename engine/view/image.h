@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// RGB images and PNG files: what the renderer draws into and writes (8-bit sRGB-encoded

@@ -1,14 +1,15 @@
-#include "engine/view/render.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/view/render.h"
 
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <limits>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
-#include "kernels/ray_caster.h"
-#include "kernels/vertex_normals.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/ray_caster.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace vfit {
 namespace {

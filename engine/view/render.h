@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Pictures of a body and its garments for judging a fit: views from the front, the side and
@@ -16,9 +17,9 @@
 #include <string_view>
 #include <vector>
 
-#include "engine/view/colour_map.h"
-#include "engine/view/image.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/engine/view/colour_map.h"
+#include "vfit/engine/view/image.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

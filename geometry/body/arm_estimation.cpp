@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "arm_estimation.h"
 
 #include <algorithm>
@@ -5,8 +6,8 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "kernels/error.h"
 #include "plane_sections.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// One arm's joints from sections of the body along the arm (a step of estimate_joints(),
@@ -11,7 +12,7 @@
 
 #include <Eigen/Core>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,11 +1,12 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A rigged body: its rest-pose mesh, the canonical joints in that rest pose, and skin weights.
 
 #include <string>
 
-#include "geometry/mesh/mesh.h"
 #include "skeleton.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "body_loader.h"
 
 #include <cmath>
@@ -5,20 +6,20 @@
 
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/mesh_stats.h"
-#include "geometry/mesh/orient.h"
-#include "geometry/mesh/weld.h"
 #include "gltf_body.h"
 #include "joint_estimation.h"
 #include "json_input.h"
-#include "kernels/error.h"
-#include "kernels/hole_caps.h"
 #include "rig_mapping.h"
 #include "scan_fit.h"
 #include "scan_input.h"
 #include "smpl_model.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/mesh_stats.h"
+#include "vfit/geometry/mesh/orient.h"
+#include "vfit/geometry/mesh/weld.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/hole_caps.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// One entry point for every kind of body a user brings (seed 000 §3, seed 001 §5): the
@@ -11,9 +12,9 @@
 #include <vector>
 
 #include "body.h"
-#include "geometry/mesh/units.h"
-#include "geometry/mesh/up_axis.h"
 #include "mannequin.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Horizontal cross-sections of a mesh: the closed loops where the plane y = h cuts it, and the
@@ -6,7 +7,7 @@
 #include <array>
 #include <vector>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A glTF skinned mesh as a vfit::Body: skin, bind pose, rig mapping and weight transfer.
 #include "gltf_body.h"
 
@@ -10,9 +11,9 @@
 
 #include <Eigen/LU>
 
-#include "geometry/mesh/gltf_document.h"
-#include "geometry/mesh/units.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/gltf_document.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Loading a glTF 2.0 skinned mesh (Mixamo, MakeHuman, SMPL exports, ...) as a vfit::Body: the

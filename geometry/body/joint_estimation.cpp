@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "joint_estimation.h"
 
 #include <algorithm>
@@ -5,9 +6,9 @@
 #include <sstream>
 
 #include "arm_estimation.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
 #include "section_tracks.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

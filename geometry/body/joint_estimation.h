@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Rigging a bare body scan (seed 001 §5): the 24 canonical joints estimated from the mesh's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to geometry/body: reading the small JSON inputs users hand us (poses, joints), with
 // errors that name the file and the key.
@@ -9,8 +10,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/atomic_write.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::json_input {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The terms of the keypoint fit's objective (keypoint_fit.h) with analytic derivatives: the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "keypoint_fit.h"
 
 #include <algorithm>
@@ -7,10 +8,10 @@
 
 #include <ceres/ceres.h>
 
-#include "kernels/error.h"
 #include "keypoint_costs.h"
 #include "limb_lift.h"
 #include "mannequin_shape.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Pose and shape of a body from a photo's 2D keypoints (seed 000 §3, which uses SMPLify):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The body the keypoint fit sees (seed 000 §3): its shape parameters, the body points linear

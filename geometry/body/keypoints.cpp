@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "keypoints.h"
 
 #include <algorithm>
@@ -6,8 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/atomic_write.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// 2D body keypoints from a photo (seed 000 §3: the body comes from fitting a body model to the

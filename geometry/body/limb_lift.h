@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Depth hypotheses for the keypoint fit's limbs (keypoint_fit.h): a limb's 2D keypoints fix each

@@ -1,14 +1,15 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "mannequin.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "cross_section.h"
-#include "geometry/mesh/decimate.h"
-#include "geometry/mesh/isosurface.h"
-#include "kernels/error.h"
-#include "kernels/parallel.h"
 #include "mannequin_shape.h"
+#include "vfit/geometry/mesh/decimate.h"
+#include "vfit/geometry/mesh/isosurface.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The built-in parametric mannequin (seed 004 §1): a watertight, manifold, outward-oriented

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "mannequin_shape.h"
 
 #include <algorithm>
@@ -7,7 +8,7 @@
 #include <numbers>
 
 #include "cross_section.h"
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The built-in mannequin as a signed distance function: a skeleton placed from the 11

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The 11 body measurements of seed 004 §1 (height, crotch height, knee height, arm length,
@@ -8,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
-#include "geometry/mesh/mesh.h"
 #include "skeleton.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `.npy` format (NumPy's NEP 1): magic, version, a Python-literal header dict, raw data.
 #include <algorithm>
 #include <bit>
@@ -6,8 +7,8 @@
 #include <cstring>
 #include <optional>
 
-#include "kernels/error.h"
 #include "npz_reader.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

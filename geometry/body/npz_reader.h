@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Reading NumPy `.npz` archives: a zip file (entries stored or deflated, ZIP64 included) whose

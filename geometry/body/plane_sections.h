@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Sections of a mesh by a family of parallel planes p · d = level, for any unit direction d:
@@ -11,7 +12,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "pose_io.h"
 
 #include <cmath>
@@ -6,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "json_input.h"
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

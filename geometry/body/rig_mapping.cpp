@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Built-in rig mappings, their detection from bone names, and explicit mapping files.
 #include "rig_mapping.h"
 
@@ -11,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

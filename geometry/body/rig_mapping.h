@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Mapping a rig's bone names onto the 24 canonical joints (skeleton.h): built-in mappings for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "scan_fit.h"
 
 #include <algorithm>
@@ -13,14 +14,14 @@
 
 #include "gltf_body.h"
 #include "joint_estimation.h"
-#include "kernels/error.h"
-#include "kernels/parallel.h"
-#include "kernels/proximity.h"
 #include "mannequin.h"
 #include "scan_fit_solve.h"
 #include "scan_pose_search.h"
 #include "scan_skin_transfer.h"
 #include "scan_unpose.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Pose and shape of a body scan, and the scan rigged from them (seed 001 §5.2, eq. 3–4):

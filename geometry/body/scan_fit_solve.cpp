@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "scan_fit_solve.h"
 
 #include <algorithm>
@@ -7,7 +8,7 @@
 #include <ceres/ceres.h>
 
 #include "body.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit::scan_detail {
 

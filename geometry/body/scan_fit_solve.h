@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Internal to fit_scan() (scan_fit.h): the unknowns of seed 001 eq. 4, the correspondences of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "scan_input.h"
 
 #include <algorithm>
@@ -5,11 +6,11 @@
 #include <utility>
 #include <vector>
 
-#include "geometry/mesh/orient.h"
 #include "joint_estimation.h"
-#include "kernels/error.h"
-#include "kernels/hole_caps.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/mesh/orient.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/hole_caps.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

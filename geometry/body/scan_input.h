@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A body scan made ready for fit_scan() (scan_fit.h), as scanners and other tools write them:
@@ -12,9 +13,9 @@
 #include <vector>
 
 #include "body.h"
-#include "geometry/mesh/mesh.h"
-#include "geometry/mesh/up_axis.h"
 #include "scan_fit.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit {
 

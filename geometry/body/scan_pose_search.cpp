@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "scan_pose_search.h"
 
 #include <algorithm>
@@ -10,7 +11,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/task_arena.h>
 
-#include "kernels/parallel.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The starting pose of a scan fit (scan_fit.h) for a scan in any pose: a coarse search over

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "scan_skin_transfer.h"
 
 #include <algorithm>
@@ -5,9 +6,9 @@
 #include <deque>
 #include <limits>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
-#include "kernels/proximity.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

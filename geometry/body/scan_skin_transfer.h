@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Skin weights carried from a posed template body onto a scan in the same pose (seed 001
@@ -13,7 +14,7 @@
 #include <Eigen/Core>
 
 #include "body.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

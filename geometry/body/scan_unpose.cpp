@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "scan_unpose.h"
 
 #include <cmath>
@@ -7,8 +8,8 @@
 
 #include <Eigen/Dense>
 
-#include "kernels/error.h"
 #include "scan_skin_transfer.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::scan_detail {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Internal to fit_scan() (scan_fit.h), stage 5: a posed scan moved back into a rest pose by
@@ -9,8 +10,8 @@
 
 #include <Eigen/Geometry>
 
-#include "geometry/mesh/mesh.h"
 #include "skeleton.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit::scan_detail {
 

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "section_tracks.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

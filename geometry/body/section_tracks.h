@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A body's horizontal sections stacked by height, and body parts (torso, legs) followed

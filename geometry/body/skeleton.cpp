@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "skeleton.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

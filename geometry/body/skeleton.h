@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The canonical 24-joint skeleton (SMPL's joint order, names and parents), poses in SMPL's

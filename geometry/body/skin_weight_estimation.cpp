@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // estimate_skin_weights() (declared in joint_estimation.h): inverse-distance weights to the
 // bones near a vertex, smoothed over the mesh, the 4 largest kept.
 
@@ -5,8 +6,8 @@
 #include <cmath>
 
 #include "joint_estimation.h"
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "smpl_model.h"
 
 #include <cmath>
 #include <vector>
 
-#include "kernels/error.h"
 #include "npz_reader.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// An SMPL-format parametric body model read from a NumPy `.npz` file (seed 000 §3: the SMPL body
@@ -12,8 +13,8 @@
 #include <Eigen/Core>
 
 #include "body.h"
-#include "geometry/mesh/mesh.h"
 #include "skeleton.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "catalogue.h"
 
 #include <algorithm>
@@ -7,12 +8,12 @@
 #include <set>
 
 #include "garment_shape.h"
-#include "geometry/mesh/clip.h"
-#include "geometry/mesh/decimate.h"
-#include "geometry/mesh/isosurface.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/geometry/mesh/clip.h"
+#include "vfit/geometry/mesh/decimate.h"
+#include "vfit/geometry/mesh/isosurface.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

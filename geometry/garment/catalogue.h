@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The built-in garment catalogue: tee, long-sleeve shirt, trousers, shorts, dress and skirt,
@@ -11,7 +12,7 @@
 #include <string>
 
 #include "garment.h"
-#include "geometry/body/measurements.h"
+#include "vfit/geometry/body/measurements.h"
 
 namespace vfit {
 

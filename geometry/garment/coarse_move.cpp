@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "coarse_move.h"
 
 #include <algorithm>
@@ -7,7 +8,7 @@
 
 #include <Eigen/Cholesky>
 
-#include "kernels/proximity.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

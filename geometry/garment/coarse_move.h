@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Coarse move (seed 000 §6.1, eq. 16–17): the garment is translated — not rotated, not
@@ -19,9 +20,9 @@
 #include <Eigen/Core>
 
 #include "garment.h"
-#include "geometry/body/skeleton.h"
 #include "segment.h"
 #include "skeleton_parts.h"
+#include "vfit/geometry/body/skeleton.h"
 
 namespace vfit {
 

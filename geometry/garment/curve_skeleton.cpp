@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "curve_skeleton.h"
 
 #include <algorithm>
@@ -13,10 +14,10 @@
 #include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 
-#include "kernels/error.h"
-#include "kernels/laplacian.h"
-#include "kernels/least_squares.h"
 #include "skeleton_proxy.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/laplacian.h"
+#include "vfit/kernels/least_squares.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Curve skeletons of watertight meshes by mesh contraction (seed 000 §5.1, after Tagliasacchi
@@ -14,7 +15,7 @@
 
 #include <Eigen/Core>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

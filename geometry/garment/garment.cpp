@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "garment.h"
 
 #include <algorithm>
 #include <cctype>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Garments: the mesh with per-vertex part labels, and the vocabulary of garment types, parts
@@ -8,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
-#include "geometry/body/body.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The implicit description of a catalogue garment: its surface as the zero set of a distance
@@ -7,7 +8,7 @@
 #include <Eigen/Core>
 
 #include "garment.h"
-#include "geometry/body/mannequin_shape.h"
+#include "vfit/geometry/body/mannequin_shape.h"
 
 namespace vfit {
 

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "garment_skinning.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "geometry/body/scan_skin_transfer.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/scan_skin_transfer.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

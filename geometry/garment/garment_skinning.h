@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Skin weights for a garment layer (seed 001 §7.1: each garment is skinned to the body's
@@ -15,8 +16,8 @@
 ///    smoothly), then the 4 largest are kept and renormalised.
 
 #include "garment.h"
-#include "geometry/body/body.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

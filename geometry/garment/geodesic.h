@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Geodesic distance on a garment's edge graph, the Morse function of seed 000 §4.1.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "hole_fill.h"
 
 #include <algorithm>
@@ -8,7 +9,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Hole filling (seed 000 §5.1): a garment part (a sleeve tube open at both ends, a leg, a torso
@@ -6,7 +7,7 @@
 
 #include <cstddef>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

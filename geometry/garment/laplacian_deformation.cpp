@@ -1,11 +1,12 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "laplacian_deformation.h"
 
 #include <algorithm>
 #include <mutex>
 #include <numeric>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Laplacian surface deformation (seed 000 §5.4, after Sorkine et al. 2004): positions x that
@@ -13,10 +14,10 @@
 
 #include <Eigen/Dense>
 
-#include "geometry/mesh/mesh.h"
-#include "kernels/least_squares.h"
-#include "kernels/supernodal_least_squares.h"
-#include "kernels/two_grid_least_squares.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/kernels/least_squares.h"
+#include "vfit/kernels/supernodal_least_squares.h"
+#include "vfit/kernels/two_grid_least_squares.h"
 
 namespace vfit {
 

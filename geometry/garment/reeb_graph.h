@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Discrete Reeb graph of a scalar function on a garment's surface (seed 000 §4.1, after

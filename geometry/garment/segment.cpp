@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "segment.h"
 
 #include <algorithm>
@@ -6,8 +7,8 @@
 #include <numbers>
 
 #include "geodesic.h"
-#include "kernels/error.h"
 #include "segment_parts.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Garment segmentation (seed 000 §4): which part of the body each vertex of a garment covers,
@@ -28,10 +29,10 @@
 #include <Eigen/Core>
 
 #include "garment.h"
-#include "geometry/garment/straighten.h"
-#include "geometry/mesh/mesh.h"
-#include "geometry/mesh/up_axis.h"
 #include "reeb_graph.h"
+#include "vfit/geometry/garment/straighten.h"
+#include "vfit/geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit {
 

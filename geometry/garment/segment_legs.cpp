@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Leg refinement of seed 000 §4.2 (eq. 3–4), and the other label helpers of segment_garment().
 #include <algorithm>
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Internal to segment_garment(): the branches the merge tree found, and the §4.2 refinements

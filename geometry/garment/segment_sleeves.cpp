@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Sleeve refinement of seed 000 §4.2 (eq. 1–2), generalised from vertical planes to slanted
 // and bent arms.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "skeleton_driving.h"
 
 #include <algorithm>
@@ -16,8 +17,8 @@
 #include <tbb/task_arena.h>
 
 #include "coarse_move.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

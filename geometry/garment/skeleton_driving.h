@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Skeleton-driven garment deformation (seed 000 §5.2–5.4): the garment's torso is turned and
@@ -16,11 +17,11 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "geometry/body/skeleton.h"
-#include "geometry/mesh/mesh.h"
 #include "laplacian_deformation.h"
 #include "segment.h"
 #include "skeleton_parts.h"
+#include "vfit/geometry/body/skeleton.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

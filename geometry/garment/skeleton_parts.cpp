@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "skeleton_parts.h"
 
 #include <algorithm>
@@ -9,8 +10,8 @@
 
 #include <Eigen/Geometry>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

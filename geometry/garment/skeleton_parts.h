@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Part skeletons of a segmented garment (seed 000 §5.1): each sleeve and leg is cut out, made
@@ -14,8 +15,8 @@
 
 #include "curve_skeleton.h"
 #include "garment.h"
-#include "geometry/mesh/mesh.h"
 #include "hole_fill.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

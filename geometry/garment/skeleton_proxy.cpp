@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "skeleton_proxy.h"
 
 #include <algorithm>
@@ -7,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

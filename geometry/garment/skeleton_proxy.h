@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A coarse stand-in for a large watertight part, for skeleton extraction (seed 000 §5.1):
@@ -9,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "straighten.h"
 
 #include <algorithm>
@@ -10,8 +11,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
-#include "geometry/mesh/up_axis.h"
 #include "surface_graph.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit {
 namespace {

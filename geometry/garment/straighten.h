@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Straightening a garment stored a little off upright (tilted forward, rolled sideways, or
 /// turned about its up axis by less than an eighth of a turn), on top of the axis-aligned cases
@@ -7,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

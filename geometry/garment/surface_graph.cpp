@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "surface_graph.h"
 
 #include <algorithm>
@@ -5,7 +6,7 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The edge graph of a triangle mesh as garment segmentation reads it (seed 000 §4): vertex
@@ -11,7 +12,7 @@
 
 #include <Eigen/Core>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The Table-1 twins: the nine garment/body pairs of seed 000 Table 1 rebuilt from the built-in

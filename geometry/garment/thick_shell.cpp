@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "thick_shell.h"
 
 #include <algorithm>
@@ -7,9 +8,9 @@
 
 #include <Eigen/Geometry>
 
-#include "geometry/mesh/topology.h"
-#include "kernels/proximity.h"
-#include "kernels/ray_caster.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/proximity.h"
+#include "vfit/kernels/ray_caster.h"
 
 namespace vfit {
 namespace {

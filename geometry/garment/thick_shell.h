@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Garments modelled with thickness: two parallel sheets of cloth a few millimetres apart,
@@ -16,7 +17,7 @@
 #include <span>
 #include <vector>
 
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

@@ -1,4 +1,5 @@
-#include "geometry/garment/waistband.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/garment/waistband.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +8,8 @@
 #include <string>
 #include <utility>
 
-#include "kernels/error.h"
-#include "kernels/hole_caps.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/hole_caps.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The waistband of a bottom garment (trousers, shorts, skirt): the band of cloth along its

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Cutting a triangle mesh along the zero set of a function: the part where keep(p) ≥ 0 stays,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "decimate.h"
 
 #include <algorithm>
@@ -9,7 +10,7 @@
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Mesh simplification to an exact vertex count (quadric error collapses through OpenMesh's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Fast decimation to even edge lengths by half-edge collapses (each removes one vertex and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The glTF document shared by read_gltf() and read_gltf_body(): GLB chunks, JSON, buffers
 // (BIN chunk, base64 data URIs, files beside a .gltf), accessors and node transforms.
 #include "gltf_document.h"

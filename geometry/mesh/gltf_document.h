@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Private to geometry/ (not installed, not for engine/ or tools/): a parsed glTF 2.0 document
@@ -17,8 +18,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "kernels/error.h"
 #include "mesh.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit::gltf {
 

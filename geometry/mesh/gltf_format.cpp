@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reading glTF 2.0 (.glb and .gltf) as one mesh; the document machinery lives in
 // gltf_document.cpp, write_glb in gltf_writer.cpp.
 #include "gltf_format.h"
@@ -13,7 +14,7 @@
 #include <unordered_map>
 
 #include "gltf_document.h"
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace gltf {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// glTF 2.0: binary `.glb` and JSON `.gltf` (buffers embedded as base64 data URIs or in files

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Writing binary glTF 2.0 (.glb); reading lives in gltf_format.cpp.
 #include "gltf_format.h"
 
@@ -10,8 +11,8 @@
 #include <cstring>
 #include <limits>
 
-#include "kernels/error.h"
-#include "kernels/vertex_normals.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "isosurface.h"
 
 #include <algorithm>
@@ -7,8 +8,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

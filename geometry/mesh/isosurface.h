@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Closed triangle meshes from signed distance functions: marching tetrahedra over the narrow

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The mesh type every preprocessing stage reads and writes: flat arrays that kernels/ can take

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "mesh_io.h"
 
 #include <algorithm>
@@ -5,12 +6,12 @@
 
 #include "atomic_write.h"
 #include "gltf_format.h"
-#include "kernels/error.h"
 #include "obj_format.h"
 #include "off_format.h"
 #include "ply_format.h"
 #include "stl_format.h"
 #include "validate.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Geometric summary of a mesh: bounding box, extent, area, edge lengths, zero-area faces.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "obj_format.h"
 
 #include <algorithm>
@@ -6,8 +7,8 @@
 #include <cstring>
 #include <optional>
 
-#include "kernels/error.h"
-#include "kernels/parallel.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

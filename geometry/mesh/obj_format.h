@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Wavefront OBJ: `v`, `vt`, `vn`, `f` (triangles, quads and polygons, fan-triangulated;

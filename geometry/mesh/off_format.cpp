@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "off_format.h"
 
 #include "text_words.h"
@@ -9,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Object File Format (OFF, also COFF/NOFF headers): vertex and face counts, then vertices,

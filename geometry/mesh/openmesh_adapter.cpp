@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "openmesh_adapter.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

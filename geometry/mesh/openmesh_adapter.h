@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Conversion between vfit::Mesh and an OpenMesh half-edge mesh, for the stages that need

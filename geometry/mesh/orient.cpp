@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "orient.h"
 
 #include <cmath>
@@ -5,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "kernels/vertex_normals_math.h"
+#include "vfit/kernels/vertex_normals_math.h"
 
 namespace vfit {
 namespace {

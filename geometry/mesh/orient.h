@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Consistent triangle orientation: exporters and hand-edited meshes can leave some triangles

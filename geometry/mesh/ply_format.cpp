@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "ply_format.h"
 
 #include "text_words.h"
@@ -14,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

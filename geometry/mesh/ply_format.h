@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Stanford PLY: ASCII, binary little- and big-endian. Reads the `vertex` element (x, y, z;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Procedural meshes for tests, benchmarks and the demo: spheres, open tubes and grids with UVs,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "stl_format.h"
 
 #include <array>
@@ -11,7 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

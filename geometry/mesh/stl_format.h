@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// STL, ASCII and binary. STL stores unshared triangle corners; vertices with bit-identical

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to geometry/mesh: splitting a line of a text mesh format (OFF, PLY headers and
 // bodies) into whitespace-separated words without copying.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Topological summary of a triangle mesh: components, boundary loops, manifoldness,

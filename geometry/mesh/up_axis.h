@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The up axis of a mesh file, and the rotation that brings such a file into our frame (Y up,

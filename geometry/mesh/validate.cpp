@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "validate.h"
 
 #include <algorithm>
@@ -6,7 +7,7 @@
 
 #include <tbb/parallel_sort.h>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "weld.h"
 
 #include <algorithm>
@@ -7,7 +8,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "kernels/pseudo_normals.h"
+#include "vfit/kernels/pseudo_normals.h"
 
 namespace vfit {
 

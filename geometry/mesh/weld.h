@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Welding of coincident vertices: pattern-based garment tools (and many exporters) write each

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "bvh.h"
 
 #include <algorithm>
@@ -9,8 +10,8 @@
 #include <numbers>
 #include <unordered_set>
 
-#include "geometry/mesh/atomic_write.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

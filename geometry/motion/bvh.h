@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Biovision hierarchy (BVH) motion capture: reading, writing and forward kinematics.
@@ -21,7 +22,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "geometry/mesh/up_axis.h"
+#include "vfit/geometry/mesh/up_axis.h"
 
 namespace vfit {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "gltf_motion.h"
 
 #include <algorithm>
@@ -6,9 +7,9 @@
 
 #include <Eigen/Geometry>
 
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/gltf_document.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/gltf_document.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

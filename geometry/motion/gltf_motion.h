@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// The animation of a rigged glTF 2.0 file as a BVH motion, so that it is retargeted like any

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "retarget.h"
 
 #include <algorithm>
@@ -9,9 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/rig_mapping.h"
-#include "geometry/mesh/atomic_write.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/rig_mapping.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 

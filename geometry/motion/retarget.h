@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// Retargeting motion capture onto the canonical 24-joint skeleton (seed 001 §7: the motion
@@ -23,8 +24,8 @@
 #include <vector>
 
 #include "bvh.h"
-#include "geometry/body/skeleton.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/body/skeleton.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit {
 

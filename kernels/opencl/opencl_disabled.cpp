@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The OpenCL entry points of a build configured with VFIT_WITH_OPENCL=OFF: they say so.
 #include "../error.h"
 #include "../opencl_context.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Private to kernels/: the OpenCL objects behind vfit::OpenClContext, for the files that
 // implement OpenCL kernels. Never include this from a public header.

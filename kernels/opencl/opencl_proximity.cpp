@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // OpenClProximity: a flat BVH from Embree's builder, traversed by proximity.cl. Compiled in
 // every build; without OpenCL the entry points throw vfit::Error saying so.
 #include "../opencl_proximity.h"

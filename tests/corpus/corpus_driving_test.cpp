@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Skeleton driving on real garments: every MakeHuman garment
 // of corpus/makehuman/derived/parts_on_hm08/ was modelled on hm08 in its rest pose, so driving
 // it onto the rigged hm08 body in that same pose must leave it where it is. Skipped, saying
@@ -13,16 +14,16 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/dress/penetration.h"
-#include "geometry/body/gltf_body.h"
-#include "geometry/garment/segment.h"
-#include "geometry/garment/skeleton_driving.h"
-#include "geometry/garment/skeleton_parts.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/units.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/engine/dress/penetration.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/garment/skeleton_driving.h"
+#include "vfit/geometry/garment/skeleton_parts.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The corpus run: every MakeHuman garment refitted to hm08
 // (corpus/MANIFEST.md, makehuman/derived/parts_on_hm08/) fitted by fit_garments(), simulation
 // included, onto the rigged hm08 body posed by its rig in three poses. The quality bars,
@@ -17,17 +18,17 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/dress/penetration.h"
-#include "engine/fit/fit_feedback.h"
-#include "engine/fit/pipeline.h"
-#include "geometry/body/gltf_body.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/units.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/engine/dress/penetration.h"
+#include "vfit/engine/fit/fit_feedback.h"
+#include "vfit/engine/fit/pipeline.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Joint estimation on the MakeHuman hm08 body (corpus/MANIFEST.md) against its game_engine rig,
 // an oracle placed by MakeHuman's artists: bone heads from hm08_skeleton_game_engine.json, and
 // the rig's skin weights. The two generic proxy bodies (other shapes, no rig) must give
@@ -10,11 +11,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/joint_estimation.h"
-#include "geometry/body/rig_mapping.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/units.h"
 #include "test_support.h"
+#include "vfit/geometry/body/joint_estimation.h"
+#include "vfit/geometry/body/rig_mapping.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/units.h"
 
 namespace vfit {
 namespace {

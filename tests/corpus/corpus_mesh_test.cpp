@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every mesh in the shared corpus loads, validates and matches what corpus/MANIFEST.md says of
 // it (vertex count, faces, components, boundary loops, watertightness, units); `vfit info`
 // prints a sane summary for each. Skipped, saying why, when the corpus is absent.
@@ -9,10 +10,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/mesh_stats.h"
-#include "geometry/mesh/topology.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/mesh_stats.h"
+#include "vfit/geometry/mesh/topology.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The corpus's motion-capture clips (motion/, see its MANIFEST): every file reads, its up axis
 // and length unit come out as the MANIFEST describes the rigs, its frames are finite through
 // forward kinematics, and it survives a round trip through bvh_text() exactly; played on the demo
@@ -11,12 +12,12 @@
 #include <gtest/gtest.h>
 
 #include "demo_outfit.h"
-#include "engine/animate/dressed_character.h"
-#include "geometry/body/gltf_body.h"
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/motion/bvh.h"
-#include "geometry/motion/retarget.h"
 #include "test_support.h"
+#include "vfit/engine/animate/dressed_character.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/motion/bvh.h"
+#include "vfit/geometry/motion/retarget.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "engine/dress/penetration.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/penetration.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,14 +9,14 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/dress/layer_order.h"
-#include "engine/dress/layering.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/units.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/engine/dress/layer_order.h"
+#include "vfit/engine/dress/layering.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The MakeHuman hm08 body rigged with the game_engine skeleton (corpus/MANIFEST.md, "the rigged
 // body as glTF 2.0") loads as a Body whose joints and weights agree with the skeleton's JSON
 // description, an oracle written independently of the .glb. Skipped when the corpus is absent.
@@ -8,9 +9,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/gltf_body.h"
-#include "geometry/mesh/topology.h"
 #include "test_support.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/mesh/topology.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Scan fit (seed 001 §5.2) on the MakeHuman hm08 body posed by its own game_engine rig
 // (corpus/MANIFEST.md) and handed over as a bare mesh: the rig's posed joints are the oracle
 // for the recovered joints, and the rig's own posing of a second pose the oracle for the rigged
@@ -13,11 +14,11 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/gltf_body.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/body/scan_fit.h"
-#include "geometry/body/scan_skin_transfer.h"
 #include "test_support.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/body/scan_fit.h"
+#include "vfit/geometry/body/scan_skin_transfer.h"
 
 namespace vfit {
 namespace {

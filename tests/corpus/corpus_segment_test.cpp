@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Garment segmentation (seed 000 §4) on the MakeHuman garments refitted to hm08
 // (corpus/MANIFEST.md): real meshes in the A-pose, quads split into triangles, open fronts,
 // pockets and button holes. The detected type must match the file's name, and every sleeve
@@ -11,11 +12,11 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/garment/segment.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/units.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Up-axis detection (geometry/mesh/up_axis.h detect_up_axis(), geometry/garment/segment.h
 // segment_upright()) on real garments: every MakeHuman garment of
 // corpus/makehuman/derived/parts_on_hm08/ (modelled Y up, facing +Z) that the segmentation
@@ -15,15 +16,15 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "geometry/body/body_loader.h"
-#include "geometry/body/gltf_body.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/segment.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/units.h"
-#include "geometry/mesh/up_axis.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/body_loader.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/geometry/mesh/up_axis.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,15 +1,16 @@
+// SPDX-License-Identifier: Apache-2.0
 // The coarse simulation proxy (engine/cloth/cloth_proxy.h) of a catalogue tee: its vertices are the
 // tee's, its openings the tee's, every tee vertex is embedded and comes back at rest, and the
 // per-vertex inputs map through the proxy's vertices.
-#include "engine/cloth/cloth_proxy.h"
+#include "vfit/engine/cloth/cloth_proxy.h"
 
 #include <algorithm>
 
 #include <gtest/gtest.h>
 
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "engine/cloth/cloth_sim.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/cloth/cloth_sim.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,11 +10,11 @@
 
 #include "test_support.h"
 
-#include "geometry/body/mannequin.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

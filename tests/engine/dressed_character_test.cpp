@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // A dressed character stepped frame by frame (engine/animate/): eq. 9's weights against a hand
 // computation, the skirt's two parts, the per-frame clean-up against brute-force oracles, and
 // the demo outfit walking: every frame clean by the fit's own measure and by brute force, the
 // same frames for any thread count, cuts restarting the cloth, and the morph offsets replaying
 // the frames through the skin.
-#include "engine/animate/dressed_character.h"
+#include "vfit/engine/animate/dressed_character.h"
 
 #include <cmath>
 #include <cstdio>
@@ -13,16 +14,16 @@
 #include <nlohmann/json.hpp>
 
 #include "demo_outfit.h"
-#include "engine/animate/blend_weights.h"
-#include "engine/animate/frame_cleanup.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/gltf_format.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/motion/retarget.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/engine/animate/blend_weights.h"
+#include "vfit/engine/animate/frame_cleanup.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/gltf_format.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/motion/retarget.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

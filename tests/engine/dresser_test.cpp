@@ -1,10 +1,11 @@
-#include "engine/dress/dresser.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/dresser.h"
 
 #include <gtest/gtest.h>
 
-#include "engine/dress/penetration.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/hole_caps.h"
+#include "vfit/engine/dress/penetration.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/hole_caps.h"
 
 namespace vfit {
 namespace {

@@ -1,10 +1,11 @@
-#include "engine/engine.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/engine.h"
 
 #include <gtest/gtest.h>
 
-#include "engine/fit/pipeline.h"
-#include "geometry/garment/catalogue.h"
-#include "kernels/error.h"
+#include "vfit/engine/fit/pipeline.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

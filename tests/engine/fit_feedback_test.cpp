@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fit feedback: strain against a known stretch, and the size verdicts of seed 000 Fig. 13 (the
 // catalogue's trousers P1-P4 on one body: tight, good, loose, falls off) and of tops by size.
-#include "engine/fit/fit_feedback.h"
+#include "vfit/engine/fit/fit_feedback.h"
 
 #include <map>
 
@@ -8,10 +9,10 @@
 
 #include "test_support.h"
 
-#include "geometry/body/mannequin.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The fitting pipeline end to end on the mannequin: a catalogue tee and trousers, with and
 // without simulation. Quality bars: nothing inside the body by more than 1 mm, no
 // NaN, a report that agrees with the returned meshes, every stage timed.
@@ -15,18 +16,18 @@
 
 #include "test_support.h"
 
-#include "engine/cloth/cloth_proxy.h"
-#include "engine/dress/layering.h"
-#include "engine/fit/pipeline.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
 #include "tools/fit_debug.h"
+#include "vfit/engine/cloth/cloth_proxy.h"
+#include "vfit/engine/dress/layering.h"
+#include "vfit/engine/fit/pipeline.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,12 +1,13 @@
-#include "engine/dress/layer_order.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/layer_order.h"
 
 #include <algorithm>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "engine/dress/layering.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/layering.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,10 +9,10 @@
 #include <Eigen/Core>
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "engine/dress/penetration.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/dress/penetration.h"
 
 #include <cmath>
 #include <cstdio>
@@ -6,12 +7,12 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/units.h"
-#include "kernels/edge_crossings.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/edge_crossings.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

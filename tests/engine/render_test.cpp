@@ -1,4 +1,5 @@
-#include "engine/view/render.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/engine/view/render.h"
 
 #include <cmath>
 #include <filesystem>
@@ -7,15 +8,15 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/view/bitmap_font.h"
-#include "engine/view/image.h"
-#include "geometry/body/mannequin.h"
-#include "geometry/body/skeleton.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/ray_caster.h"
 #include "test_support.h"
+#include "vfit/engine/view/bitmap_font.h"
+#include "vfit/engine/view/image.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/skeleton.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/ray_caster.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit animate`: a catalogue tee on the mannequin played through a short clip written as BVH
 // from our own poses (in a Mixamo-named, metre rig) → an animated .glb that the Khronos validator
 // accepts, one OBJ per frame, a report per frame with the physics on and every frame clean
@@ -7,13 +8,13 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "engine/view/image.h"
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/motion/retarget.h"
 #include "test_support.h"
+#include "vfit/engine/view/image.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/motion/retarget.h"
 
 namespace vfit {
 namespace {

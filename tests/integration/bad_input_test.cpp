@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bad-input catalogue: every malformed file makes `vfit info` (and `vfit convert`) exit
 // with code 2 and one line `vfit: error: <file>...: <what>` naming the problem, and writes
 // nothing.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit bench`: the Table-1 study and the resolution sweep write what README promises.
 #include <filesystem>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit body`, `vfit garment` and `vfit measure` end to end, and their bad inputs.
 #include <cmath>
 #include <filesystem>
@@ -5,10 +6,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/gltf_body.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/topology.h"
 #include "test_support.h"
+#include "vfit/geometry/body/gltf_body.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/topology.h"
 
 namespace vfit {
 namespace {

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

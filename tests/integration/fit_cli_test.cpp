@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit fit`: a catalogue tee and trousers from OBJ files onto the mannequin → fitted mesh,
 // JSON report, PNG; bad input → exit 2 and nothing written.
 #include <algorithm>
@@ -9,11 +10,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/view/image.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
 #include "test_support.h"
+#include "vfit/engine/view/image.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

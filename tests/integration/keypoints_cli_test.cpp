@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit body --keypoints`: a photo's 2D keypoints → the posed mannequin, its joints and pose;
 // bad keypoint files exit 2 with one line naming the file.
 #include <algorithm>
@@ -5,10 +6,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/keypoint_fit.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/mesh_io.h"
 #include "test_support.h"
+#include "vfit/geometry/body/keypoint_fit.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/mesh_io.h"
 
 namespace vfit {
 namespace {

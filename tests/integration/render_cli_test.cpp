@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `vfit render`: PNG pictures from mesh files, and the bad-input contract (exit 2, one line,
 // nothing written).
 #include <filesystem>
@@ -6,10 +7,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/view/image.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
 #include "test_support.h"
+#include "vfit/engine/view/image.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

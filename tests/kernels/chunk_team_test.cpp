@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The implicit step's thread team (kernels/chunk_team.h): every chunk of every pass runs exactly
 // once, with its own bounds, whatever the lane count and however many followers ever start.
 #include <algorithm>
@@ -12,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "kernels/chunk_team.h"
+#include "vfit/kernels/chunk_team.h"
 
 namespace vfit {
 namespace {

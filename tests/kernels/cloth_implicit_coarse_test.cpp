@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two-level preconditioner of the implicit solve (ImplicitPreconditioner::TWO_LEVEL).
 #include <cmath>
 #include <cstring>
@@ -6,10 +7,10 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
 #include "jittered_cloth.h"
-#include "kernels/cloth_gather.h"
-#include "kernels/cloth_implicit.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_gather.h"
+#include "vfit/kernels/cloth_implicit.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "kernels/cloth_implicit.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/cloth_implicit.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,12 +11,12 @@
 #include <Eigen/Sparse>
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
 #include "jittered_cloth.h"
-#include "kernels/cloth_collision.h"
-#include "kernels/cloth_gather.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_collision.h"
+#include "vfit/kernels/cloth_gather.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

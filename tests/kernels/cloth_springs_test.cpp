@@ -1,4 +1,5 @@
-#include "kernels/cloth_springs.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/cloth_springs.h"
 
 #include <algorithm>
 #include <bit>
@@ -9,11 +10,11 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/cloth_ordering.h"
-#include "kernels/cloth_rk4.h"
 #include "test_support.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_ordering.h"
+#include "vfit/kernels/cloth_rk4.h"
 
 namespace vfit {
 namespace {

@@ -1,11 +1,12 @@
-#include "kernels/edge_crossings.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/edge_crossings.h"
 
 #include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

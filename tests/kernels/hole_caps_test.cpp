@@ -1,4 +1,5 @@
-#include "kernels/hole_caps.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/hole_caps.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/pseudo_normals.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/pseudo_normals.h"
 
 namespace vfit {
 namespace {

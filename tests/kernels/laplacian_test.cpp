@@ -1,15 +1,16 @@
-#include "kernels/laplacian.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/laplacian.h"
 
 #include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "geometry/garment/laplacian_deformation.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/least_squares.h"
-#include "kernels/supernodal_least_squares.h"
-#include "kernels/two_grid_least_squares.h"
+#include "vfit/geometry/garment/laplacian_deformation.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/least_squares.h"
+#include "vfit/kernels/supernodal_least_squares.h"
+#include "vfit/kernels/two_grid_least_squares.h"
 
 namespace vfit {
 namespace {

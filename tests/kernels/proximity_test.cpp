@@ -1,4 +1,5 @@
-#include "kernels/proximity.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/proximity.h"
 
 #include <algorithm>
 #include <array>
@@ -11,14 +12,14 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/mesh/mesh_io.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/units.h"
-#include "kernels/error.h"
-#include "kernels/pseudo_normals.h"
 #include "test_support.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/units.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/pseudo_normals.h"
 
 namespace vfit {
 namespace {

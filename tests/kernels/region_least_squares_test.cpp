@@ -1,13 +1,14 @@
-#include "kernels/region_least_squares.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/region_least_squares.h"
 
 #include <cmath>
 
 #include <Eigen/SparseCholesky>
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/laplacian.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/laplacian.h"
 
 namespace vfit {
 namespace {

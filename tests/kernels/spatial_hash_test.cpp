@@ -1,4 +1,5 @@
-#include "kernels/spatial_hash.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/spatial_hash.h"
 
 #include <cmath>
 #include <random>
@@ -8,9 +9,9 @@
 
 #include "test_support.h"
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Points embedded in a carrier mesh (kernels/surface_embedding.h), against exact oracles: a
 // rigid motion of the carrier moves every point by the same motion; points in a flat carrier's
 // plane stay in it however the carrier is stretched in its plane; a fine cylinder carried by a
 // coarse one through a bend lands within the interpolation bound of the bent fine cylinder.
-#include "kernels/surface_embedding.h"
+#include "vfit/kernels/surface_embedding.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,8 +13,8 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

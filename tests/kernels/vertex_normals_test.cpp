@@ -1,13 +1,14 @@
-#include "kernels/vertex_normals.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/vertex_normals.h"
 
 #include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/parallel.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/parallel.h"
 
 namespace vfit {
 namespace {

@@ -1,7 +1,8 @@
-#include "kernels/opencl_cloth.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/opencl_cloth.h"
 
-#include "engine/cloth/cloth_sim.h"
-#include "kernels/error.h"
+#include "vfit/engine/cloth/cloth_sim.h"
+#include "vfit/kernels/error.h"
 
 #include <cmath>
 #include <cstdio>
@@ -10,11 +11,11 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/cloth_implicit.h"
-#include "kernels/cloth_rk4.h"
-#include "kernels/cloth_springs.h"
-#include "kernels/opencl_context.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_implicit.h"
+#include "vfit/kernels/cloth_rk4.h"
+#include "vfit/kernels/cloth_springs.h"
+#include "vfit/kernels/opencl_context.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "kernels/opencl_proximity.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/opencl_proximity.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,12 +9,12 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/opencl_context.h"
-#include "kernels/proximity.h"
 #include "test_support.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

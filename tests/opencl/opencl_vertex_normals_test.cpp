@@ -1,15 +1,16 @@
-#include "kernels/opencl_vertex_normals.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/kernels/opencl_vertex_normals.h"
 
 #include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/opencl_context.h"
-#include "kernels/vertex_normals.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/opencl_context.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace vfit {
 namespace {

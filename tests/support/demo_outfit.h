@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The demo outfit for the animation tests: catalogue trousers P2 under a catalogue tee M, both
 // modelled in the A-pose for the A-pose mannequin, given as garments fitted on it (unfitted:
@@ -6,8 +7,8 @@
 #include <utility>
 #include <vector>
 
-#include "engine/fit/fit_report.h"
-#include "geometry/garment/catalogue.h"
+#include "vfit/engine/fit/fit_report.h"
+#include "vfit/geometry/garment/catalogue.h"
 
 namespace vfit::test {
 

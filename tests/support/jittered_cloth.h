@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// \file
 /// A generic cloth state for the implicit solver's tests (kernels/cloth_implicit*): a jittered
@@ -14,10 +15,10 @@
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/cloth_gather.h"
-#include "kernels/cloth_implicit.h"
-#include "kernels/cloth_springs.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/cloth_gather.h"
+#include "vfit/kernels/cloth_implicit.h"
+#include "vfit/kernels/cloth_springs.h"
 
 namespace vfit {
 

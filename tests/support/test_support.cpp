@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "test_support.h"
 
 #include <algorithm>
@@ -14,7 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "geometry/body/mannequin.h"
+#include "vfit/geometry/body/mannequin.h"
 
 extern char** environ;
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Shared helpers for vfit's test suites: temporary folders, files, running the CLI, the corpus.
 
@@ -7,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "geometry/body/body.h"
-#include "geometry/garment/garment.h"
-#include "geometry/mesh/mesh.h"
+#include "vfit/geometry/body/body.h"
+#include "vfit/geometry/garment/garment.h"
+#include "vfit/geometry/mesh/mesh.h"
 
 namespace vfit::test {
 

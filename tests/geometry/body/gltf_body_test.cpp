@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rig mappings and glTF skinned bodies. The bodies are written here as .gltf files (JSON with a
 // base64 buffer) from a small Mixamo-style rig with a finger bone, a twist bone and an end bone,
 // so every expectation has an independent oracle: the rig's own bone heads, weights and a
 // hand-rolled skinning of the rig.
-#include "geometry/body/gltf_body.h"
+#include "vfit/geometry/body/gltf_body.h"
 
 #include <cmath>
 #include <functional>
@@ -12,8 +13,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

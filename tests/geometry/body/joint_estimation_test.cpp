@@ -1,20 +1,21 @@
+// SPDX-License-Identifier: Apache-2.0
 // Joint estimation from bare body meshes (seed 001 §5): on our mannequins, whose generated joints
 // are the oracle, in A- and T-pose and three body types; invariance to where the body stands;
 // tolerance of holes; clear errors for meshes that are not upright bodies; skin weights that
 // are valid, smooth and agree with the mannequin's own. Plane sections against a sphere's
 // closed-form circles.
-#include "geometry/body/joint_estimation.h"
+#include "vfit/geometry/body/joint_estimation.h"
 
 #include <cmath>
 #include <map>
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/body/plane_sections.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/plane_sections.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

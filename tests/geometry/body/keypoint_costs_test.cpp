@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The keypoint fit's objective terms (geometry/body/keypoint_costs.h): their analytic Jacobians
 // against central differences of their own residuals, at random poses and shapes.
 #include <algorithm>
@@ -7,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/keypoint_costs.h"
-#include "geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/keypoint_costs.h"
+#include "vfit/geometry/body/keypoint_fit.h"
 
 namespace vfit {
 namespace {

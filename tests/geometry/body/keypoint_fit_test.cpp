@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Keypoint files (OpenPose BODY_25 / COCO-18, LSP, named joints) and the fit of pose and shape
 // to them, against synthetic ground truth: the mannequin's skeleton posed, projected by a known
 // camera, with 3 px noise and dropped keypoints.
@@ -12,11 +13,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/keypoint_fit.h"
-#include "geometry/body/keypoints.h"
-#include "geometry/body/limb_lift.h"
-#include "geometry/body/mannequin_shape.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/keypoints.h"
+#include "vfit/geometry/body/limb_lift.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "geometry/body/mannequin.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/body/mannequin.h"
 
 #include <cmath>
 #include <map>
@@ -6,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/cross_section.h"
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/cross_section.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Test-only writers of `.npy` arrays and `.npz` (zip) archives: stored or deflated entries, and
 // optionally the ZIP64 records NumPy writes for large arrays. Independent of the reader under test.

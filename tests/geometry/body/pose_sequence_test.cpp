@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pose-sequence JSON ({"fps": N, "frames": [pose, ...]}): read back as written by pose_json(),
 // and refused naming the file and the frame's key.
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/pose_io.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scan fit's Levenberg–Marquardt solve (scan_fit_solve.h) on exact correspondences: the
 // template's own vertices posed and shaped by known numbers are the targets, so the numbers that
 // made them are the oracle (up to the priors' pull, see the tolerances).
@@ -6,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/keypoint_fit.h"
-#include "geometry/body/scan_fit.h"
-#include "geometry/body/scan_fit_solve.h"
+#include "vfit/geometry/body/keypoint_fit.h"
+#include "vfit/geometry/body/scan_fit.h"
+#include "vfit/geometry/body/scan_fit_solve.h"
 
 namespace vfit::scan_detail {
 namespace {

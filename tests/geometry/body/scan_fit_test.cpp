@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Scan fit (seed 001 §5.2) on synthetic scans: a mannequin of another shape, in its A-pose
 // rest, posed by LBS and handed over as a bare mesh. Its own skeleton is the oracle.
 #include <cmath>
@@ -7,14 +8,14 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/body/scan_fit.h"
-#include "geometry/body/scan_pose_search.h"
-#include "geometry/body/scan_skin_transfer.h"
-#include "geometry/mesh/mesh_io.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/body/scan_fit.h"
+#include "vfit/geometry/body/scan_pose_search.h"
+#include "vfit/geometry/body/scan_skin_transfer.h"
+#include "vfit/geometry/mesh/mesh_io.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "geometry/body/scan_input.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/body/scan_input.h"
 
 #include <algorithm>
 #include <random>

@@ -1,17 +1,18 @@
+// SPDX-License-Identifier: Apache-2.0
 // Unposing a scan about a limb's pivot (scan_unpose.h): a tube skinned from a collar to a
 // shoulder and posed by turning the shoulder about its true pivot is the oracle. Unposed with
 // the same rotation about a pivot 4 cm off (a template's shoulder), its seam stretches more than
 // about the true one; with the pivot moved to the true joint by move_limb_pivot(), unposing is the
 // exact inverse of posing.
-#include "geometry/body/scan_unpose.h"
+#include "vfit/geometry/body/scan_unpose.h"
 
 #include <cmath>
 #include <numbers>
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/scan_skin_transfer.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/scan_skin_transfer.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,10 +1,11 @@
-#include "geometry/body/skeleton.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/body/skeleton.h"
 
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "geometry/body/smpl_model.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/body/smpl_model.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,11 +11,11 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/npz_reader.h"
-#include "kernels/error.h"
 #include "npz_test_writer.h"
 #include "smpl_test_model.h"
 #include "test_support.h"
+#include "vfit/geometry/body/npz_reader.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Test-only: a small synthetic SMPL-format model and SMPL written out with plain loops (seed 000
 // §3), independent of geometry/body/smpl_model.cpp, as the oracle for its tests.
@@ -7,9 +8,9 @@
 #include <random>
 #include <vector>
 
-#include "geometry/body/skeleton.h"
-#include "geometry/body/smpl_model.h"
 #include "npz_test_writer.h"
+#include "vfit/geometry/body/skeleton.h"
+#include "vfit/geometry/body/smpl_model.h"
 
 namespace vfit::test {
 

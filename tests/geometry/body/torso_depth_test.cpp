@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
 
-#include "geometry/body/measurements.h"
+#include "vfit/geometry/body/measurements.h"
 
 namespace vfit {
 namespace {

@@ -1,17 +1,18 @@
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/table1.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/table1.h"
 
 #include <map>
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin.h"
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/mesh/topology.h"
-#include "geometry/mesh/validate.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/geometry/mesh/validate.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Coarse move (seed 000 §6.1, eq. 16–17): a catalogue garment made for the mannequin lands on
 // it, wherever it starts; the move is a pure translation.
 #include <cmath>
@@ -8,13 +9,13 @@
 
 #include "test_support.h"
 
-#include "geometry/body/mannequin.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/coarse_move.h"
-#include "geometry/garment/segment.h"
-#include "geometry/garment/skeleton_parts.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/body/mannequin.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/coarse_move.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/garment/skeleton_parts.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/proximity.h"
 
 namespace vfit {
 namespace {

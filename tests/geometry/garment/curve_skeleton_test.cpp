@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hole filling and part skeletons (seed 000 §5.1, eq. 12): watertight caps, skeletons centred
 // on known axes (straight and bent tubes), the vertex → node map, and the sleeves and legs of
 // catalogue garments.
-#include "geometry/garment/curve_skeleton.h"
+#include "vfit/geometry/garment/curve_skeleton.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,16 +12,16 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/hole_fill.h"
-#include "geometry/garment/segment.h"
-#include "geometry/garment/skeleton_driving.h"
-#include "geometry/garment/skeleton_parts.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/hole_fill.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/garment/skeleton_driving.h"
+#include "vfit/geometry/garment/skeleton_parts.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

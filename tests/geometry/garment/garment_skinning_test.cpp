@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Garment skin weights (seed 001 §7.1): catalogue garments made around the A-pose mannequin lie
 // on it as fitted, so their weights come from it directly. Sleeves hang from their own arm,
 // no triangle is torn between distant bones, a skirt's hem follows both thighs equally, and a
 // posed tee keeps its sleeves on the arms.
-#include "geometry/garment/garment_skinning.h"
+#include "vfit/geometry/garment/garment_skinning.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,11 +11,11 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/pose_io.h"
-#include "geometry/body/scan_skin_transfer.h"
-#include "geometry/garment/catalogue.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/body/scan_skin_transfer.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

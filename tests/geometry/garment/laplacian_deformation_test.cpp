@@ -1,14 +1,15 @@
+// SPDX-License-Identifier: Apache-2.0
 // BandLaplacianDeformer's split of the free band into its connected pieces
 // (laplacian_deformation.h): the pieces, factored and solved separately and concurrently, give
 // the solution of one factorisation of the whole band; a piece without a handle is reported.
-#include "geometry/garment/laplacian_deformation.h"
+#include "vfit/geometry/garment/laplacian_deformation.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Garment segmentation (seed 000 §4) against the catalogue's ground-truth labels, the Reeb
 // graph's structure, invariances, and inputs that are not garments.
-#include "geometry/garment/segment.h"
+#include "vfit/geometry/garment/segment.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,11 +11,11 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

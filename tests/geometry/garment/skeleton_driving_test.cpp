@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Skeleton driving (seed 000 §5.2–5.4): catalogue garments in T-pose driven onto the mannequin
 // in other poses land on the body's bones without stretching the cloth away from the seams.
-#include "geometry/garment/skeleton_driving.h"
+#include "vfit/geometry/garment/skeleton_driving.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,12 +13,12 @@
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
 
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
-#include "kernels/proximity.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/proximity.h"
 
 #include "test_support.h"
 

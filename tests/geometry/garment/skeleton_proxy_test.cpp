@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // The skeleton proxy (skeleton_proxy.h): a closed manifold of the requested size whose every
 // vertex stands for a disjoint set of input vertices and sits at their mean.
-#include "geometry/garment/skeleton_proxy.h"
+#include "vfit/geometry/garment/skeleton_proxy.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,10 +10,10 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/garment/hole_fill.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/topology.h"
-#include "kernels/error.h"
+#include "vfit/geometry/garment/hole_fill.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/topology.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

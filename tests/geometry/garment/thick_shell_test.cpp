@@ -1,5 +1,6 @@
+// SPDX-License-Identifier: Apache-2.0
 // Garments modelled with thickness: two sheets found, the inner one kept, the rest carried.
-#include "geometry/garment/thick_shell.h"
+#include "vfit/geometry/garment/thick_shell.h"
 
 #include <cmath>
 #include <numbers>
@@ -7,9 +8,9 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/orient.h"
-#include "geometry/mesh/primitives.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/orient.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

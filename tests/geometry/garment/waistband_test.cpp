@@ -1,14 +1,15 @@
+// SPDX-License-Identifier: Apache-2.0
 // The waistband of a bottom garment (geometry/garment/waistband.h).
-#include "geometry/garment/waistband.h"
+#include "vfit/geometry/garment/waistband.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
 
-#include "geometry/garment/catalogue.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // decimate_evenly() (geometry/mesh/even_decimate.h): the result is a vertex subset at the
 // input's positions, with the input's topology (manifold, consistently oriented, the same
 // boundary loops of input boundary vertices, the same Euler characteristic), the target count
 // and triangles within the aspect guard.
-#include "geometry/mesh/even_decimate.h"
+#include "vfit/geometry/mesh/even_decimate.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,8 +13,8 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/topology.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/topology.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "geometry/mesh/gltf_format.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/gltf_format.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -9,9 +10,9 @@
 #include <functional>
 #include <limits>
 
-#include "kernels/error.h"
-#include "kernels/vertex_normals.h"
 #include "support/test_support.h"
+#include "vfit/kernels/error.h"
+#include "vfit/kernels/vertex_normals.h"
 
 namespace vfit {
 namespace {

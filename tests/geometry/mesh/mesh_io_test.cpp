@@ -1,12 +1,13 @@
-#include "geometry/mesh/mesh_io.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/mesh_io.h"
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/atomic_write.h"
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/validate.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/atomic_write.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/validate.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

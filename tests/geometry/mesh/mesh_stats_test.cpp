@@ -1,8 +1,9 @@
-#include "geometry/mesh/mesh_stats.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/mesh_stats.h"
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/units.h"
+#include "vfit/geometry/mesh/units.h"
 
 namespace vfit {
 namespace {

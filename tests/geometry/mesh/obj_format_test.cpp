@@ -1,10 +1,11 @@
-#include "geometry/mesh/obj_format.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/obj_format.h"
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // OFF reader and writer: exact round trips, header variants, polygons, and malformed files
 // that must fail naming the file, the line and the problem.
 
-#include "geometry/mesh/off_format.h"
+#include "vfit/geometry/mesh/off_format.h"
 
 #include <gtest/gtest.h>
 
@@ -11,8 +12,8 @@
 #include <functional>
 #include <random>
 
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "geometry/mesh/orient.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/orient.h"
 
 #include <cmath>
 #include <numbers>
@@ -8,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/primitives.h"
 
 namespace vfit {
 namespace {

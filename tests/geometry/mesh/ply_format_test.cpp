@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // PLY reader and writer: exact round trips, every encoding and scalar type, skipping what vfit
 // does not read, and a catalogue of malformed files that must fail with a useful message.
 
-#include "geometry/mesh/ply_format.h"
+#include "vfit/geometry/mesh/ply_format.h"
 
 #include <gtest/gtest.h>
 
@@ -13,8 +14,8 @@
 #include <limits>
 #include <random>
 
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

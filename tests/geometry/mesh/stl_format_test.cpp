@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // STL reader and writer: binary round trips with welding, ASCII grammar tolerance, binary
 // detection, and malformed files that must fail naming the file and the problem.
 
-#include "geometry/mesh/stl_format.h"
+#include "vfit/geometry/mesh/stl_format.h"
 
 #include <gtest/gtest.h>
 
@@ -12,8 +13,8 @@
 #include <cstring>
 #include <limits>
 
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

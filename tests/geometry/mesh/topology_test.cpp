@@ -1,11 +1,12 @@
-#include "geometry/mesh/topology.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/topology.h"
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/openmesh_adapter.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/mesh/openmesh_adapter.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

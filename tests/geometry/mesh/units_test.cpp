@@ -1,8 +1,9 @@
-#include "geometry/mesh/units.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/units.h"
 
 #include <gtest/gtest.h>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,4 +1,5 @@
-#include "geometry/mesh/up_axis.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/up_axis.h"
 
 #include <cstdio>
 #include <map>
@@ -8,11 +9,11 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/segment.h"
-#include "geometry/mesh/primitives.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/segment.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

@@ -1,12 +1,13 @@
-#include "geometry/mesh/weld.h"
+// SPDX-License-Identifier: Apache-2.0
+#include "vfit/geometry/mesh/weld.h"
 
 #include <algorithm>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "geometry/mesh/primitives.h"
-#include "geometry/mesh/topology.h"
+#include "vfit/geometry/mesh/primitives.h"
+#include "vfit/geometry/mesh/topology.h"
 
 namespace vfit {
 namespace {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A dressed body animated in a .glb: the body and a garment share one skeleton (one skin), each
 // has its own material, and an animation of the canonical joints plays it. The Khronos glTF
 // validator reports no error; bad animations are refused naming what is wrong.
@@ -9,14 +10,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "geometry/body/pose_io.h"
-#include "geometry/garment/catalogue.h"
-#include "geometry/garment/garment_skinning.h"
-#include "geometry/mesh/gltf_format.h"
-#include "geometry/motion/gltf_motion.h"
-#include "geometry/motion/retarget.h"
-#include "kernels/error.h"
 #include "test_support.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/geometry/garment/catalogue.h"
+#include "vfit/geometry/garment/garment_skinning.h"
+#include "vfit/geometry/mesh/gltf_format.h"
+#include "vfit/geometry/motion/gltf_motion.h"
+#include "vfit/geometry/motion/retarget.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

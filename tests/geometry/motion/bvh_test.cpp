@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // BVH motion capture: the hierarchy and frames as written, forward kinematics against hand
 // computations for every rotation channel order, the units and up axis inferred from the
 // skeleton, an exact round trip through bvh_text(), and a catalogue of bad files.
-#include "geometry/motion/bvh.h"
+#include "vfit/geometry/motion/bvh.h"
 
 #include <cmath>
 #include <numbers>
@@ -9,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "kernels/error.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

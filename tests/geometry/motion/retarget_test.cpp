@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Retargeting BVH onto the canonical skeleton: our poses written as BVH come back within 1e-6;
 // a rig in another rest pose and other axes gives the same posed bones; the mapping's detection,
 // mapping files and their errors; resampling.
-#include "geometry/motion/retarget.h"
+#include "vfit/geometry/motion/retarget.h"
 
 #include <cmath>
 #include <numbers>
@@ -9,9 +10,9 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/body/mannequin_shape.h"
-#include "geometry/body/pose_io.h"
-#include "kernels/error.h"
+#include "vfit/geometry/body/mannequin_shape.h"
+#include "vfit/geometry/body/pose_io.h"
+#include "vfit/kernels/error.h"
 
 namespace vfit {
 namespace {

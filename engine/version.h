@@ -1,0 +1,14 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// \file
+/// Which vfit this is: the project's version (major.minor.patch, CMake's PROJECT_VERSION) and
+/// the git commit the library was built from ("unknown" outside a git checkout; a "-dirty"
+/// suffix when the working tree had changes). Written into every report.
+namespace vfit {
+
+/// "0.1.0".
+const char* version();
+/// The abbreviated commit hash, e.g. "5b6c6f2" or "5b6c6f2-dirty"; "unknown" when not built from git.
+const char* git_commit();
+
+} // namespace vfit
