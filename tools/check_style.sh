@@ -60,8 +60,8 @@ if [ "${1:-}" = tidy ]; then
   # Headers of the source tree only (not the build's generated ones), also as reached through
   # the build's include/vfit/ links.
   run-clang-tidy -quiet -p "$db" -j "$(nproc)" -checks='-*,readability-identifier-naming' \
-    -header-filter="^$PWD/((kernels|geometry|engine|tools)/|$db/include/vfit/)" \
-    "$PWD/(kernels|geometry|engine|tools|tests|bench)/.*\.cpp$" >"$db/clang-tidy.log" 2>&1 || true
+    -header-filter="^$PWD/((kernels|geometry|engine|tools|bindings)/|$db/include/vfit/)" \
+    "$PWD/(kernels|geometry|engine|tools|bindings|tests|bench)/.*\.cpp$" >"$db/clang-tidy.log" 2>&1 || true
   if grep -qE "warning: .*\[readability-identifier-naming\]|error: " "$db/clang-tidy.log"; then
     grep -E "warning: .*\[readability-identifier-naming\]|error: " "$db/clang-tidy.log" | sort -u >&2
     echo "check_style: clang-tidy naming rules failed (full log: $db/clang-tidy.log)" >&2

@@ -37,6 +37,8 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+/* C names, lower_case as C libraries name their types, not the C++ sources' naming rules:
+ * NOLINTBEGIN(readability-identifier-naming) */
 
 typedef enum vfit_status {
   VFIT_OK = 0,
@@ -174,6 +176,7 @@ VFIT_API vfit_status vfit_character_last_frame(vfit_character character, size_t*
                                                double* total_ms);
 VFIT_API void vfit_character_release(vfit_character character);
 
+/* NOLINTEND(readability-identifier-naming) */
 #ifdef __cplusplus
 }
 #endif

@@ -80,6 +80,8 @@ vfit::RestPose rest_pose_of(const char* name, vfit::RestPose fallback) {
 
 } // namespace
 
+// The handles behind vfit.h's opaque pointers, named as the C header declares them.
+// NOLINTBEGIN(readability-identifier-naming)
 struct vfit_context_t {
   Context state;
 };
@@ -106,6 +108,7 @@ struct vfit_character_t {
   std::unique_ptr<vfit::DressedCharacter> character;
   const vfit::FrameReport* last = nullptr; // owned by the character, valid until its next step
 };
+// NOLINTEND(readability-identifier-naming)
 
 extern "C" {
 
