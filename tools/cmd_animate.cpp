@@ -17,6 +17,7 @@
 
 #include "body_args.h"
 #include "commands.h"
+#include "dressed_scene.h"
 #include "vfit/engine/animate/dressed_character.h"
 #include "vfit/engine/engine.h"
 #include "vfit/engine/view/bitmap_font.h"
@@ -177,7 +178,7 @@ int run_animate(Args& args) {
         std::cerr << "vfit: warning: " << w << "\n";
     garments.push_back({f, std::move(parsed.mesh)});
   }
-  const Engine engine({options.backend, "", 0});
+  const Engine engine({options.backend, "", animation.threads});
   BodySource source{body_flags, std::nullopt, ""};
   source.request.source = sources[0];
   auto t0 = Clock::now();
@@ -362,14 +363,12 @@ int run_animate(Args& args) {
   // Outputs, once everything is computed.
   if (out) {
     std::vector<MeshSkin> skins(1 + character.garment_count(), body_skin(body));
-    std::vector<NamedMesh> named = {{"body", &body.mesh, &skins[0], std::array<float, 3>{0.80f, 0.62f, 0.52f}}};
-    const std::array<std::array<float, 3>, 4> palette = {
-        {{0.15f, 0.30f, 0.70f}, {0.70f, 0.20f, 0.20f}, {0.20f, 0.55f, 0.30f}, {0.60f, 0.50f, 0.15f}}};
+    std::vector<NamedMesh> named = {{"body", &body.mesh, &skins[0], body_colour()}};
     for (std::size_t g = 0; g < character.garment_count(); ++g) {
       skins[g + 1].joints = character.garment_weights(g).joints;
       skins[g + 1].weights = character.garment_weights(g).weights;
       named.push_back({std::filesystem::path(character.garment_name(g)).stem().string(), &character.garment_rest(g),
-                       &skins[g + 1], palette[g % palette.size()], morphs[g].count > 0 ? &morphs[g] : nullptr});
+                       &skins[g + 1], garment_colour(g), morphs[g].count > 0 ? &morphs[g] : nullptr});
     }
     const SkinAnimation clip =
         poses_to_skin_animation(body.joints, frames, motion.fps, std::filesystem::path(*motion_file).stem().string());

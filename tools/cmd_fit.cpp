@@ -15,6 +15,7 @@
 
 #include "body_args.h"
 #include "commands.h"
+#include "dressed_scene.h"
 #include "fit_debug.h"
 #include "vfit/engine/cloth/fabric.h"
 #include "vfit/engine/engine.h"
@@ -169,6 +170,10 @@ int run_fit(Args& args) {
     else
       throw Error("--backend", 0, "expected serial or tbb, got '" + *b + "'");
   }
+  const int threads = [&] {
+    const auto t = args.value("threads");
+    return t ? Args::to_int("--threads", *t, 1, 1024) : 0;
+  }();
   if (auto f = args.value("fabric")) options.fabric = *f;
   if (auto c = args.value("clearance")) options.clearance = to_double("--clearance", *c, 0, 0.05);
   if (auto s = args.value("max-sim-seconds"))
@@ -185,7 +190,7 @@ int run_fit(Args& args) {
   }
   if (auto n = args.value("proxy-vertices"))
     options.cloth_proxy_vertices = static_cast<std::size_t>(Args::to_int("--proxy-vertices", *n, 100, 2000000));
-  if (auto u = args.value("garment-units")) options.garment_units = parse_units(*u);
+  if (auto u = args.value("garment-units")) options.garment_units = parse_units(*u, "--garment-units");
   if (auto up = args.value("garment-up"); up && *up != "auto") options.garment_up = parse_up_axis(*up);
   if (auto facing = args.value("garment-facing"); facing && *facing != "auto")
     options.garment_facing = parse_facing(*facing);
@@ -260,7 +265,7 @@ int run_fit(Args& args) {
                    kp.points.size(), keypoint_fit->total_ms, keypoint_fit->mean_reprojection_px);
   }
   // Every body is loaded (and checked) before any fit, so a bad body file fails at once.
-  const Engine engine({options.backend, "", 0});
+  const Engine engine({options.backend, "", threads});
   std::vector<LoadedBody> loaded;
   std::vector<Body> bodies;
   std::vector<double> body_ms;
@@ -285,6 +290,8 @@ int run_fit(Args& args) {
     body_list.push_back(&b);
   std::vector<FitResult> results = engine.fit(body_list, garments, options);
   const std::vector<std::string> tags = body_tags(sources);
+  // Every output of every body is made before any is written: an error leaves no file behind.
+  std::vector<std::pair<std::string, std::string>> files; // path, bytes
   for (std::size_t b = 0; b < results.size(); ++b) {
     const FitResult& result = results[b];
     const Body& body = bodies[b];
@@ -309,14 +316,9 @@ int run_fit(Args& args) {
 
     if (out) {
       const std::string path = per_body_path(*out, tag);
-      if (lower_extension(path) == ".glb") {
-        std::vector<NamedMesh> named = {{"body", &body.mesh, nullptr}};
-        for (const FittedGarment& g : result.garments)
-          named.push_back({std::filesystem::path(g.name).stem().string(), &g.mesh, nullptr});
-        write_meshes_glb(path, named);
-      } else {
-        write_mesh(path, merge_garments(result.garments), "garments");
-      }
+      files.emplace_back(path, lower_extension(path) == ".glb"
+                                   ? fitted_scene_glb(body, result.garments)
+                                   : encode_mesh(path, merge_garments(result.garments), "garments"));
     }
     if (report_file) {
       FitReportContext context;
@@ -326,14 +328,17 @@ int run_fit(Args& args) {
       context.body_ms = body_ms[b];
       context.render_ms = render_ms;
       context.read_warnings = read_warnings;
-      write_file_atomically(per_body_path(*report_file, tag), fit_report_json(result.report, options, context));
+      files.emplace_back(per_body_path(*report_file, tag), fit_report_json(result.report, options, context));
     }
-    if (picture) write_png(per_body_path(*render_file, tag), *picture);
-    if (!quiet) {
-      if (!tag.empty()) std::printf("%sbody %s (%s)\n", b > 0 ? "\n" : "", tag.c_str(), sources[b].c_str());
-      print_table(result.report, body_ms[b]);
-    }
+    if (picture) files.emplace_back(per_body_path(*render_file, tag), encode_png(*picture));
   }
+  for (const auto& [path, bytes] : files)
+    write_file_atomically(path, bytes);
+  if (!quiet)
+    for (std::size_t b = 0; b < results.size(); ++b) {
+      if (sources.size() > 1) std::printf("%sbody %s (%s)\n", b > 0 ? "\n" : "", tags[b].c_str(), sources[b].c_str());
+      print_table(results[b].report, body_ms[b]);
+    }
   return 0;
 }
 

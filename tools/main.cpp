@@ -225,7 +225,7 @@ names, axis-angle radians, a translation in m).
 constexpr const char* FIT_HELP =
     R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE ...] [body flags]
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
-                [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb]
+                [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb] [--threads N]
                 [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
                 [--garment-up auto|+y|+z|-z|-y|+x|-x] [--garment-facing auto|+z|-z|+x|-x] [--repair]
                 [--layer-order auto|type|given] [--cloth-proxy auto|on|off] [--proxy-vertices N]
@@ -265,9 +265,12 @@ bottoms turned a quarter, front and back are not told apart (see the report's wa
                     file (with a warning each) instead of failing on them
   --keypoints F     the body from a photo: the mannequin's measurements and pose fitted to the
                     photo's 2D keypoints (as `vfit body --keypoints`; instead of --pose)
-  --out FILE        .glb: the body and each garment as named meshes; .obj/.ply: the garments,
-                    one group per garment
-  --report FILE     JSON: timings_ms per stage, penetration before/after (inside_count,
+  --out FILE        .glb: the body and each garment as named meshes, each skinned to the body's
+                    skeleton (bound where the body stands) with a material of its own colour,
+                    ready to pose in Blender or a game engine; .obj/.ply: the garments, one
+                    group per garment
+  --threads N       worker threads (default: every core)
+  --report FILE     JSON: vfit version and commit, timings_ms per stage, penetration before/after (inside_count,
                     max_depth_mm, crossing_edges), verdict (falls off, tight, loose, good),
                     machine, and per garment the stages, regions (strain, ease) and reason
   --render FILE     front, side and back views of body and garments (N x N px each, default 512)

@@ -381,7 +381,7 @@ std::vector<FitResult> fit_garments_onto_bodies(std::span<const Body* const> bod
   const double body_torso_depth = bodies.empty() ? 0.0 : torso_depth(bodies[0]->mesh, bodies[0]->joints);
   const SplitInputs split = split_outfits(inputs, options, body_torso_depth);
   const std::vector<FitGarmentInput>& garments = split.garments;
-  if (options.simulate) (void)fabric_preset(options.fabric); // unknown fabric: fail before any work
+  (void)fabric_preset(options.fabric); // unknown fabric: fail before any work, simulated or not
   std::vector<FitResult> results(bodies.size());
   if (bodies.empty()) return results;
 

@@ -50,7 +50,7 @@ ParsedMesh read_mesh(const std::filesystem::path& path, const ReadOptions& optio
   return parsed;
 }
 
-void write_mesh(const std::filesystem::path& path, const Mesh& mesh, const std::string& name) {
+std::string encode_mesh(const std::filesystem::path& path, const Mesh& mesh, const std::string& name) {
   std::string bytes;
   switch (mesh_format_from_path(path)) {
   case MeshFormat::OBJ: bytes = write_obj(mesh); break;
@@ -65,7 +65,11 @@ void write_mesh(const std::filesystem::path& path, const Mesh& mesh, const std::
   case MeshFormat::GLTF:
     throw Error(path.string(), 0, "writing .gltf (JSON) is not supported; write .glb (binary glTF) instead");
   }
-  write_file_atomically(path, bytes);
+  return bytes;
+}
+
+void write_mesh(const std::filesystem::path& path, const Mesh& mesh, const std::string& name) {
+  write_file_atomically(path, encode_mesh(path, mesh, name));
 }
 
 void write_meshes_glb(const std::filesystem::path& path, std::span<const NamedMesh> meshes) {

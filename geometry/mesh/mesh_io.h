@@ -34,6 +34,11 @@ struct ReadOptions {
 /// unreadable file, a malformed one, or one that fails validation. The file is only read.
 ParsedMesh read_mesh(const std::filesystem::path& path, const ReadOptions& options = {});
 
+/// The bytes of `mesh` in the format of `path`'s extension (as write_mesh() writes them), for
+/// callers that write several files only once all are ready. Throws vfit::Error naming the path
+/// for an extension it cannot write.
+std::string encode_mesh(const std::filesystem::path& path, const Mesh& mesh, const std::string& name = "mesh");
+
 /// Writes one mesh; the format comes from the extension (OBJ with UVs, PLY binary, OFF, STL,
 /// GLB). The file is written to a temporary file beside it and renamed, so a failure leaves no
 /// partial output. `name` names the mesh inside a glTF file.

@@ -22,7 +22,7 @@ std::string units_name(Units units) {
   return "m";
 }
 
-Units parse_units(std::string_view name) {
+Units parse_units(std::string_view name, std::string_view option) {
   std::string s(name);
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   if (s == "m" || s == "metre" || s == "metres" || s == "meter" || s == "meters") return Units::M;
@@ -30,7 +30,7 @@ Units parse_units(std::string_view name) {
   if (s == "cm" || s == "centimetre" || s == "centimetres" || s == "centimeter" || s == "centimeters") return Units::CM;
   if (s == "mm" || s == "millimetre" || s == "millimetres" || s == "millimeter" || s == "millimeters") return Units::MM;
   if (s == "in" || s == "inch" || s == "inches") return Units::IN;
-  throw Error("--units", 0, "unknown unit '" + std::string(name) + "' (expected m, dm, cm, mm or in)");
+  throw Error(std::string(option), 0, "unknown unit '" + std::string(name) + "' (expected m, dm, cm, mm or in)");
 }
 
 double metres_per_unit(Units units) {

@@ -20,8 +20,8 @@ enum class Units { M, DM, CM, MM, IN };
 std::string units_name(Units units);
 
 /// Parses "m" | "dm" | "cm" | "mm" | "in" (also "metres", "meters", "inches", ...); throws
-/// vfit::Error otherwise.
-Units parse_units(std::string_view name);
+/// vfit::Error naming `option` (the flag or field that gave the value) otherwise.
+Units parse_units(std::string_view name, std::string_view option = "--units");
 
 /// Metres per unit: 1, 0.1, 0.01, 0.001, 0.0254.
 double metres_per_unit(Units units);

@@ -12,6 +12,7 @@
 
 #include "test_support.h"
 #include "vfit/engine/view/image.h"
+#include "vfit/geometry/body/skeleton.h"
 #include "vfit/geometry/garment/catalogue.h"
 #include "vfit/geometry/mesh/mesh_io.h"
 #include "vfit/geometry/mesh/primitives.h"
@@ -142,6 +143,42 @@ TEST(FitCli, FitsObjGarmentsAndWritesMeshReportAndPicture) {
   EXPECT_EQ(image.height, 64);
 }
 
+// The fitted .glb is a scene any glTF viewer or DCC tool can pose: body and garments skinned to
+// one skeleton bound where the body stands (its posed joints), each with a material of its own
+// colour; the Khronos validator finds no error (unnormalised weights included) and no warning.
+TEST(FitCli, TheFittedGlbIsSkinnedAndColouredForAnyViewer) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  const auto r =
+      test::run_cli({"fit", "--body", "mannequin", "--vertices", "3000", "--pose", "demo", "--garment",
+                     (dir / "tee.obj").string(), "--out", (dir / "fitted.glb").string(), "--no-simulation", "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string glb = test::read_file(dir / "fitted.glb");
+  const nlohmann::json doc = nlohmann::json::parse(test::glb_json_text(glb));
+  ASSERT_EQ(doc["meshes"].size(), 2u);
+  ASSERT_EQ(doc["skins"].size(), 1u);
+  EXPECT_EQ(doc["skins"][0]["joints"].size(), std::size_t(JOINT_COUNT));
+  std::set<std::string> colours;
+  for (const auto& m : doc["materials"])
+    colours.insert(m["pbrMetallicRoughness"]["baseColorFactor"].dump());
+  EXPECT_EQ(colours.size(), 2u) << "body and tee look different";
+  std::size_t skinned = 0;
+  for (const auto& node : doc["nodes"])
+    if (node.contains("mesh")) {
+      EXPECT_EQ(node["skin"], 0) << node.dump();
+      ++skinned;
+      const auto& attributes = doc["meshes"][node["mesh"].get<std::size_t>()]["primitives"][0]["attributes"];
+      EXPECT_TRUE(attributes.contains("JOINTS_0") && attributes.contains("WEIGHTS_0")) << attributes.dump();
+    }
+  EXPECT_EQ(skinned, 2u);
+
+  const std::optional<std::string> validator = test::gltf_validator_report(dir / "fitted.glb");
+  if (!validator) GTEST_SKIP() << "the Khronos glTF validator is not installed (tools/install_deps.sh style)";
+  const nlohmann::json v = nlohmann::json::parse(*validator);
+  EXPECT_EQ(v["errors"], 0) << *validator;
+  EXPECT_EQ(v["warnings"], 0) << *validator;
+}
+
 TEST(FitCli, WritesAnObjOfTheGarments) {
   test::TempDir dir;
   write_catalogue(dir / "trousers.obj", GarmentType::TROUSERS);
@@ -151,6 +188,21 @@ TEST(FitCli, WritesAnObjOfTheGarments) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(r.out.empty()) << r.out;
   EXPECT_EQ(read_mesh(dir / "fitted.obj").mesh.vertex_count(), 2000u);
+}
+
+// Flags are named as given, and a fabric name is checked whether or not the cloth is simulated.
+TEST(FitCli, AnUnknownFabricOrUnitIsRefusedNamingItsFlag) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--fabric", "kevlar", "--no-simulation",
+                          "--out", (dir / "out.obj").string()});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("kevlar"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("denim"), std::string::npos) << "the known fabrics are listed: " << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.obj"));
+  r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--garment-units", "furlong"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--garment-units"), std::string::npos) << r.err;
 }
 
 TEST(FitCli, AMissingGarmentExits2AndWritesNothing) {

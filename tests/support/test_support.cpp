@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <random>
@@ -198,6 +199,12 @@ std::optional<GarmentType> corpus_garment_type(const std::string& name, bool* kn
   if (has("skirt")) return GarmentType::SKIRT;
   if (known) *known = false;
   return std::nullopt;
+}
+
+std::string glb_json_text(const std::string& glb) {
+  std::uint32_t length = 0;
+  if (glb.size() >= 20) std::memcpy(&length, glb.data() + 12, 4);
+  return glb.substr(std::min<std::size_t>(20, glb.size()), length);
 }
 
 } // namespace vfit::test

@@ -31,6 +31,9 @@ private:
 void write_file(const std::filesystem::path& path, const std::string& bytes);
 std::string read_file(const std::filesystem::path& path);
 
+/// The JSON chunk of a glTF binary (`.glb` bytes): its text, to parse.
+std::string glb_json_text(const std::string& glb);
+
 /// Result of running the vfit executable.
 struct CliResult {
   int exit_code = -1;

@@ -74,7 +74,7 @@ std::uint32_t u32_at(const std::string& bytes, std::size_t at) {
 }
 void set_u32(std::string& bytes, std::size_t at, std::uint32_t v) { std::memcpy(bytes.data() + at, &v, 4); }
 
-Json json_chunk(const std::string& glb) { return Json::parse(glb.substr(20, u32_at(glb, 12))); }
+Json json_chunk(const std::string& glb) { return Json::parse(test::glb_json_text(glb)); }
 
 std::array<float, 2> uv_of(const Mesh& m, std::size_t corner) {
   const auto t = static_cast<std::size_t>(m.uv_triangles[corner]);

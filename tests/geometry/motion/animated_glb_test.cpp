@@ -22,11 +22,7 @@
 namespace vfit {
 namespace {
 
-nlohmann::json json_chunk(const std::string& glb) {
-  std::uint32_t length = 0;
-  std::memcpy(&length, glb.data() + 12, 4);
-  return nlohmann::json::parse(glb.substr(20, length));
-}
+nlohmann::json json_chunk(const std::string& glb) { return nlohmann::json::parse(test::glb_json_text(glb)); }
 
 struct Dressed {
   const Body& body = test::mannequin(RestPose::APOSE, 6000);
