@@ -11,8 +11,8 @@
 #endif
 
 #include "commands.h"
-#include "vfit/engine/version.h"
 #include "vfit/kernels/error.h"
+#include "vfit/kernels/version.h"
 
 namespace {
 

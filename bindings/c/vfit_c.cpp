@@ -18,11 +18,11 @@
 #include "vfit/engine/engine.h"
 #include "vfit/engine/fit/fit_feedback.h"
 #include "vfit/engine/fit/fit_report_json.h"
-#include "vfit/engine/version.h"
 #include "vfit/geometry/body/pose_io.h"
 #include "vfit/geometry/garment/catalogue.h"
 #include "vfit/geometry/mesh/mesh_io.h"
 #include "vfit/kernels/error.h"
+#include "vfit/kernels/version.h"
 
 namespace {
 

@@ -7,11 +7,11 @@
 #include <nlohmann/json.hpp>
 
 #include "vfit/engine/fit/fit_feedback.h"
-#include "vfit/engine/version.h"
 #include "vfit/geometry/garment/coarse_move.h"
 #include "vfit/geometry/garment/garment.h"
 #include "vfit/geometry/mesh/units.h"
 #include "vfit/geometry/mesh/up_axis.h"
+#include "vfit/kernels/version.h"
 
 namespace vfit {
 namespace {

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "body_loader.h"
 
+#include "mannequin_cache.h"
+
 #include <cmath>
 #include <optional>
 
@@ -57,7 +59,7 @@ JointPositions read_joints_json(const std::filesystem::path& path) {
 LoadedBody load_body(const BodyRequest& r) {
   LoadedBody out;
   if (r.source == "mannequin") {
-    out.rest = make_mannequin(r.mannequin);
+    out.rest = cached_mannequin(r.mannequin);
     out.kind = "mannequin";
     return out;
   }

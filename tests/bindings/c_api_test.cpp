@@ -15,9 +15,9 @@
 
 #include "vfit/engine/animate/dressed_character.h"
 #include "vfit/engine/engine.h"
-#include "vfit/engine/version.h"
 #include "vfit/geometry/body/pose_io.h"
 #include "vfit/geometry/garment/catalogue.h"
+#include "vfit/kernels/version.h"
 #include "vfit/vfit.h"
 
 namespace {
