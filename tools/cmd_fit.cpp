@@ -191,6 +191,10 @@ int run_fit(Args& args) {
   if (auto n = args.value("proxy-vertices"))
     options.cloth_proxy_vertices = static_cast<std::size_t>(Args::to_int("--proxy-vertices", *n, 100, 2000000));
   if (auto u = args.value("garment-units")) options.garment_units = parse_units(*u, "--garment-units");
+  if (auto g = args.value("garment-scale")) {
+    options.garment_scale = to_double("--garment-scale", *g, 1e-6, 1e6);
+    if (options.garment_units) throw Error("--garment-scale", 0, "give --garment-units or --garment-scale, not both");
+  }
   if (auto up = args.value("garment-up"); up && *up != "auto") options.garment_up = parse_up_axis(*up);
   if (auto facing = args.value("garment-facing"); facing && *facing != "auto")
     options.garment_facing = parse_facing(*facing);

@@ -226,7 +226,7 @@ constexpr const char* FIT_HELP =
     R"(usage: vfit fit --garment FILE [--garment FILE ...] [--body mannequin|FILE ...] [body flags]
                 [--pose NAME|FILE.json] [--out FILE.obj|.ply|.glb] [--report FILE.json]
                 [--render FILE.png] [--render-size N] [--no-simulation] [--backend serial|tbb] [--threads N]
-                [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U]
+                [--fabric NAME] [--clearance M] [--max-sim-seconds S] [--garment-units U] [--garment-scale S]
                 [--garment-up auto|+y|+z|-z|-y|+x|-x] [--garment-facing auto|+z|-z|+x|-x] [--repair]
                 [--layer-order auto|type|given] [--cloth-proxy auto|on|off] [--proxy-vertices N]
                 [--quiet] [--debug DIR] [--progress] [--keypoints FILE.json [--image-size W H] [--focal F]]
@@ -245,12 +245,14 @@ tucked in), bottoms before tops otherwise (see --layer-order).
 the same garments onto each body (the flags and --pose apply to all): the garments are read,
 segmented and rigged once, and each body's outputs get its name before their extension
 (--out fit.glb -> fit.walking.glb, fit.mannequin.glb; numbered when two names repeat). Garments may be in any
-length unit (detected, or --garment-units) and stored Y up facing +Z (OBJ, glTF) or Z up facing
+length unit (detected, or --garment-units; --garment-scale for an exporter's odd scale) and stored Y up facing +Z (OBJ, glTF) or Z up facing
 -Y (Blender, scanners): the up axis is read from the surface (its left-right mirror symmetry
 and its normals) and a Z-up garment is turned upright, with a warning in the report. Upright,
 a garment whose left-right axis is Z (it faces +X or -X) is turned to face +Z, and a top with
 sleeves stored back to front (its collar's back lower than its neckline) is turned round; for
 bottoms turned a quarter, front and back are not told apart (see the report's warning).
+  --garment-scale S metres per unit of the garment files (e.g. 0.0127), for a scale that is no
+                    length unit; a garment whose size fits the body in no unit is refused
   --garment-up A    the garments' up axis in their files, when auto (the default) misreads it
   --garment-facing F  where the garments' fronts face once upright, when auto misreads it
   --layer-order R   auto (default): read from the garments' geometry as given where they

@@ -107,6 +107,9 @@ struct FitOptions {
   /// a warning naming the unit and --garment-units when it is not metres or the body decided it.
   /// fit_garments_onto_bodies() reads the garments once, against its first body.
   std::optional<Units> garment_units;
+  /// Metres per unit of the garments' files, for an exporter's scale that is no length unit
+  /// (e.g. 0.0127: half-inch units). Overrides detection; not with garment_units.
+  std::optional<double> garment_scale;
   /// The garments' up axis in their files (rotate_to_y_up() brings them into our frame). Absent:
   /// detected per garment, +Y or +Z, or upside down (-Y, -Z) when neither is recognised
   /// (segment_upright()), with a warning when it is not +Y.

@@ -25,6 +25,29 @@ bool one_piece(const Mesh& m) {
   return true;
 }
 
+// The sizes a garment can have on a body whose torso is `depth` deep (m): from a collar, about
+// half the torso's depth across, to a T-pose's arm span or a gown, about ten depths (a 1.7 m
+// mannequin's torso is about 0.24 m deep: 0.12-2.4 m). Without a body, 0.05-10 m.
+std::pair<double, double> garment_size_range(double depth) {
+  if (!(depth > 0)) return {0.05, 10.0};
+  return {0.5 * depth, 10.0 * depth};
+}
+
+// "; in cm it would be 0.731 m across" for each unit that would give a size in `range`.
+std::string plausible_units(double extent_in_file_units, std::pair<double, double> range) {
+  std::string out;
+  for (const Units u : {Units::M, Units::DM, Units::CM, Units::MM, Units::IN}) {
+    const double m = extent_in_file_units * metres_per_unit(u);
+    if (m >= range.first && m <= range.second) {
+      char line[80];
+      std::snprintf(line, sizeof line, "%s %.3g m across in %s", out.empty() ? "; it would be" : " or", m,
+                    units_name(u).c_str());
+      out += line;
+    }
+  }
+  return out;
+}
+
 } // namespace
 
 Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions& options, double body_torso_depth,
@@ -39,10 +62,17 @@ Units garment_units(const Mesh& mesh, const std::string& name, const FitOptions&
   for (int a = 0; a < 3; ++a)
     smallest = std::min(smallest, stats.bbox_max[a] - stats.bbox_min[a]);
   const auto units = detect_garment_units(stats.largest_extent, smallest, stats.max_abs_coordinate, body_torso_depth);
-  if (!units)
+  if (!units) {
+    char line[200];
+    const auto range = garment_size_range(body_torso_depth);
+    std::snprintf(line, sizeof line,
+                  "cannot detect the garment's length unit: it is %.4g file units across, and in no length unit a "
+                  "garment's size on this body (%.2g-%.2g m across, its torso %.3g m deep)",
+                  stats.largest_extent, range.first, range.second, body_torso_depth);
     throw Error(name, 0,
-                "cannot detect the garment's length unit (largest extent " + std::to_string(stats.largest_extent) +
-                    ")");
+                line + plausible_units(stats.largest_extent, range) +
+                    "; state its unit with --garment-units or its scale (metres per unit) with --garment-scale");
+  }
   if (note) {
     char line[240];
     const double depth = smallest * metres_per_unit(*units);
@@ -92,7 +122,9 @@ SplitInputs split_outfits(const std::vector<FitGarmentInput>& inputs, const FitO
     bool thick = false;
     if (big.size() >= 2) {
       Mesh metres = m;
-      scale_positions(metres.positions, metres_per_unit(garment_units(m, input.name, options, body_torso_depth)));
+      scale_positions(metres.positions, options.garment_scale
+                                            ? *options.garment_scale
+                                            : metres_per_unit(garment_units(m, input.name, options, body_torso_depth)));
       thick = find_thick_shell(metres).has_value();
     }
     if (big.size() < 2 || thick) {
@@ -161,26 +193,43 @@ void prepare_garment(const FitGarmentInput& input, const FitOptions& options, do
   report.vertices = mesh.vertex_count();
   report.faces = mesh.face_count();
 
-  std::string units_note;
-  bool by_body = false; // the body, not the garment's size alone, decided its unit
-  report.units = garment_units(mesh, input.name, options, body_torso_depth, &units_note, &by_body);
-  if (report.units != Units::M || by_body) {
-    scale_positions(mesh.positions, metres_per_unit(report.units));
-    report.warnings.push_back("garment in " + units_name(report.units) + " (" + units_note + "), converted to metres" +
-                              (options.garment_units ? "" : "; state its unit with --garment-units"));
+  const double file_extent = mesh_stats(mesh).largest_extent;
+  std::string how; // how the unit was had, for the messages below
+  if (options.garment_scale) {
+    if (options.garment_units) throw Error(input.name, 0, "--garment-units and --garment-scale both given: state one");
+    if (!(*options.garment_scale > 0) || !std::isfinite(*options.garment_scale))
+      throw Error(input.name, 0, "--garment-scale must be a positive number of metres per unit");
+    scale_positions(mesh.positions, *options.garment_scale);
+    report.units = Units::M;
+    char line[120];
+    std::snprintf(line, sizeof line, "scaled by %.6g (as stated)", *options.garment_scale);
+    how = line;
+    report.warnings.push_back("garment " + how + " into metres");
+  } else {
+    std::string units_note;
+    bool by_body = false; // the body, not the garment's size alone, decided its unit
+    report.units = garment_units(mesh, input.name, options, body_torso_depth, &units_note, &by_body);
+    how = "in " + units_name(report.units) + (options.garment_units ? " (as stated)" : " (as detected)");
+    if (report.units != Units::M || by_body) {
+      scale_positions(mesh.positions, metres_per_unit(report.units));
+      report.warnings.push_back("garment in " + units_name(report.units) + " (" + units_note +
+                                "), converted to metres" +
+                                (options.garment_units ? "" : "; state its unit with --garment-units"));
+    }
   }
   {
-    // Far outside any garment's size (a collar is 0.15 m, a tall body's arm span 2.6 m): a
-    // wrong unit, stated or read, would be fitted as a speck or a tent and judged as such.
-    constexpr double SMALLEST = 0.05, LARGEST = 10.0; // m
+    // Outside the sizes a garment has on this body: a wrong unit or scale, stated or read,
+    // would be fitted as a speck or a tent and judged as such.
+    const auto range = garment_size_range(body_torso_depth);
     const double extent = mesh_stats(mesh).largest_extent;
-    if (!(extent >= SMALLEST && extent <= LARGEST)) {
-      char line[200];
+    if (!(extent >= range.first && extent <= range.second)) {
+      char line[240];
       std::snprintf(line, sizeof line,
-                    "%.4g m across in %s (%s): not a garment's size (%.2g-%.2g m); state its unit with --garment-units",
-                    extent, units_name(report.units).c_str(), options.garment_units ? "as stated" : "as detected",
-                    SMALLEST, LARGEST);
-      throw Error(input.name, 0, line);
+                    "%.4g m across %s: not a garment's size on this body (%.2g-%.2g m across, its torso %.3g m deep)",
+                    extent, how.c_str(), range.first, range.second, body_torso_depth);
+      throw Error(input.name, 0,
+                  line + plausible_units(file_extent, range) +
+                      "; state its unit with --garment-units or its scale (metres per unit) with --garment-scale");
     }
   }
   // Pattern pieces exported with their own copies of the seams' vertices (bit-identical, or

@@ -205,6 +205,36 @@ TEST(FitCli, AnUnknownFabricOrUnitIsRefusedNamingItsFlag) {
   EXPECT_NE(r.err.find("--garment-units"), std::string::npos) << r.err;
 }
 
+// A unit or scale under which the garment has no garment's size on the body is refused,
+// naming both sizes and the units that would fit; --garment-scale states an exporter's scale
+// that is no length unit (here 2 cm per file unit).
+TEST(FitCli, AGarmentOfNoGarmentsSizeIsRefusedAndAScaleCanBeStated) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--garment-units", "dm", "--no-simulation",
+                          "--out", (dir / "out.obj").string(), "--quiet"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("in dm (as stated): not a garment's size on this body"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("torso"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("across in m"), std::string::npos) << "the unit that fits is named: " << r.err;
+  EXPECT_NE(r.err.find("--garment-scale"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.obj"));
+
+  Mesh odd = read_mesh(dir / "tee.obj").mesh;
+  for (float& x : odd.positions)
+    x *= 50.0f;
+  write_mesh(dir / "odd.ply", odd);
+  r = test::run_cli({"fit", "--garment", (dir / "odd.ply").string(), "--garment-scale", "0.02", "--no-simulation",
+                     "--report", (dir / "odd.json").string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(test::read_file(dir / "odd.json"));
+  EXPECT_EQ(j["garments"][0]["units"], "m");
+  EXPECT_NE(j["garments"][0]["warnings"].dump().find("scaled by 0.02 (as stated)"), std::string::npos) << j.dump();
+  r = test::run_cli(
+      {"fit", "--garment", (dir / "odd.ply").string(), "--garment-scale", "0.02", "--garment-units", "cm"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+}
+
 TEST(FitCli, AMissingGarmentExits2AndWritesNothing) {
   test::TempDir dir;
   const auto r = test::run_cli({"fit", "--body", "mannequin", "--garment", (dir / "nope.obj").string(), "--out",
