@@ -26,7 +26,8 @@ void parallel_for_range(std::size_t count, std::size_t grain, const RangeKernel&
                     [&](const tbb::blocked_range<std::size_t>& r) { kernel(r.begin(), r.end()); });
 }
 
-/// Number of worker threads TBB will use in the current arena.
+/// Number of worker threads TBB will use in the current arena, under the process's
+/// tbb::global_control limit (an Engine's thread count, `vfit --threads N`).
 int parallel_thread_count();
 
 } // namespace vfit

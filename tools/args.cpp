@@ -94,4 +94,11 @@ void check_output_path(const std::string& path, std::string_view option, const s
       throw Error(path, 0, std::string(option) + " would overwrite an input file; choose another output path");
 }
 
+namespace {
+int g_thread_limit = 0;
+} // namespace
+
+int thread_limit() { return g_thread_limit; }
+void set_thread_limit(int threads) { g_thread_limit = threads; }
+
 } // namespace vfit::cli

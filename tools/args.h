@@ -42,4 +42,9 @@ void check_output_path(const std::string& path, std::string_view option, const s
 /// `path`'s extension in lower case, with its dot (".glb"); empty when it has none.
 std::string lower_extension(const std::string& path);
 
+/// The command line's `--threads N` (every command takes it: the whole process runs on at most N
+/// worker threads), or 0 when it was not given (every core). Set by main() before a command runs.
+int thread_limit();
+void set_thread_limit(int threads);
+
 } // namespace vfit::cli

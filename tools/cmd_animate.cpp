@@ -123,7 +123,6 @@ int run_animate(Args& args) {
   const int render_size = render_size_value ? Args::to_int("--render-size", *render_size_value, 64, 2048) : 256;
   const auto fps_value = args.value("fps");
   const auto physics_value = args.value("physics");
-  const auto threads_value = args.value("threads");
   const auto frames_value = args.value("frames");
   FitOptions options;
   options.simulate = !args.flag("no-simulation");
@@ -148,7 +147,7 @@ int run_animate(Args& args) {
     throw Error("--physics", 0, "expected on or off, got '" + *physics_value + "'");
   AnimationOptions animation;
   animation.physics = !physics_value || *physics_value == "on";
-  animation.threads = threads_value ? Args::to_int("--threads", *threads_value, 1, 1024) : 0;
+  animation.threads = thread_limit(); // --threads N (main()), 0: every core
   const double fps = fps_value ? double(Args::to_int("--fps", *fps_value, 1, 1000)) : 0.0;
   {
     std::vector<std::string> inputs = garment_files;

@@ -170,10 +170,7 @@ int run_fit(Args& args) {
     else
       throw Error("--backend", 0, "expected serial or tbb, got '" + *b + "'");
   }
-  const int threads = [&] {
-    const auto t = args.value("threads");
-    return t ? Args::to_int("--threads", *t, 1, 1024) : 0;
-  }();
+  const int threads = thread_limit(); // --threads N (main()), 0: every core
   if (auto f = args.value("fabric")) options.fabric = *f;
   if (auto c = args.value("clearance")) options.clearance = to_double("--clearance", *c, 0, 0.05);
   if (auto s = args.value("max-sim-seconds"))

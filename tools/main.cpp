@@ -3,13 +3,17 @@
 // Exit codes: 0 success, 2 bad input or usage (vfit::Error), 1 internal failure.
 #include <cstring>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <tbb/global_control.h>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
+#include "args.h"
 #include "commands.h"
 #include "vfit/kernels/error.h"
 #include "vfit/kernels/version.h"
@@ -34,6 +38,7 @@ commands:
   bench STUDY     timing studies: table1 (seed 000 Table 1's nine pairs), sweep (10^3-10^6)
   demo            the built-in demonstration (README's main job)
 
+every command takes --threads N: at most N worker threads (default: every core)
 mesh formats read: .obj .ply .off .stl .glb .gltf
 exit codes: 0 ok, 2 bad input (the message names the file and the element), 1 internal failure
 )";
@@ -333,6 +338,13 @@ int dispatch(const std::string& command, std::vector<std::string> rest) {
       return 0;
     }
     Args args(std::move(rest), command);
+    // --threads N, for every command: the process's TBB parallelism capped at N (the engine's
+    // arenas included), and the commands that create an Engine give it N.
+    std::optional<tbb::global_control> limit;
+    if (const auto threads = args.value("threads")) {
+      set_thread_limit(Args::to_int("--threads", *threads, 1, 1024));
+      limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(thread_limit()));
+    }
     return c.run(args);
   }
   throw vfit::Error("vfit", 0, "unknown command '" + command + "' (see vfit --help)");

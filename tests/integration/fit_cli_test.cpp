@@ -235,6 +235,22 @@ TEST(FitCli, AGarmentOfNoGarmentsSizeIsRefusedAndAScaleCanBeStated) {
   EXPECT_EQ(r.exit_code, 2) << r.err;
 }
 
+// --threads N is every command's: the fit's engine runs on N threads and says so; a command
+// without an engine of its own (vfit body) takes it too.
+TEST(FitCli, EveryCommandTakesThreads) {
+  test::TempDir dir;
+  write_catalogue(dir / "tee.obj", GarmentType::TEE);
+  auto r = test::run_cli({"fit", "--garment", (dir / "tee.obj").string(), "--threads", "1", "--no-simulation",
+                          "--report", (dir / "r.json").string(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(test::read_file(dir / "r.json"))["machine"]["threads"], 1);
+  r = test::run_cli({"body", "--threads", "1", "--vertices", "1000", "--out", (dir / "body.obj").string()});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_cli({"garment", "tee", "--threads", "0", "--out", (dir / "t.obj").string()});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--threads"), std::string::npos) << r.err;
+}
+
 TEST(FitCli, AMissingGarmentExits2AndWritesNothing) {
   test::TempDir dir;
   const auto r = test::run_cli({"fit", "--body", "mannequin", "--garment", (dir / "nope.obj").string(), "--out",
