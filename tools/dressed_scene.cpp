@@ -11,9 +11,9 @@ namespace vfit::cli {
 std::array<float, 3> body_colour() { return {0.80f, 0.62f, 0.52f}; }
 
 std::array<float, 3> garment_colour(std::size_t g) {
-  static constexpr std::array<std::array<float, 3>, 4> palette = {
+  static constexpr std::array<std::array<float, 3>, 4> PALETTE = {
       {{0.15f, 0.30f, 0.70f}, {0.70f, 0.20f, 0.20f}, {0.20f, 0.55f, 0.30f}, {0.60f, 0.50f, 0.15f}}};
-  return palette[g % palette.size()];
+  return PALETTE[g % PALETTE.size()];
 }
 
 std::string fitted_scene_glb(const Body& body, const std::vector<FittedGarment>& garments) {
