@@ -322,10 +322,7 @@ int run_fit(Args& args) {
                                    : encode_mesh(path, merge_garments(result.garments), "garments"));
     }
     if (report_file) {
-      FitReportContext context;
-      context.body_source = body.source;
-      context.body_kind = loaded[b].kind;
-      context.body_warnings = loaded[b].warnings;
+      FitReportContext context = fit_report_context(body, loaded[b]);
       context.body_ms = body_ms[b];
       context.render_ms = render_ms;
       context.read_warnings = read_warnings;

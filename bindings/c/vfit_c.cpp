@@ -129,14 +129,14 @@ vfit_status vfit_context_create(vfit_backend backend, const char* device, int th
       create_error = "vfit_context_create: threads must be 0 (every core) or more";
       return VFIT_ERROR_ARGUMENT;
     }
-    vfit::EngineOptions options;
-    options.backend = backend == VFIT_BACKEND_SERIAL   ? vfit::Backend::SERIAL
-                      : backend == VFIT_BACKEND_OPENCL ? vfit::Backend::OPENCL
-                                                       : vfit::Backend::TBB;
     if (backend != VFIT_BACKEND_TBB && backend != VFIT_BACKEND_SERIAL && backend != VFIT_BACKEND_OPENCL) {
       create_error = "vfit_context_create: unknown backend";
       return VFIT_ERROR_ARGUMENT;
     }
+    vfit::EngineOptions options;
+    options.backend = backend == VFIT_BACKEND_SERIAL   ? vfit::Backend::SERIAL
+                      : backend == VFIT_BACKEND_OPENCL ? vfit::Backend::OPENCL
+                                                       : vfit::Backend::TBB;
     options.device = device ? device : "";
     options.threads = threads;
     auto state = std::make_shared<ContextState>();
@@ -252,7 +252,10 @@ vfit_status vfit_body_mannequin(vfit_context context, const double* measurements
   const vfit_status status = guarded(context->state, [&] {
     vfit::MannequinOptions& m = source.request.mannequin;
     if (measurements) {
+      // vfit.h's VFIT_HEIGHT … VFIT_CALF are BodyMeasurements::names()' order.
       const auto& names = vfit::BodyMeasurements::names();
+      if (names.size() != VFIT_MEASUREMENT_COUNT)
+        throw std::logic_error("vfit.h's measurements differ from the engine's");
       for (std::size_t i = 0; i < names.size(); ++i)
         m.measurements[names[i]] = measurements[i];
     }
@@ -331,11 +334,8 @@ vfit_status vfit_fit_garments(vfit_context context, vfit_body body, const vfit_m
     fit->body = body->posed;
     fit->at_rest = body->at_rest;
     fit->result = context->state->engine->fit(*body->posed, inputs, fo);
-    vfit::FitReportContext rc;
-    rc.body_source = body->posed->source;
-    rc.body_kind = body->made.loaded.kind;
-    rc.body_warnings = body->made.loaded.warnings;
-    fit->report_json = vfit::fit_report_json(fit->result.report, fo, rc);
+    fit->report_json =
+        vfit::fit_report_json(fit->result.report, fo, vfit::fit_report_context(*body->posed, body->made.loaded));
     fit->verdict = vfit::size_verdict_name(fit->result.report.verdict);
     *out = fit.release();
   });

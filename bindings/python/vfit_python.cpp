@@ -42,7 +42,7 @@ struct PyMesh {
 template <class T> py::array view(const T* data, std::size_t rows, py::handle owner) {
   py::array a(py::dtype::of<T>(), {static_cast<py::ssize_t>(rows), py::ssize_t(3)},
               {static_cast<py::ssize_t>(3 * sizeof(T)), static_cast<py::ssize_t>(sizeof(T))}, data, owner);
-  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  a.attr("flags").attr("writeable") = false;
   return a;
 }
 
@@ -77,7 +77,6 @@ struct PyFit {
   bool at_rest = true;
   vfit::FitResult result;
   std::string report_json;
-  int threads = 0;
 };
 
 PyBody make_body(const vfit::BodySource& source, int threads) {
@@ -263,13 +262,9 @@ PYBIND11_MODULE(vfit, m) {
         {
           py::gil_scoped_release release;
           const auto engine = make_engine(threads, backend, "");
-          f.threads = engine->thread_count();
           f.result = engine->fit(*body.posed, inputs, o);
-          vfit::FitReportContext rc;
-          rc.body_source = body.posed->source;
-          rc.body_kind = body.made.loaded.kind;
-          rc.body_warnings = body.made.loaded.warnings;
-          f.report_json = vfit::fit_report_json(f.result.report, o, rc);
+          f.report_json =
+              vfit::fit_report_json(f.result.report, o, vfit::fit_report_context(*body.posed, body.made.loaded));
         }
         return f;
       },

@@ -55,6 +55,14 @@ nlohmann::ordered_json timings_json(const FitStageTimes& t) {
 
 } // namespace
 
+FitReportContext fit_report_context(const Body& body, const LoadedBody& loaded) {
+  FitReportContext context;
+  context.body_source = body.source;
+  context.body_kind = loaded.kind;
+  context.body_warnings = loaded.warnings;
+  return context;
+}
+
 std::string fit_report_json(const FitReport& report, const FitOptions& options, const FitReportContext& context) {
   nlohmann::ordered_json j;
   j["vfit"] = {{"version", version()}, {"commit", git_commit()}};

@@ -10,6 +10,7 @@
 
 #include "vfit/engine/fit/fit_options.h"
 #include "vfit/engine/fit/fit_report.h"
+#include "vfit/geometry/body/body_loader.h"
 
 namespace vfit {
 
@@ -25,6 +26,10 @@ struct FitReportContext {
   /// file it is named by, or of "file" for "file#k" (the k-th garment of an outfit file).
   std::map<std::string, std::vector<std::string>> read_warnings;
 };
+
+/// The context of a fit onto `body` (as posed) made from `loaded`: its source, kind and
+/// warnings; the times and read warnings left for the caller to fill.
+FitReportContext fit_report_context(const Body& body, const LoadedBody& loaded);
 
 /// The report of one body's fit as indented JSON (two spaces, a final newline), the vfit
 /// version and commit that made it first. Penetration over all garments adds the counts and
